@@ -1,0 +1,1 @@
+"""Metrics, experiments, Monte Carlo, plots, reports and the ``posfb`` command line."""

@@ -1,0 +1,65 @@
+"""theta_1..theta_11 of Sec. 4.1 computed from a plant and its Context.
+
+Each row of the lumped model is the joint's physical row divided by its motor
+constant ``kappa_j`` (reading note 9), so with ``M(q)`` the plant's mass matrix
+(rotor inertia included), ``G(q)`` its gravity torque and ``h = m2 l1 lc2``::
+
+    M11(q2) = kappa1 (theta1 + theta2 + 2 theta3 cos q2)
+    M12(q2) = kappa1 (theta2 + theta3 cos q2) = kappa2 (theta7 + theta8 cos q2)
+    M22     = kappa2 (theta7 + theta9)
+    G1(q1 = 0, q2 = pi/2) = kappa1 theta4
+    b_j = kappa_j (theta5 | theta10),   f_cj = kappa_j (theta6 | theta11)
+
+The mass matrix is evaluated at ``q2 = 0`` and ``q2 = pi/2`` to separate the
+constant and ``cos q2`` parts; nothing is fitted, so the identified lumped
+model reproduces the plant's dynamics exactly (up to round-off).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from pydrake.systems.framework import Context
+
+from models.lumped import LumpedParameters
+from models.plant import JOINTS, Arm, read_parameters
+
+
+def identify(arm: Arm, root_context: Context) -> LumpedParameters:
+    """The lumped parameters of the plant in ``root_context`` (a diagram Context)."""
+    plant = arm.plant
+    scratch = root_context.Clone()  # evaluate at chosen q without touching the caller's state
+    plant_context = plant.GetMyContextFromRoot(scratch)
+    physical = read_parameters(arm, root_context)
+    kappa1, kappa2 = physical.motor_constant
+
+    def mass_matrix(q2: float) -> np.ndarray:
+        plant.SetPositions(plant_context, [0.0, q2])
+        plant.SetVelocities(plant_context, [0.0, 0.0])
+        return plant.CalcMassMatrix(plant_context)
+
+    straight, bent = mass_matrix(0.0), mass_matrix(np.pi / 2)
+    plant.SetPositions(plant_context, [0.0, np.pi / 2])
+    # Drake returns the generalized force *of* gravity; the model's G is its negative.
+    gravity = -plant.CalcGravityGeneralizedForces(plant_context)
+    g = float(np.linalg.norm(plant.gravity_field().gravity_vector()))
+
+    theta2 = bent[0, 1] / kappa1
+    theta3 = (straight[0, 1] - bent[0, 1]) / kappa1
+    theta7 = bent[1, 0] / kappa2
+    theta8 = (straight[1, 0] - bent[1, 0]) / kappa2
+    damping = [plant.GetJointByName(j).GetDamping(plant_context) for j in JOINTS]
+    return LumpedParameters(
+        theta1=bent[0, 0] / kappa1 - theta2,
+        theta2=theta2,
+        theta3=theta3,
+        theta4=gravity[0] / kappa1,
+        theta5=damping[0] / kappa1,
+        theta6=physical.coulomb[0] / kappa1,
+        theta7=theta7,
+        theta8=theta8,
+        theta9=bent[1, 1] / kappa2 - theta7,
+        theta10=damping[1] / kappa2,
+        theta11=physical.coulomb[1] / kappa2,
+        l1=arm.link1_length,
+        g=g,
+    )

@@ -1,0 +1,58 @@
+"""Checks applied where a parameter enters: each error names the parameter,
+the value it got and what is allowed."""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+
+import numpy as np
+
+
+def require_finite(name: str, value: float) -> float:
+    """Return ``value`` as float, refusing NaN and infinities."""
+    try:
+        number = float(value)
+    except (TypeError, ValueError):
+        raise ValueError(f"{name} = {value!r} is not a number; a finite real is required") from None
+    if not math.isfinite(number):
+        raise ValueError(f"{name} = {value!r} is not finite; a finite real is required")
+    return number
+
+
+def require_nonnegative(name: str, value: float) -> float:
+    """Return ``value`` if it is finite and >= 0."""
+    number = require_finite(name, value)
+    if number < 0.0:
+        raise ValueError(f"{name} = {value!r} is negative; a finite value >= 0 is required")
+    return number
+
+
+def require_positive(name: str, value: float) -> float:
+    """Return ``value`` if it is finite and > 0."""
+    number = require_finite(name, value)
+    if number <= 0.0:
+        raise ValueError(f"{name} = {value!r} is not positive; a finite value > 0 is required")
+    return number
+
+
+def require_vector(name: str, value: Sequence[float] | np.ndarray, size: int) -> np.ndarray:
+    """Return ``value`` as a finite float vector of length ``size``."""
+    array = np.asarray(value, dtype=float)
+    if array.shape != (size,):
+        raise ValueError(f"{name} has shape {array.shape}; a vector of length {size} is required")
+    if not np.all(np.isfinite(array)):
+        raise ValueError(
+            f"{name} = {array.tolist()} has non-finite entries; finite values required"
+        )
+    return array
+
+
+def require_matrix(name: str, value: Sequence | np.ndarray, shape: tuple[int, int]) -> np.ndarray:
+    """Return ``value`` as a finite float matrix of the given shape."""
+    array = np.asarray(value, dtype=float)
+    if array.shape != shape:
+        raise ValueError(f"{name} has shape {array.shape}; shape {shape} is required")
+    if not np.all(np.isfinite(array)):
+        raise ValueError(f"{name} has non-finite entries; finite values are required")
+    return array
