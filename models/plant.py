@@ -19,10 +19,12 @@ with Drake's default RK3 (accuracy 1e-2) takes 8 k steps at 0.01 rad/s but
 20 k at 1e-3 rad/s (3.5x the wall time) for a final-state difference below
 1e-3 rad. A discrete plant evaluates the friction explicitly once per step,
 which is stable only for ``time_step < 2 M_jj v_s / f_c`` (~3e-4 s for
-joint 2 at the default); use the continuous plant where friction matters. Motor constants and Coulomb levels are numeric parameters of
-those systems, so they, like the MultibodyPlant's masses, centres of mass,
-inertias, damping and rotor inertias, can change per Context without
-rebuilding (``apply_parameters``).
+joint 2 at the default); use the continuous plant where friction matters.
+
+Motor constants and Coulomb levels are numeric parameters of those systems,
+so they, like the MultibodyPlant's masses, centres of mass, inertias, damping
+and rotor inertias, can change per Context without rebuilding
+(``apply_parameters``).
 """
 
 from __future__ import annotations
