@@ -7,11 +7,11 @@ import argparse
 import sys
 from collections.abc import Sequence
 
-from analysis.commands import identify
+from analysis.commands import design, identify
 from analysis.errors import UsageError
 
 #: Subcommand modules, in the order ``posfb --help`` lists them.
-COMMANDS = [identify]
+COMMANDS = [identify, design]
 
 #: Exit code for bad input (argparse uses the same).
 EXIT_BAD_INPUT = 2

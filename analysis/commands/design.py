@@ -1,0 +1,128 @@
+"""``posfb design``: the controller design of Sec. 3 at the paper's Sec. 4.2
+settings (``K``, ``P``, ``E``, ``Gamma``, poles, bounds) and its checks.
+
+The sampled-data spectral radius is that of the nominal linear plant
+``M0* q'' + B* q' = u`` held over ``T_s`` with the discretised ``tau_LC + tau_NC``
+filters at ``alpha = alpha*``. A failed check is reported (``warnings`` in JSON,
+``FAILED`` in the text) and the command still exits 0: the report is the result.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+from dataclasses import asdict, replace
+
+import numpy as np
+
+from models.design import ControllerConfig, Design, compute_design
+from models.validation import require_positive
+
+
+def register(subparsers: argparse._SubParsersAction) -> None:
+    parser = subparsers.add_parser(
+        "design", help="design the position-feedback controller (Sec. 3) and check it"
+    )
+    parser.add_argument(
+        "--sample-time", type=float, metavar="TS", help="sample time T_s in s (default 0.01)"
+    )
+    parser.add_argument(
+        "--alpha-star", type=float, metavar="A", help="steady nonlinear gain alpha* (default 4)"
+    )
+    parser.add_argument("--json", action="store_true", help="print one JSON object")
+    parser.set_defaults(handler=run)
+
+
+def config_from_args(sample_time: float | None, alpha_star: float | None) -> ControllerConfig:
+    """The paper's config with the command-line overrides, checked."""
+    config = ControllerConfig()
+    if sample_time is not None:
+        config = replace(config, sample_time=require_positive("--sample-time", sample_time))
+    if alpha_star is not None:
+        nonlinear = replace(
+            config.nonlinear, alpha_star=require_positive("--alpha-star", alpha_star)
+        )
+        config = replace(config, nonlinear=nonlinear)
+    return config
+
+
+def _poles(poles: np.ndarray) -> list[list[float]]:
+    return [[float(p.real), float(p.imag)] for p in poles]
+
+
+def design_to_dict(design: Design) -> dict:
+    """The JSON object of ``posfb design --json``."""
+    constants = design.bound_filter
+    return {
+        "sample_time": design.config.sample_time,
+        "alpha_star": design.config.nonlinear.alpha_star,
+        "M0": design.M0.tolist(),
+        "B": design.B.tolist(),
+        "K": design.K.tolist(),
+        "K1": design.K1.tolist(),
+        "K2": design.K2.tolist(),
+        "K3": design.K3.tolist(),
+        "P": design.P.tolist(),
+        "E": design.E.tolist(),
+        "E1": design.E1.tolist(),
+        "E2": design.E2.tolist(),
+        "E3": design.E3.tolist(),
+        "Gamma": None if design.Gamma is None else design.Gamma.tolist(),
+        "kyp_gamma": design.kyp_gamma,
+        "P2_M0inv_norm": design.coupling_norm,
+        "continuous_poles": _poles(design.continuous_poles),
+        "continuous_poles_with_nc": _poles(design.continuous_poles_with_nc),
+        "lc_filter_poles": _poles(design.lc_filter_poles),
+        "sampled_data_spectral_radius": design.sampled_data_spectral_radius,
+        "sampled_data_spectral_radius_lin_lc": design.sampled_data_spectral_radius_lin_lc,
+        "bound_filter": {
+            "a": constants.a,
+            "abar": constants.abar,
+            "c": constants.c,
+            "min_a": constants.min_a,
+        },
+        "uncertainty_bounds": asdict(design.bounds),
+        "checks": {c.name: {"passed": c.passed, "detail": c.detail} for c in design.checks},
+        "warnings": design.warnings,
+    }
+
+
+def _matrix(name: str, matrix: np.ndarray) -> list[str]:
+    rows = ["  ".join(f"{value:12.5g}" for value in row) for row in matrix]
+    return [f"{name} ="] + [f"    {row}" for row in rows]
+
+
+def _pole_text(poles: np.ndarray) -> str:
+    return ", ".join(
+        f"{p.real:.4g}" if p.imag == 0 else f"{p.real:.4g}{p.imag:+.4g}j" for p in poles
+    )
+
+
+def format_report(design: Design) -> str:
+    """The readable report: the design, then every check with ``ok`` or ``FAILED``."""
+    config = design.config
+    lines = [
+        f"Design of Sec. 3 at T_s = {config.sample_time:g} s, alpha* = "
+        f"{config.nonlinear.alpha_star:g}, K_alpha = {config.nonlinear.K_alpha:g} "
+        "(Table 1 nominal model, Sec. 4.2 weights)",
+        *_matrix("K = [K1 K2 K3] (Eq. 14)", design.K),
+        *_matrix("P (Eq. 15)", design.P),
+        *_matrix("E = (M0*)^-T P2^T = [E1 E2 E3] (Eq. 20)", design.E),
+        f"continuous poles of A_a - B_a1 K: {_pole_text(design.continuous_poles)}",
+        f"continuous poles with tau_NC at alpha*: {_pole_text(design.continuous_poles_with_nc)}",
+        f"sampled-data spectral radius (proposed, alpha = alpha*): "
+        f"{design.sampled_data_spectral_radius:.4f}",
+        f"sampled-data spectral radius (Lin+LC): {design.sampled_data_spectral_radius_lin_lc:.4f}",
+        f"||P2 (M0*)^-1|| = {design.coupling_norm:.4g}, k_C1 = {design.bounds.k_C1:.4g}",
+        "checks:",
+    ]
+    lines += [f"  [{'ok' if c.passed else 'FAILED'}] {c.detail}" for c in design.checks]
+    failed = len(design.warnings)
+    lines.append(f"{failed} check(s) FAILED" if failed else "all checks passed")
+    return "\n".join(lines)
+
+
+def run(args: argparse.Namespace) -> int:
+    design = compute_design(config_from_args(args.sample_time, args.alpha_star))
+    print(json.dumps(design_to_dict(design)) if args.json else format_report(design))
+    return 0

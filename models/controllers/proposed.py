@@ -1,0 +1,97 @@
+"""The paper's controller ``tau_Lin + tau_LC + tau_NC`` (Eq. 3, 4, 13, 19-25).
+
+Per sample ``t_k`` (one filter, ``models.design.realisation``, FOH-discretised):
+
+* ``[eta~, phi, p, pbar] = C s_k + D q~_k``, then ``s_{k+1} = A s_k + B q~_k``;
+* ``U1 = ||max_{m<=k} |p_m| || / c``, ``U2 = ||max_{m<=k} |pbar_m| || / c^2``
+  (Eq. 24-25, per-joint running maxima), ``delta_bar`` (Eq. 18),
+  ``U_x = sqrt(|q~|^2 + U1^2 + |eta~|^2)``;
+* ``alpha_k = alpha* - sqrt(y_k)`` with ``y = |alpha~1|``, ``tau_NC = -alpha phi``.
+
+Eq. 21 for ``alpha~1 < 0`` reads ``y' = -y / K_alpha - 2 U_x ||P2 (M0*)^-1||
+(delta_bar + ||C_zeta zeta|| sqrt(y)) / K_alpha``: every term drives ``y`` down, so
+``y`` reaches 0 in finite time, where ``sgn`` is undefined (reading note 4). Each
+step integrates the linear part exactly with the forcing frozen at ``t_k`` and
+clips at 0; once at 0 it stays there (the Filippov solution). Hence ``alpha`` is
+non-decreasing, starts at ``alpha(0)``, never exceeds ``alpha*`` and cannot
+chatter. ``alpha(0) = alpha0`` (default 0: ``alpha~1(0) = -alpha*^2``).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from models.controllers.base import SampledController
+from models.controllers.feedforward import NominalTorques
+from models.design import Design
+from models.design.bounds import spectral_norm_2x2
+from models.design.config import JOINTS
+from models.lumped import LumpedModel
+
+#: Columns of the ``internals`` output.
+PROPOSED_INTERNALS = (
+    "tau_lin_1", "tau_lin_2", "tau_lc_1", "tau_lc_2", "tau_nc_1", "tau_nc_2",
+    "alpha", "phi_1", "phi_2", "U1", "U2", "delta_bar",
+)  # fmt: skip
+
+_N = JOINTS
+
+
+class ProposedController(SampledController):
+    """``u = tau_Lin + tau_LC + tau_NC``; refuses a failed LQR design, a non-SPR ``H`` or
+    ``a <= ln 2 / T_s``."""
+
+    def __init__(self, design: Design) -> None:
+        design.require_nonlinear_torque()
+        self._filter = design.proposed_filter
+        self._states = len(self._filter.A)
+        # memory: [filter state, running max |p|, running max |pbar|, y = |alpha~1|]
+        super().__init__(design.config.sample_time, PROPOSED_INTERNALS, self._states + 2 * _N + 1)
+        self.set_name("proposed_controller")
+        model = LumpedModel(design.config.nominal)
+        self._model = model
+        self._torques = NominalTorques(model)
+        self._bounds = design.bounds
+        self._c = design.bound_filter.c
+        nonlinear = design.config.nonlinear
+        self._alpha_star = nonlinear.alpha_star
+        self._y0 = (nonlinear.alpha_star - nonlinear.alpha0) ** 2
+        self._decay = math.exp(-design.config.sample_time / nonlinear.K_alpha)
+        self._rate = 2.0 * design.coupling_norm * (1.0 - self._decay)
+
+    def _start(self, q: np.ndarray, desired: np.ndarray) -> np.ndarray:
+        memory = np.zeros(self._states + 2 * _N + 1)
+        memory[: self._states] = self._filter.initial @ (q - desired[0:2])
+        memory[-1] = self._y0
+        return memory
+
+    def _step(
+        self, q: np.ndarray, desired: np.ndarray, memory: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray]:
+        error, qd_dot, qd_ddot = q - desired[0:2], desired[2:4], desired[4:6]
+        f, n = self._filter, self._states
+        state = memory[:n]
+        outputs = f.C @ state + f.D @ error
+        memory[:n] = f.A @ state + f.B @ error
+        eta, phi = outputs[0:_N], outputs[_N : 2 * _N]
+        p_max, pbar_max = memory[n : n + _N], memory[n + _N : n + 2 * _N]
+        np.maximum(p_max, np.abs(outputs[2 * _N : 3 * _N]), out=p_max)
+        np.maximum(pbar_max, np.abs(outputs[3 * _N :]), out=pbar_max)
+        U1 = math.sqrt(p_max @ p_max) / self._c
+        U2 = math.sqrt(pbar_max @ pbar_max) / self._c**2
+        delta_bar = self._bounds.delta_bar(
+            spectral_norm_2x2(self._model.M1(q)), U1, U2,
+            math.sqrt(qd_dot @ qd_dot), math.sqrt(qd_ddot @ qd_ddot),
+        )  # fmt: skip
+        U_x = math.sqrt(error @ error + U1 * U1 + eta @ eta)
+        y = memory[-1]
+        alpha = self._alpha_star - math.sqrt(y)
+        forcing = self._rate * U_x * (delta_bar + math.sqrt(phi @ phi) * math.sqrt(y))
+        memory[-1] = max(0.0, self._decay * y - forcing)
+        tau_lin = self._torques.linearization(q, qd_dot, qd_ddot)
+        tau_lc = self._torques.desired(qd_dot, qd_ddot) + eta
+        tau_nc = -alpha * phi
+        internals = np.concatenate([tau_lin, tau_lc, tau_nc, [alpha], phi, [U1, U2, delta_bar]])
+        return tau_lin + tau_lc + tau_nc, internals

@@ -1,0 +1,84 @@
+"""The augmented system and its LQR state feedback (Sec. 3.2, Eq. 5-6, 11, 14-15)
+and the input direction of the nonlinear torque (Eq. 20).
+
+The state is ``x~ = [q~, q~', eta~]`` with ``eta~ = tau_LC - tau_d`` (Eq. 9-10).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.linalg
+
+from models.design.config import JOINTS
+
+_N = JOINTS
+
+
+@dataclass(frozen=True, eq=False)
+class AugmentedSystem:
+    """``x~' = A_a x~ + B_a1 v~ + B_a2 (tau_NC + tau_Lin - h + Delta tau_d)`` (Eq. 11),
+    with ``Lambda(s)`` realised as ``eta' = A_eta eta + v`` (Eq. 6)."""
+
+    A_eta: np.ndarray
+    A_a: np.ndarray
+    B_a1: np.ndarray
+    B_a2: np.ndarray
+
+
+def augmented_system(M0: np.ndarray, B: np.ndarray, lambdas: np.ndarray) -> AugmentedSystem:
+    """Eq. 11 for the nominal linear part ``M0* q'' + B* q' = tau_LC`` (Eq. 2) cascaded
+    with ``Lambda(s) = diag(1/(s + lambda_i))`` (Eq. 5)."""
+    M0_inv = np.linalg.inv(M0)
+    zero, eye = np.zeros((_N, _N)), np.eye(_N)
+    A_eta = -np.diag(lambdas)
+    A_a = np.block([[zero, eye, zero], [zero, -M0_inv @ B, M0_inv], [zero, zero, A_eta]])
+    return AugmentedSystem(
+        A_eta=A_eta,
+        A_a=A_a,
+        B_a1=np.vstack([zero, zero, eye]),
+        B_a2=np.vstack([zero, M0_inv, zero]),
+    )
+
+
+@dataclass(frozen=True, eq=False)
+class LqrSolution:
+    """``P`` of the Riccati equation (15) and ``K = R^-1 B_a1^T P = [K1 K2 K3]`` (Eq. 14)."""
+
+    P: np.ndarray
+    K: np.ndarray
+
+    @property
+    def K1(self) -> np.ndarray:
+        return self.K[:, 0:_N]
+
+    @property
+    def K2(self) -> np.ndarray:
+        return self.K[:, _N : 2 * _N]
+
+    @property
+    def K3(self) -> np.ndarray:
+        return self.K[:, 2 * _N :]
+
+
+def solve_lqr(system: AugmentedSystem, Q: np.ndarray, R: np.ndarray) -> LqrSolution:
+    """Solve Eq. 15 with scipy and form ``K`` (Eq. 14).
+
+    Raises ``ValueError`` naming ``Q1, Q2, R`` when no stabilising solution exists.
+    """
+    try:
+        P = scipy.linalg.solve_continuous_are(system.A_a, system.B_a1, Q, R)
+    except (np.linalg.LinAlgError, ValueError) as error:
+        raise ValueError(
+            f"Q1, Q2, R: the Riccati equation (Eq. 15) has no stabilising solution ({error})"
+        ) from None
+    P = 0.5 * (P + P.T)
+    return LqrSolution(P=P, K=np.linalg.solve(R, system.B_a1.T @ P))
+
+
+def nonlinear_input_matrix(P: np.ndarray, M0: np.ndarray) -> np.ndarray:
+    """``E = (M0*)^-T P2^T = [E1 E2 E3]`` with ``P = [P1 P2 P3]`` (Eq. 20), so that the
+    SPR filter's input is ``z = E x~``."""
+    P2 = P[:, _N : 2 * _N]
+    return np.linalg.solve(M0.T, P2.T)

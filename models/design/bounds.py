@@ -1,0 +1,134 @@
+"""The bounds used by the nonlinear torque gain (Eq. 17-18, 21, 23-25).
+
+* ``G(s) = a/(s + a)`` of Sec. 3.4: ``abar = exp(-a T_s)``, ``c = 1 - 2 abar``;
+  the bounds (24)-(25) need ``abar < 1/2``, i.e. ``a > ln 2 / T_s``.
+* The constants of Assumption 1 and ``k_C1`` (Remark of Sec. 2), resolved from
+  ``UncertaintyBounds`` and the nominal model.
+* ``delta_bar`` (Eq. 18), the bound on the residual ``tau_Lin - h + Delta tau_d``.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.optimize
+
+from models.design.config import UncertaintyBounds
+from models.lumped import LumpedModel, LumpedParameters
+
+
+@dataclass(frozen=True)
+class BoundFilterConstants:
+    """``abar``, ``c`` and the smallest admissible pole ``min_a = ln 2 / T_s`` (Sec. 3.4)."""
+
+    a: float
+    sample_time: float
+    abar: float
+    c: float
+    min_a: float
+
+    @property
+    def valid(self) -> bool:
+        """``a > ln 2 / T_s``, i.e. ``abar < 1/2`` (Eq. 24 needs ``c > 0``)."""
+        return self.a > self.min_a
+
+
+def bound_filter_constants(a: float, sample_time: float) -> BoundFilterConstants:
+    abar = math.exp(-a * sample_time)
+    return BoundFilterConstants(
+        a=a,
+        sample_time=sample_time,
+        abar=abar,
+        c=1.0 - 2.0 * abar,
+        min_a=math.log(2.0) / sample_time,
+    )
+
+
+def coriolis_bound(parameters: LumpedParameters) -> float:
+    """The smallest ``k_C1`` with ``||C*(q, x) y|| <= k_C1 ||x|| ||y||`` for all q, x, y.
+
+    ``C*`` scales with ``sin q2`` (Sec. 4.1), so the worst case is ``|sin q2| = 1``
+    and ``k_C1 = max_{||x|| = 1} ||C*(q, x)||_2`` there: a 1-D search over the
+    direction of ``x`` (grid, then a bounded refinement around the best point).
+    """
+    model = LumpedModel(parameters)
+    q = np.array([0.0, 0.5 * np.pi])
+
+    def norm_at(angle: float) -> float:
+        return float(np.linalg.norm(model.C(q, np.array([np.cos(angle), np.sin(angle)])), 2))
+
+    grid = np.linspace(0.0, np.pi, 721)
+    best = grid[int(np.argmax([norm_at(angle) for angle in grid]))]
+    step = grid[1] - grid[0]
+    result = scipy.optimize.minimize_scalar(
+        lambda angle: -norm_at(angle),
+        bounds=(best - step, best + step),
+        method="bounded",
+        options={"xatol": 1e-10},
+    )
+    return max(-float(result.fun), norm_at(best))
+
+
+def spectral_norm_2x2(matrix: np.ndarray) -> float:
+    """``||matrix||_2`` of a 2 x 2 matrix in closed form (no SVD in the control loop)."""
+    frobenius2 = float(np.sum(matrix * matrix))
+    det = float(matrix[0, 0] * matrix[1, 1] - matrix[0, 1] * matrix[1, 0])
+    return math.sqrt(0.5 * (frobenius2 + math.sqrt(max(frobenius2**2 - 4.0 * det * det, 0.0))))
+
+
+@dataclass(frozen=True)
+class ResolvedBounds:
+    """Numbers of Assumption 1, ``k_C1`` and ``||F*||`` (the largest ``||F*(q')||``)."""
+
+    delta_M0: float
+    delta_M1: float
+    delta_C: float
+    delta_G: float
+    delta_B: float
+    delta_F: float
+    k_C1: float
+    F_norm: float
+
+    def delta_bar(
+        self, M1_norm: float, U1: float, U2: float, qd_dot_norm: float, qd_ddot_norm: float
+    ) -> float:
+        """Eq. 18 with ``M1_norm = ||M1*(q)||``, ``U1 >= ||q~'||``, ``U2 >= ||q~''||``."""
+        return (
+            M1_norm * U2
+            + (self.delta_M1 + self.delta_M0) * (U2 + qd_ddot_norm)
+            + self.delta_B * (U1 + qd_dot_norm)
+            + (self.k_C1 + self.delta_C) * U1 * (U1 + 2.0 * qd_dot_norm)
+            + self.delta_C * qd_dot_norm**2
+            + self.delta_G
+            + self.delta_F
+            + 2.0 * self.F_norm
+        )
+
+
+def resolve_bounds(bounds: UncertaintyBounds, parameters: LumpedParameters) -> ResolvedBounds:
+    """Fill each ``None`` of ``bounds`` with ``relative`` times the nominal norm.
+
+    ``M1*(q)`` is linear in ``cos q2`` and ``G*(q)`` reaches ``|G1| = theta4 +
+    (g/l1)|theta3|`` and ``|G2| = (g/l1)|theta8|`` at one configuration, so their
+    maxima over ``q`` are taken in closed form.
+    """
+    model = LumpedModel(parameters)
+    p = parameters
+    ratio = p.g / p.l1
+    k_C1 = coriolis_bound(parameters) if bounds.k_C1 is None else bounds.k_C1
+    F_norm = float(np.linalg.norm(model.coulomb_levels()))
+    nominal = {
+        "delta_M0": float(np.linalg.norm(model.M0(), 2)),
+        "delta_M1": float(np.linalg.norm(model.M1(np.zeros(2)), 2)),
+        "delta_C": k_C1,
+        "delta_G": math.hypot(p.theta4 + ratio * abs(p.theta3), ratio * abs(p.theta8)),
+        "delta_B": float(np.linalg.norm(model.B(), 2)),
+        "delta_F": F_norm,
+    }
+    resolved = {
+        name: bounds.relative * norm if getattr(bounds, name) is None else getattr(bounds, name)
+        for name, norm in nominal.items()
+    }
+    return ResolvedBounds(**resolved, k_C1=k_C1, F_norm=F_norm)

@@ -1,0 +1,206 @@
+"""Design inputs of the controllers, validated where they enter.
+
+Defaults are the paper's Sec. 4.2 settings. Matrices are tuples of rows
+(immutable, so the dataclasses stay frozen and hashable); ``n = 2`` joints.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field, fields
+
+import numpy as np
+
+from models.lumped import TABLE1, LumpedParameters
+from models.validation import (
+    require_matrix,
+    require_nonnegative,
+    require_positive,
+    require_vector,
+)
+
+#: Number of joints of the lumped model.
+JOINTS = 2
+
+Matrix = tuple[tuple[float, ...], ...]
+
+
+def diagonal(values: tuple[float, ...]) -> Matrix:
+    """A diagonal matrix as a tuple of rows."""
+    size = len(values)
+    return tuple(
+        tuple(float(v) if i == j else 0.0 for j in range(size)) for i, v in enumerate(values)
+    )
+
+
+def freeze(instance: object, *names: str) -> None:
+    """Store the (validated) fields ``names`` of a frozen dataclass as tuples of floats,
+    so configs built from numpy arrays stay hashable and compare by value."""
+    for name in names:
+        values = np.asarray(getattr(instance, name), dtype=float).tolist()
+        frozen = tuple(tuple(row) for row in values) if isinstance(values[0], list) else values
+        object.__setattr__(instance, name, tuple(frozen))
+
+
+def require_symmetric(name: str, value: Matrix | np.ndarray, size: int, definite: bool) -> None:
+    """Refuse ``value`` unless it is a finite symmetric ``size x size`` matrix that is
+    positive definite (``definite``) or positive semidefinite."""
+    matrix = require_matrix(name, value, (size, size))
+    scale = max(1.0, float(np.max(np.abs(matrix))))
+    if not np.allclose(matrix, matrix.T, rtol=0.0, atol=1e-12 * scale):
+        raise ValueError(
+            f"{name} = {matrix.tolist()} is not symmetric; a symmetric matrix is required"
+        )
+    smallest = float(np.linalg.eigvalsh(matrix).min())
+    if definite and smallest <= 1e-12 * scale:
+        raise ValueError(
+            f"{name} = {matrix.tolist()} has smallest eigenvalue {smallest:.3g}; "
+            "a positive definite matrix is required"
+        )
+    if smallest < -1e-12 * scale:
+        raise ValueError(
+            f"{name} = {matrix.tolist()} has smallest eigenvalue {smallest:.3g}; "
+            "a positive semidefinite matrix is required"
+        )
+
+
+@dataclass(frozen=True)
+class LqrWeights:
+    """Weights of the linear control torque (Sec. 3.2): ``Q = diag(Q1, Q2)`` and ``R`` of
+    the cost (16), and ``lambda_i`` of ``Lambda(s) = diag(1/(s + lambda_i))`` (Eq. 5).
+
+    As in Sec. 3.2, ``Q1`` (on ``[q~, q~']``) is positive semidefinite, ``Q2`` (on
+    ``eta~``) and ``R`` (on ``v~``) are positive definite, ``lambda_i > 0``.
+    """
+
+    Q1: Matrix = diagonal((32000.0, 12000.0, 10.0, 10.0))
+    Q2: Matrix = diagonal((0.001, 0.001))
+    R: Matrix = diagonal((0.0005, 0.0015))
+    lambdas: tuple[float, ...] = (10.0, 10.0)
+
+    def __post_init__(self) -> None:
+        require_symmetric("Q1", self.Q1, 2 * JOINTS, definite=False)
+        require_symmetric("Q2", self.Q2, JOINTS, definite=True)
+        require_symmetric("R", self.R, JOINTS, definite=True)
+        for i, value in enumerate(require_vector("lambdas", self.lambdas, JOINTS)):
+            require_positive(f"lambdas[{i}]", value)
+        freeze(self, "Q1", "Q2", "R", "lambdas")
+
+    @property
+    def Q(self) -> np.ndarray:
+        """``Q = diag(Q1, Q2)`` (6 x 6)."""
+        q = np.zeros((3 * JOINTS, 3 * JOINTS))
+        q[: 2 * JOINTS, : 2 * JOINTS] = self.Q1
+        q[2 * JOINTS :, 2 * JOINTS :] = self.Q2
+        return q
+
+
+@dataclass(frozen=True)
+class NonlinearTorqueConfig:
+    """The nonlinear control torque (Sec. 3.3-3.4): ``alpha*``, ``K_alpha`` and the
+    initial gain ``alpha(0)`` of Eq. 21; ``H(s) = C_zeta (sI - A_zeta)^-1 B_zeta``
+    (Eq. 20, an ``n``-state realisation as in the paper's KYP statement); the pole
+    ``a`` of ``G(s) = a/(s + a)`` (Sec. 3.4).
+
+    ``alpha0 = 0`` is this project's choice (reading note 8): the nonlinear torque
+    starts switched off and Eq. 21 raises its gain monotonically to ``alpha*``.
+    Whether ``H`` is SPR and whether ``a > ln 2 / T_s`` are design checks
+    (``models.design.synthesis``): the proposed controller refuses either failure.
+    """
+
+    alpha_star: float = 4.0
+    K_alpha: float = 20.0
+    alpha0: float = 0.0
+    A_zeta: Matrix = diagonal((-10.0, -10.0))
+    B_zeta: Matrix = diagonal((10.0, 10.0))
+    C_zeta: Matrix = diagonal((1.0, 1.0))
+    filter_a: float = 100.0
+
+    def __post_init__(self) -> None:
+        alpha_star = require_positive("alpha_star", self.alpha_star)
+        require_positive("K_alpha", self.K_alpha)
+        alpha0 = require_nonnegative("alpha0", self.alpha0)
+        if alpha0 > alpha_star:
+            raise ValueError(
+                f"alpha0 = {self.alpha0!r} exceeds alpha_star = {alpha_star!r}; "
+                "0 <= alpha0 <= alpha_star is required"
+            )
+        for name in ("A_zeta", "B_zeta", "C_zeta"):
+            require_matrix(name, getattr(self, name), (JOINTS, JOINTS))
+        require_positive("filter_a", self.filter_a)
+        freeze(self, "A_zeta", "B_zeta", "C_zeta")
+
+
+@dataclass(frozen=True)
+class UncertaintyBounds:
+    """The bounds of Assumption 1 and ``k_C1`` of the Remark of Sec. 2 (Eq. 17-18).
+
+    A bound left ``None`` is ``relative`` times the matching norm of the nominal
+    model (``models.design.bounds.resolve_bounds``): ``||M0*||``,
+    ``max_q ||M1*(q)||``, ``k_C1``, ``max_q ||G*(q)||``, ``||B*||``, ``||F*||``.
+    ``relative = 0.5`` is this project's choice (reading note 7): it covers the
+    few-percent identification mismatch of reading note 9 and the 33 % payload of
+    Sec. 4.3 on ``M0*``, ``B*`` and ``F*`` (raise it for larger payload studies).
+    The bounds only enter ``delta_bar`` (Eq. 18), i.e. how fast Eq. 21 drives
+    ``alpha`` to ``alpha*``. ``k_C1 = None`` computes the smallest constant of
+    ``||C*(q, x) y|| <= k_C1 ||x|| ||y||`` from theta_3 and theta_8.
+    """
+
+    relative: float = 0.5
+    delta_M0: float | None = None
+    delta_M1: float | None = None
+    delta_C: float | None = None
+    delta_G: float | None = None
+    delta_B: float | None = None
+    delta_F: float | None = None
+    k_C1: float | None = None
+
+    def __post_init__(self) -> None:
+        for entry in fields(self):
+            value = getattr(self, entry.name)
+            if value is not None:
+                require_nonnegative(entry.name, value)
+
+
+@dataclass(frozen=True)
+class PidGains:
+    """Diagonal gains of the computed torque + PID baseline (Eq. 26, Sec. 4.2)."""
+
+    Kp: tuple[float, ...] = (800.0, 500.0)
+    Kv: tuple[float, ...] = (30.0, 15.0)
+    KI: tuple[float, ...] = (1.411, 0.3)
+
+    def __post_init__(self) -> None:
+        for name in ("Kp", "Kv", "KI"):
+            for i, value in enumerate(require_vector(name, getattr(self, name), JOINTS)):
+                check = require_nonnegative if name == "KI" else require_positive
+                check(f"{name}[{i}]", value)
+        freeze(self, "Kp", "Kv", "KI")
+
+
+@dataclass(frozen=True)
+class ControllerConfig:
+    """Everything the three controllers are built from; defaults are the paper's.
+
+    ``nominal`` is the model the controllers use (Table 1; ``M0*`` is its
+    q-independent part, reading note 5), ``sample_time`` the period ``T_s`` of
+    every controller.
+    """
+
+    nominal: LumpedParameters = TABLE1
+    sample_time: float = 0.01
+    lqr: LqrWeights = field(default_factory=LqrWeights)
+    nonlinear: NonlinearTorqueConfig = field(default_factory=NonlinearTorqueConfig)
+    bounds: UncertaintyBounds = field(default_factory=UncertaintyBounds)
+    pid: PidGains = field(default_factory=PidGains)
+
+    def __post_init__(self) -> None:
+        require_positive("sample_time", self.sample_time)
+        for name, kind in (
+            ("nominal", LumpedParameters),
+            ("lqr", LqrWeights),
+            ("nonlinear", NonlinearTorqueConfig),
+            ("bounds", UncertaintyBounds),
+            ("pid", PidGains),
+        ):
+            if not isinstance(getattr(self, name), kind):
+                raise ValueError(f"{name} = {getattr(self, name)!r} is not a {kind.__name__}")

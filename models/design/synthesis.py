@@ -1,0 +1,295 @@
+"""The whole design of Sec. 3 from a ``ControllerConfig``, with its checks.
+
+``compute_design`` runs Eq. 5-25 in order: augmented system and LQR (Eq. 11,
+14-15), ``E`` (Eq. 20), the KYP check of ``H(s)``, ``G(s)``'s constants
+(Sec. 3.4), the bounds (Eq. 17-18), the position-only filters discretised at
+``T_s`` and the linear closed loops that say whether the design is stable with
+and without sampling. A failed check is recorded (``Design.checks``,
+``Design.warnings``), not raised: the report shows it. Only a Riccati equation
+that scipy cannot solve raises, since nothing after it can be computed. The
+controllers refuse what they cannot use: Lin+LC a failed LQR design
+(``Design.require_linear_torque``), the proposed controller also a non-SPR
+``H(s)`` or ``a <= ln 2 / T_s`` (``Design.require_nonlinear_torque``).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from models.design.augmented import augmented_system, nonlinear_input_matrix, solve_lqr
+from models.design.bounds import (
+    BoundFilterConstants,
+    ResolvedBounds,
+    bound_filter_constants,
+    resolve_bounds,
+)
+from models.design.closed_loop import (
+    continuous_closed_loop,
+    sampled_data_closed_loop,
+    spectral_radius,
+)
+from models.design.config import JOINTS, ControllerConfig
+from models.design.realisation import (
+    DiscreteFilter,
+    linear_control_filter,
+    nonlinear_control_filter,
+    stack,
+    velocity_bound_filter,
+)
+from models.design.spr import SprCertificate, spr_certificate
+from models.lumped import LumpedModel
+
+_N = JOINTS
+
+#: Checks whose failure makes ``tau_LC`` (Eq. 13) unusable.
+LINEAR_TORQUE_CHECKS = ("riccati",)
+#: Checks whose failure makes ``tau_LC + tau_NC`` (Eq. 13, 19-21) unusable.
+NONLINEAR_TORQUE_CHECKS = ("riccati", "spr", "bound_filter")
+
+
+@dataclass(frozen=True)
+class Check:
+    """One design check; ``detail`` says in plain words what was found."""
+
+    name: str
+    passed: bool
+    detail: str
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "passed", bool(self.passed))  # numpy bools are not JSON
+
+
+@dataclass(frozen=True, eq=False)
+class Design:
+    """The computed design. ``M0``, ``B`` are the nominal ``M0*``, ``B*``; ``A_eta``,
+    ``A_a``, ``B_a1``, ``B_a2`` Eq. 6 and 11; ``P``, ``K`` Eq. 14-15; ``E`` Eq. 20;
+    ``Gamma``, ``kyp_gamma`` the KYP certificate of ``H(s)`` (``kyp_gamma = 0`` and
+    ``Gamma`` ``None`` or failing when not SPR); ``coupling_norm = ||P2 (M0*)^-1||`` (Eq. 21).
+
+    Poles (sorted by real part): ``continuous_poles`` of ``A_a - B_a1 K``;
+    ``continuous_poles_with_nc`` of the nominal linear plant with the filters of
+    Eq. 13 and 20 at ``alpha = alpha*``; ``lc_filter_poles`` of ``A_eta - K3``.
+    ``sampled_data_spectral_radius[_lin_lc]``: ``models.design.closed_loop`` at
+    ``T_s`` with (without) ``tau_NC`` at ``alpha*``.
+
+    ``lin_lc_filter`` realises Eq. 13 (output ``eta~``); ``proposed_filter`` realises
+    Eq. 13, 20 and 25 together (outputs ``[eta~, phi, p, pbar]``), both discretised
+    at ``T_s`` (``models.design.realisation``).
+    """
+
+    config: ControllerConfig
+    M0: np.ndarray
+    B: np.ndarray
+    A_eta: np.ndarray
+    A_a: np.ndarray
+    B_a1: np.ndarray
+    B_a2: np.ndarray
+    P: np.ndarray
+    K: np.ndarray
+    E: np.ndarray
+    Gamma: np.ndarray | None
+    kyp_gamma: float
+    coupling_norm: float
+    continuous_poles: np.ndarray
+    continuous_poles_with_nc: np.ndarray
+    lc_filter_poles: np.ndarray
+    bound_filter: BoundFilterConstants
+    bounds: ResolvedBounds
+    lin_lc_filter: DiscreteFilter
+    proposed_filter: DiscreteFilter
+    sampled_data_spectral_radius: float
+    sampled_data_spectral_radius_lin_lc: float
+    checks: tuple[Check, ...]
+
+    @property
+    def K1(self) -> np.ndarray:
+        return self.K[:, :_N]
+
+    @property
+    def K2(self) -> np.ndarray:
+        return self.K[:, _N : 2 * _N]
+
+    @property
+    def K3(self) -> np.ndarray:
+        return self.K[:, 2 * _N :]
+
+    @property
+    def E1(self) -> np.ndarray:
+        return self.E[:, :_N]
+
+    @property
+    def E2(self) -> np.ndarray:
+        return self.E[:, _N : 2 * _N]
+
+    @property
+    def E3(self) -> np.ndarray:
+        return self.E[:, 2 * _N :]
+
+    @property
+    def warnings(self) -> list[str]:
+        """The details of the failed checks."""
+        return [check.detail for check in self.checks if not check.passed]
+
+    def require(self, names: tuple[str, ...]) -> None:
+        """Raise ``ValueError`` with the first failed check among ``names`` (its detail
+        names the parameter)."""
+        for check in self.checks:
+            if check.name in names and not check.passed:
+                raise ValueError(check.detail)
+
+    def require_linear_torque(self) -> None:
+        """Refuse a failed LQR design (Lin+LC and the proposed controller)."""
+        self.require(LINEAR_TORQUE_CHECKS)
+
+    def require_nonlinear_torque(self) -> None:
+        """Refuse a failed LQR design, a non-SPR ``H(s)`` or ``a <= ln 2 / T_s``."""
+        self.require(NONLINEAR_TORQUE_CHECKS)
+
+
+def _sorted_poles(matrix: np.ndarray) -> np.ndarray:
+    poles = np.linalg.eigvals(matrix)
+    return poles[np.lexsort((poles.imag, poles.real))]
+
+
+def _riccati_check(P: np.ndarray, poles: np.ndarray) -> Check:
+    eigenvalues = np.linalg.eigvalsh(P)
+    smallest = float(eigenvalues.min())
+    tolerance = 1e-12 * max(1.0, float(np.abs(eigenvalues).max()))
+    passed = smallest > tolerance and poles.real.max() < -1e-9 * max(1.0, np.abs(poles).max())
+    if passed:
+        detail = (
+            "Riccati equation (Eq. 15): P is positive definite and A_a - B_a1 K is Hurwitz "
+            f"(slowest pole real part {poles.real.max():.4g})"
+        )
+    else:
+        detail = (
+            f"Q1, Q2, R: the Riccati solution P has smallest eigenvalue {smallest:.3g} and "
+            f"A_a - B_a1 K has largest pole real part {poles.real.max():.4g}: the LQR design "
+            "(Eq. 14-15) failed"
+        )
+    return Check("riccati", passed, detail)
+
+
+def _spr_check(spr: SprCertificate) -> Check:
+    if spr.is_spr:
+        detail = (
+            "H(s) is strictly positive real with relative degree 1 (KYP: Gamma = "
+            f"{np.round(spr.Gamma, 6).tolist()}, gamma = {spr.gamma:.4g})"
+        )
+    else:
+        detail = (
+            f"A_zeta, B_zeta, C_zeta: H(s) is not strictly positive real ({spr.reason}); "
+            "tau_NC (Eq. 19-21) needs an SPR H(s) of relative degree 1"
+        )
+    return Check("spr", spr.is_spr, detail)
+
+
+def _bound_filter_check(constants: BoundFilterConstants) -> Check:
+    if constants.valid:
+        detail = (
+            f"G(s) = a/(s + a) with filter_a = {constants.a:g} > ln 2 / T_s = "
+            f"{constants.min_a:.4g}: abar = {constants.abar:.4f} < 1/2, c = {constants.c:.4f}"
+        )
+    else:
+        detail = (
+            f"filter_a = {constants.a:g} is not above ln 2 / T_s = {constants.min_a:.4g} at "
+            f"T_s = {constants.sample_time:g} s (abar = exp(-a T_s) = {constants.abar:.4f} >= "
+            "1/2): the bounds U1, U2 of Eq. 24-25 do not hold and the proposed controller "
+            "refuses this setting"
+        )
+    return Check("bound_filter", constants.valid, detail)
+
+
+def _stability_check(name: str, what: str, radius: float) -> Check:
+    verdict = "< 1: stable" if radius < 1.0 else ">= 1: UNSTABLE"
+    return Check(name, radius < 1.0, f"{what}: spectral radius {radius:.4f} {verdict}")
+
+
+def compute_design(config: ControllerConfig | None = None) -> Design:
+    """The design of Sec. 3 for ``config`` (default: the paper's Sec. 4.2 settings)."""
+    config = ControllerConfig() if config is None else config
+    model = LumpedModel(config.nominal)
+    M0, B = model.M0(), model.B()
+    nonlinear = config.nonlinear
+    T = config.sample_time
+
+    augmented = augmented_system(M0, B, np.asarray(config.lqr.lambdas))
+    lqr = solve_lqr(augmented, config.lqr.Q, np.asarray(config.lqr.R))
+    E = nonlinear_input_matrix(lqr.P, M0)
+    A_zeta, B_zeta, C_zeta = (
+        np.asarray(m, dtype=float) for m in (nonlinear.A_zeta, nonlinear.B_zeta, nonlinear.C_zeta)
+    )
+    spr = spr_certificate(A_zeta, B_zeta, C_zeta)
+    bound_filter = bound_filter_constants(nonlinear.filter_a, T)
+
+    lc = linear_control_filter(lqr.K1, lqr.K2, lqr.K3, augmented.A_eta)
+    nc = nonlinear_control_filter(
+        lqr.K1, lqr.K2, lqr.K3, augmented.A_eta, E, A_zeta, B_zeta, C_zeta
+    )
+    nc_gain = np.hstack([np.eye(_N), -nonlinear.alpha_star * np.eye(_N)])
+    lin_lc_filter = lc.discretise(T)
+    radius = spectral_radius(sampled_data_closed_loop(M0, B, nc.discretise(T), nc_gain, T))
+    radius_lin_lc = spectral_radius(sampled_data_closed_loop(M0, B, lin_lc_filter, np.eye(_N), T))
+    continuous_poles = _sorted_poles(augmented.A_a - augmented.B_a1 @ lqr.K)
+    poles_with_nc = _sorted_poles(continuous_closed_loop(M0, B, nc, nc_gain))
+    lc_filter_poles = _sorted_poles(lc.A)
+
+    checks = (
+        _riccati_check(lqr.P, continuous_poles),
+        Check(
+            "lc_filter",
+            lc_filter_poles.real.max() < 0.0,
+            f"the tau_LC filter of Eq. 13 (poles of A_eta - K3: "
+            f"{np.round(lc_filter_poles, 3).tolist()}) is "
+            + ("stable" if lc_filter_poles.real.max() < 0.0 else "UNSTABLE"),
+        ),
+        _spr_check(spr),
+        _bound_filter_check(bound_filter),
+        Check(
+            "continuous_with_nc",
+            poles_with_nc.real.max() < 0.0,
+            f"continuous closed loop with tau_NC at alpha = alpha* = {nonlinear.alpha_star:g}: "
+            f"slowest pole real part {poles_with_nc.real.max():.4g}, fastest pole "
+            f"|s| = {np.abs(poles_with_nc).max():.4g} rad/s ("
+            + ("stable" if poles_with_nc.real.max() < 0.0 else "UNSTABLE")
+            + ")",
+        ),
+        _stability_check(
+            "sampled_data",
+            f"sampled-data closed loop of the proposed controller (nominal linear plant held "
+            f"over T_s = {T:g} s, alpha = alpha* = {nonlinear.alpha_star:g})",
+            radius,
+        ),
+        _stability_check(
+            "sampled_data_lin_lc",
+            f"sampled-data closed loop of Lin+LC (T_s = {T:g} s)",
+            radius_lin_lc,
+        ),
+    )
+    return Design(
+        config=config,
+        M0=M0,
+        B=B,
+        A_eta=augmented.A_eta,
+        A_a=augmented.A_a,
+        B_a1=augmented.B_a1,
+        B_a2=augmented.B_a2,
+        P=lqr.P,
+        K=lqr.K,
+        E=E,
+        Gamma=spr.Gamma,
+        kyp_gamma=spr.gamma,
+        coupling_norm=float(np.linalg.norm(lqr.P[:, _N : 2 * _N] @ np.linalg.inv(M0), 2)),
+        continuous_poles=continuous_poles,
+        continuous_poles_with_nc=poles_with_nc,
+        lc_filter_poles=lc_filter_poles,
+        bound_filter=bound_filter,
+        bounds=resolve_bounds(config.bounds, config.nominal),
+        lin_lc_filter=lin_lc_filter,
+        proposed_filter=stack(nc, velocity_bound_filter(nonlinear.filter_a, _N)).discretise(T),
+        sampled_data_spectral_radius=radius,
+        sampled_data_spectral_radius_lin_lc=radius_lin_lc,
+        checks=checks,
+    )

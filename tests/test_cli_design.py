@@ -1,0 +1,79 @@
+"""``posfb design``: in process through ``analysis.cli.main`` (fast), and once end to
+end as a user runs it."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+
+import pytest
+
+from analysis.cli import main
+
+
+def _run(capsys, *args: str) -> tuple[int, str, str]:
+    code = main(list(args))
+    captured = capsys.readouterr()
+    return code, captured.out, captured.err
+
+
+def test_json_at_the_paper_settings(capsys):
+    code, out, err = _run(capsys, "design", "--json")
+    assert code == 0, err
+    data = json.loads(out)
+    for key in ("K", "P", "E", "continuous_poles", "sampled_data_spectral_radius", "warnings"):
+        assert key in data
+    assert len(data["K"]) == 2 and all(len(row) == 6 for row in data["K"])
+    assert len(data["P"]) == 6 and len(data["E"]) == 2
+    assert len(data["continuous_poles"]) == 6
+    assert all(re < 0.0 for re, _ in data["continuous_poles"])
+    assert data["K"][0][0] == pytest.approx(7985.6, rel=1e-4)
+    assert data["sampled_data_spectral_radius"] == pytest.approx(1.0558, abs=1e-4)
+    assert data["warnings"] == [data["checks"]["sampled_data"]["detail"]]
+
+
+def test_json_at_200_hz_flags_the_bound_filter(capsys):
+    code, out, err = _run(capsys, "design", "--sample-time", "0.005", "--json")
+    assert code == 0, err
+    data = json.loads(out)
+    assert data["sampled_data_spectral_radius"] < 1.0
+    assert len(data["warnings"]) == 1 and "filter_a" in data["warnings"][0]
+
+
+def test_text_report_flags_failed_checks_in_words(capsys):
+    code, out, _ = _run(capsys, "design")
+    assert code == 0
+    assert "[FAILED] sampled-data closed loop" in out
+    assert "UNSTABLE" in out
+    assert "1 check(s) FAILED" in out
+    _, smaller_gain, _ = _run(capsys, "design", "--alpha-star", "2")
+    assert "all checks passed" in smaller_gain
+
+
+@pytest.mark.parametrize(
+    ("args", "needle"),
+    [
+        (["design", "--sample-time", "0"], "--sample-time"),
+        (["design", "--sample-time", "-0.01"], "--sample-time"),
+        (["design", "--sample-time", "nan"], "--sample-time"),
+        (["design", "--alpha-star", "0"], "--alpha-star"),
+        (["design", "--alpha-star", "inf"], "--alpha-star"),
+    ],
+)
+def test_bad_value_gives_one_line_and_exit_2(capsys, args, needle):
+    code, out, err = _run(capsys, *args)
+    assert code == 2 and out == ""
+    lines = err.strip().splitlines()
+    assert len(lines) == 1 and needle in lines[0], err
+
+
+def test_end_to_end_bad_input_is_one_line_and_nonzero():
+    result = subprocess.run(
+        [sys.executable, "-m", "analysis.cli", "design", "--alpha-star", "big"],
+        capture_output=True, text=True, timeout=120,
+    )  # fmt: skip
+    assert result.returncode == 2
+    lines = result.stderr.strip().splitlines()
+    assert len(lines) == 1 and "alpha-star" in lines[0]
+    assert "Traceback" not in result.stderr
