@@ -7,11 +7,18 @@ import argparse
 import sys
 from collections.abc import Sequence
 
-from analysis.commands import design, identify
+from analysis.commands import (
+    animate,
+    design,
+    graph,
+    identify,
+    reproduce,
+    simulate,
+)
 from analysis.errors import UsageError
 
 #: Subcommand modules, in the order ``posfb --help`` lists them.
-COMMANDS = [identify, design]
+COMMANDS = [identify, design, simulate, reproduce, graph, animate]
 
 #: Exit code for bad input (argparse uses the same).
 EXIT_BAD_INPUT = 2

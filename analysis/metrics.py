@@ -1,0 +1,73 @@
+"""The figures of merit of Tables 3-4 (Sec. 4.2) and a few more for robustness.
+
+The paper's RMS (Sec. 4.2, below Table 3)::
+
+    RMS(x) = sqrt( (1/N0) sum_{k=1}^{N0} |x(k T_s)|^2 )
+
+over the ``N0`` samples ``k = 1..N0`` (``t = 0`` excluded). ``q~ = q - q_d`` is
+taken from the *true* joint position (the encoder's quantisation is part of the
+error, not hidden by it). ``u`` is the *applied* armature voltage (after the
++-24 V saturation), as the paper measured the voltage at the motor; the
+commanded voltage only enters ``saturated_fraction``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass
+
+import numpy as np
+
+
+def rms(x: np.ndarray) -> np.ndarray | float:
+    """The paper's RMS of the samples ``x(k T_s)``, ``k = 1..N0`` (the rows of ``x``).
+
+    A 1-D ``x`` gives a float, a 2-D ``x`` (samples x channels) one value per column.
+    """
+    samples = np.asarray(x, dtype=float)
+    if samples.ndim not in (1, 2) or samples.shape[0] == 0:
+        raise ValueError(f"x has shape {samples.shape}; at least one sample is required")
+    value = np.sqrt(np.mean(samples**2, axis=0))
+    return float(value) if samples.ndim == 1 else value
+
+
+@dataclass(frozen=True)
+class RunMetrics:
+    """One closed-loop run's figures of merit over the samples ``k = 1..N0``.
+
+    ``rms_q``: RMS of the true tracking error per joint (rad); ``rms_u``: RMS of the
+    applied voltage per joint (V); ``max_abs_q_err``: largest ``|q~_j(k T_s)|`` (rad);
+    ``saturated_fraction``: share of samples where some commanded voltage exceeds
+    the limit; ``wall_time_s``: wall time of the simulation (build excluded).
+    """
+
+    rms_q: tuple[float, float]
+    rms_u: tuple[float, float]
+    max_abs_q_err: float
+    saturated_fraction: float
+    wall_time_s: float
+
+    def as_dict(self) -> dict[str, object]:
+        """JSON-ready: tuples become lists."""
+        return {key: list(v) if isinstance(v, tuple) else v for key, v in asdict(self).items()}
+
+
+def compute_metrics(
+    q_error: np.ndarray,
+    u_applied: np.ndarray,
+    u_commanded: np.ndarray,
+    voltage_limit: float,
+    wall_time_s: float,
+) -> RunMetrics:
+    """``RunMetrics`` from sample arrays (rows ``k = 1..N0``, one column per joint)."""
+    error, applied, commanded = (
+        np.asarray(a, dtype=float) for a in (q_error, u_applied, u_commanded)
+    )
+    rms_q, rms_u = rms(error), rms(applied)
+    saturated = np.any(np.abs(commanded) > voltage_limit, axis=1)
+    return RunMetrics(
+        rms_q=(float(rms_q[0]), float(rms_q[1])),
+        rms_u=(float(rms_u[0]), float(rms_u[1])),
+        max_abs_q_err=float(np.max(np.abs(error))),
+        saturated_fraction=float(np.mean(saturated)),
+        wall_time_s=float(wall_time_s),
+    )

@@ -1,0 +1,103 @@
+"""Figures 4-7 of the paper from simulated runs (matplotlib, no display needed).
+
+* ``positions_and_voltages`` (Figs. 4, 6): (a), (b) joint positions with the
+  desired trajectory; (c), (d) applied armature voltages.
+* ``tracking_errors`` (Figs. 5, 7): (a), (b) ``q~ = q - q_d`` over the whole
+  run; (c), (d) a 4 s close-up (8-12 s for a 20 s run).
+
+Line styles follow the paper: PID solid, Lin+LC dashed, the proposed
+controller dotted, the desired trajectory dash-dotted.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from pathlib import Path
+
+from matplotlib.figure import Figure
+
+from analysis.experiment import CONTROLLER_LABELS
+from diagrams.closed_loop import ClosedLoopResult
+
+STYLES = {
+    "pid": {"linestyle": "-", "color": "tab:blue"},
+    "lin_lc": {"linestyle": "--", "color": "tab:orange"},
+    "proposed": {"linestyle": ":", "color": "tab:green", "linewidth": 1.6},
+}
+DESIRED_STYLE = {"linestyle": "-.", "color": "black", "linewidth": 0.9}
+
+
+def closeup_window(duration: float) -> tuple[float, float]:
+    """The paper's 8-12 s close-up, or the middle fifth of a shorter run."""
+    if duration >= 12.0:
+        return 8.0, 12.0
+    return 0.4 * duration, 0.6 * duration
+
+
+def _label(kind: str, label_suffix: Mapping[str, str] | None) -> str:
+    return CONTROLLER_LABELS[kind] + (label_suffix or {}).get(kind, "")
+
+
+def positions_and_voltages(
+    results: Mapping[str, ClosedLoopResult],
+    title: str,
+    label_suffix: Mapping[str, str] | None = None,
+) -> Figure:
+    """Figs. 4/6: positions with the desired trajectory, then applied voltages."""
+    figure = Figure(figsize=(11, 7), layout="constrained")
+    axes = figure.subplots(2, 2, sharex=True)
+    first = next(iter(results.values()))
+    for j in range(2):
+        axes[0, j].plot(first.times, first.q_desired[:, j], label="desired", **DESIRED_STYLE)
+    for kind, result in results.items():
+        for j in range(2):
+            axes[0, j].plot(result.times, result.q_true[:, j], label=_label(kind, label_suffix),
+                            **STYLES[kind])  # fmt: skip
+            axes[1, j].plot(result.times, result.u_applied[:, j], **STYLES[kind])
+    for j, letter in enumerate("ab"):
+        axes[0, j].set_title(f"({letter}) joint {j + 1} position")
+        axes[0, j].set_ylabel(f"q{j + 1} (rad)")
+    for j, letter in enumerate("cd"):
+        axes[1, j].set_title(f"({letter}) joint {j + 1} armature voltage (applied)")
+        axes[1, j].set_ylabel(f"u{j + 1} (V)")
+        axes[1, j].set_xlabel("t (s)")
+    axes[0, 0].legend(loc="best", fontsize="small")
+    figure.suptitle(title)
+    return figure
+
+
+def tracking_errors(
+    results: Mapping[str, ClosedLoopResult],
+    title: str,
+    label_suffix: Mapping[str, str] | None = None,
+) -> Figure:
+    """Figs. 5/7: ``q~`` of both joints over the run and in the close-up window."""
+    figure = Figure(figsize=(11, 7), layout="constrained")
+    axes = figure.subplots(2, 2)
+    first = next(iter(results.values()))
+    start, stop = closeup_window(float(first.times[-1]))
+    for kind, result in results.items():
+        error = result.q_error
+        window = (result.times >= start) & (result.times <= stop)
+        for j in range(2):
+            axes[0, j].plot(result.times, error[:, j], label=_label(kind, label_suffix),
+                            **STYLES[kind])  # fmt: skip
+            axes[1, j].plot(result.times[window], error[window, j], **STYLES[kind])
+    for j in range(2):
+        axes[0, j].set_title(f"({'ab'[j]}) joint {j + 1}: t = 0-{first.times[-1]:g} s")
+        axes[1, j].set_title(f"({'cd'[j]}) joint {j + 1}: t = {start:g}-{stop:g} s")
+        for row in range(2):
+            axes[row, j].set_ylabel(f"q~{j + 1} (rad)")
+            axes[row, j].axhline(0.0, color="grey", linewidth=0.5)
+        axes[1, j].set_xlabel("t (s)")
+    axes[0, 0].legend(loc="best", fontsize="small")
+    figure.suptitle(title)
+    return figure
+
+
+def save(figure: Figure, directory: Path, stem: str) -> list[Path]:
+    """Write ``stem.png`` (100 dpi, 1100 x 700 px) and ``stem.svg`` into ``directory``."""
+    paths = [directory / f"{stem}.png", directory / f"{stem}.svg"]
+    figure.savefig(paths[0], dpi=100)
+    figure.savefig(paths[1])
+    return paths

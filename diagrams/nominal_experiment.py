@@ -1,0 +1,31 @@
+"""The nominal experiment of Sec. 4.2 (Table 3, Figs. 4-5) with the paper's settings.
+
+Run it directly::
+
+    python -m diagrams.nominal_experiment [--out results/nominal] [--duration 20]
+    python diagrams/nominal_experiment.py
+
+It simulates computed torque + PID, Lin+LC and the paper's controller on the
+nominal arm for 20 s and writes Figs. 4-5 (PNG, SVG) and Table 3 beside the
+paper's. ``posfb reproduce`` does this and everything else.
+"""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+from analysis.reproduce import case_experiment
+
+
+def main(case: str, description: str) -> None:
+    """Parse ``--out``/``--duration`` and run ``case`` (``analysis.reproduce.case_experiment``)."""
+    parser = argparse.ArgumentParser(description=description)
+    parser.add_argument("--out", default=f"results/{case}", help="output folder")
+    parser.add_argument("--duration", type=float, default=20.0, help="simulated seconds")
+    args = parser.parse_args()
+    case_experiment(case, Path(args.out), args.duration)
+
+
+if __name__ == "__main__":
+    main("nominal", __doc__.splitlines()[0])

@@ -1,0 +1,159 @@
+"""``diagrams.closed_loop``: wiring, timing, saturation, divergence, reuse."""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+
+import numpy as np
+import pytest
+
+from analysis.experiment import PAYLOAD_MASS, case_parameters
+from diagrams.closed_loop import ClosedLoopConfig, ClosedLoopRunner
+from diagrams.graph import edges, reachable
+from models.controllers import CONTROLLER_KINDS
+from models.trajectory import desired
+
+#: Short runs keep the module fast; 3 s covers the transient and a joint-2 period.
+DURATION = 3.0
+
+
+@pytest.fixture(scope="module")
+def runners():
+    return {
+        kind: ClosedLoopRunner(ClosedLoopConfig(controller=kind, duration=DURATION))
+        for kind in CONTROLLER_KINDS
+    }
+
+
+@pytest.fixture(scope="module")
+def payload_runs(runners):
+    return {
+        kind: runner.run(case_parameters(runner.arm, "payload"))
+        for kind, runner in runners.items()
+        if kind in ("lin_lc", "proposed")
+    }
+
+
+@pytest.mark.parametrize("kind", CONTROLLER_KINDS)
+def test_the_only_path_from_plant_to_controller_is_the_quantised_position(runners, kind):
+    loop = runners[kind].loop
+    graph = edges(loop.diagram)
+    plant, encoder = loop.arm.plant.get_name(), loop.encoder.get_name()
+    controller = loop.controller.get_name()
+    into_controller = {(e.source, e.output, e.input) for e in graph if e.target == controller}
+    assert into_controller == {
+        (encoder, "q_measured", "q_measured"),
+        ("desired_trajectory", "desired", "desired"),
+    }
+    # the encoder reads the position half of the plant state, nothing else
+    position = loop.arm.position_output_port()
+    into_encoder = [(e.source, e.output) for e in graph if e.target == encoder]
+    assert into_encoder == [(position.get_system().get_name(), position.get_name())]
+    assert position.get_name() != loop.arm.velocity_output_port().get_name()
+    # every path from the plant to the controller passes through the encoder
+    assert controller in reachable(graph, plant)
+    assert controller not in reachable(graph, plant, blocked=frozenset({encoder}))
+    # and the trajectory depends on nothing
+    assert not [e for e in graph if e.target == "desired_trajectory"]
+
+
+def test_voltage_computed_at_t_k_uses_the_measurement_at_t_k(runners):
+    result = runners["pid"].run()
+    assert result.status == "ok"
+    T_s = result.times[1] - result.times[0]
+    np.testing.assert_allclose(result.times, np.arange(len(result.times)) * T_s, atol=1e-12)
+    assert len(result.times) == round(DURATION / T_s) + 1
+    # PID's backward difference at row k is (q_m(t_k) - q_m(t_{k-1})) / T_s: no extra delay
+    estimate = result.internals[:, result.internals_names.index("qdot_est_2")]
+    np.testing.assert_allclose(
+        estimate[1:], np.diff(result.q_measured[:, 1]) / T_s, rtol=0, atol=1e-9
+    )
+    np.testing.assert_allclose(result.q_true[0], desired(0.0)[0])
+
+
+def test_measured_position_is_the_true_one_quantised(runners):
+    runner = runners["lin_lc"]
+    for counts in (2000, 0):
+        result = runner.run(encoder_counts=counts)
+        error = np.abs(result.q_measured - result.q_true)
+        if counts:
+            step = 2 * math.pi / counts
+            assert error.max() <= step / 2 + 1e-12
+            np.testing.assert_allclose(
+                result.q_measured / step, np.round(result.q_measured / step), atol=1e-9
+            )
+        else:
+            assert error.max() == 0.0
+
+
+def test_applied_voltage_never_exceeds_the_limit(runners):
+    for kind, runner in runners.items():
+        result = runner.run()
+        assert np.max(np.abs(result.u_applied)) <= 24.0, kind
+
+
+def test_saturation_clips_the_commanded_voltage():
+    runner = ClosedLoopRunner(ClosedLoopConfig(controller="pid", duration=1.0, voltage_limit=3.0))
+    result = runner.run()
+    assert result.metrics.saturated_fraction > 0.1
+    assert np.max(np.abs(result.u_applied)) <= 3.0
+    np.testing.assert_allclose(result.u_applied, np.clip(result.u_commanded, -3.0, 3.0))
+
+
+def test_runner_reuses_its_diagram_with_fresh_contexts(runners):
+    runner = runners["proposed"]
+    first, second = runner.run(), runner.run()
+    np.testing.assert_array_equal(first.q_true, second.q_true)
+    heavy = runner.run(runner.arm.default_parameters.with_payload(PAYLOAD_MASS))
+    assert not np.allclose(heavy.q_true, first.q_true)
+    np.testing.assert_array_equal(runner.run().u_commanded, first.u_commanded)
+
+
+def test_a_diverging_run_is_reported_not_raised(runners):
+    runner = runners["lin_lc"]
+    weak = dataclasses.replace(runner.arm.default_parameters, motor_constant=(0.01, 0.01))
+    result = runner.run(weak)
+    assert result.status == "diverged"
+    assert "divergence_bound" in result.message
+    assert result.times[-1] < DURATION
+
+
+def test_an_integrator_failure_is_reported_not_raised(runners):
+    runner = runners["lin_lc"]
+    p = runner.arm.default_parameters
+    # link 2 without any inertia about its joint: Drake refuses the mass matrix
+    singular = dataclasses.replace(
+        p,
+        link_com=(p.link_com[0], 0.0),
+        link_inertia=(p.link_inertia[0], 0.0),
+        rotor_inertia=(p.rotor_inertia[0], 0.0),
+    )
+    result = runner.run(singular)
+    assert result.status == "diverged"
+    assert result.message.startswith("integrator failed")
+    assert math.isnan(result.metrics.rms_q[0])
+
+
+def test_payload_proposed_beats_lin_lc_on_joint_2(payload_runs):
+    """Sec. 4.3: Lin+LC cannot resist the payload's M1, C, G changes; tau_NC does."""
+    proposed, lin_lc = payload_runs["proposed"], payload_runs["lin_lc"]
+    assert proposed.status == lin_lc.status == "ok"
+    assert proposed.metrics.rms_q[1] < lin_lc.metrics.rms_q[1]
+
+
+@pytest.mark.parametrize(
+    ("change", "name"),
+    [
+        ({"controller": "lqr"}, "controller"),
+        ({"sample_time": 0.0}, "sample_time"),
+        ({"duration": 1.005}, "duration"),
+        ({"encoder_counts": -5}, "encoder_counts"),
+        ({"voltage_limit": -24.0}, "voltage_limit"),
+        ({"divergence_bound": math.nan}, "divergence_bound"),
+        ({"integrator_accuracy": 2.0}, "integrator_accuracy"),
+    ],
+)
+def test_config_errors_name_the_parameter(change, name):
+    with pytest.raises(ValueError, match=name):
+        ClosedLoopConfig(**change)

@@ -1,0 +1,46 @@
+"""``diagrams.encoder``: quantisation to the nearest count, per-Context resolution."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from diagrams.encoder import DEFAULT_ENCODER_COUNTS, Encoder, quantise
+
+
+def test_quantise_rounds_to_the_nearest_count():
+    step = 2 * math.pi / 1000
+    q = np.array([0.4 * step, 0.6 * step, -0.4 * step, -0.6 * step, 10.49 * step])
+    np.testing.assert_allclose(quantise(q, 1000), [0.0, step, 0.0, -step, 10 * step])
+
+
+def test_quantisation_error_is_at_most_half_a_count_and_zero_mean():
+    q = np.random.default_rng(0).uniform(-3, 3, 20000)
+    error = quantise(q, DEFAULT_ENCODER_COUNTS) - q
+    half = math.pi / DEFAULT_ENCODER_COUNTS
+    assert np.max(np.abs(error)) <= half * (1 + 1e-9)
+    assert abs(np.mean(error)) < 0.02 * half
+
+
+def test_zero_counts_is_an_ideal_sensor():
+    q = np.array([0.123456789, -1.0])
+    np.testing.assert_array_equal(quantise(q, 0), q)
+
+
+def test_encoder_system_resolution_changes_per_context():
+    encoder = Encoder(2, 1000)
+    context = encoder.CreateDefaultContext()
+    q = np.array([0.0031, -0.0094])
+    encoder.get_input_port(0).FixValue(context, q)
+    np.testing.assert_allclose(encoder.get_output_port(0).Eval(context), quantise(q, 1000))
+    encoder.set_counts(context, 0)
+    np.testing.assert_array_equal(encoder.get_output_port(0).Eval(context), q)
+    assert encoder.counts(encoder.CreateDefaultContext()) == 1000
+
+
+@pytest.mark.parametrize("counts", [-1, 2.5, True])
+def test_bad_counts_are_refused_by_name(counts):
+    with pytest.raises(ValueError, match="encoder_counts"):
+        Encoder(2, counts)
