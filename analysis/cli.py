@@ -12,13 +12,14 @@ from analysis.commands import (
     design,
     graph,
     identify,
+    montecarlo,
     reproduce,
     simulate,
 )
 from analysis.errors import UsageError
 
 #: Subcommand modules, in the order ``posfb --help`` lists them.
-COMMANDS = [identify, design, simulate, reproduce, graph, animate]
+COMMANDS = [identify, design, simulate, reproduce, graph, animate, montecarlo]
 
 #: Exit code for bad input (argparse uses the same).
 EXIT_BAD_INPUT = 2

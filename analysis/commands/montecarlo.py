@@ -1,0 +1,92 @@
+"""``posfb montecarlo run|report``: robustness over a population of sampled plants.
+
+``run`` evaluates every sample of a study (each controller on the same sampled
+plant) on local worker processes or a Dask cluster and stores each finished
+sample in SQLite; running it again resumes. ``report`` turns a store into
+statistics, figures and a Markdown report.
+"""
+
+from __future__ import annotations
+
+import argparse
+
+from analysis.errors import UsageError
+from analysis.montecarlo.config import load_study, with_overrides
+from analysis.montecarlo.provenance import code_version
+from analysis.montecarlo.report import write_report
+from analysis.montecarlo.scheduler import run_study
+from analysis.montecarlo.store import ResultStore
+
+
+def _positive_int(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not an integer") from None
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"{value} is not >= 1")
+    return value
+
+
+def _seed(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not an integer") from None
+    if value < 0:
+        raise argparse.ArgumentTypeError(f"{value} is negative; a seed >= 0 is required")
+    return value
+
+
+def register(subparsers: argparse._SubParsersAction) -> None:
+    parser = subparsers.add_parser(
+        "montecarlo", help="Monte-Carlo robustness study over sampled plants"
+    )
+    actions = parser.add_subparsers(dest="action", required=True, parser_class=type(parser))
+
+    run = actions.add_parser("run", help="run (or resume) a study into an SQLite store")
+    run.add_argument("study", help="study YAML (e.g. analysis/studies/paper_uncertainty.yaml)")
+    run.add_argument("--db", required=True, help="SQLite results file (created or resumed)")
+    run.add_argument("--samples", type=_positive_int, help="override the study's sample count")
+    run.add_argument("--workers", type=_positive_int, default=1, help="local worker processes")
+    run.add_argument("--seed", type=_seed, help="override the study's seed")
+    run.add_argument(
+        "--dask-scheduler", metavar="ADDRESS", help="run on this Dask cluster (tcp://host:port)"
+    )
+    run.add_argument("--no-progress", action="store_true", help="no progress bar on stderr")
+    run.set_defaults(handler=run_command)
+
+    report = actions.add_parser("report", help="statistics, figures and Markdown from a store")
+    report.add_argument("--db", required=True, help="SQLite results file")
+    report.add_argument("--out", required=True, help="output folder")
+    report.set_defaults(handler=report_command)
+
+
+def run_command(args: argparse.Namespace) -> int:
+    study = with_overrides(load_study(args.study), samples=args.samples, seed=args.seed)
+    if args.dask_scheduler and args.workers != 1:
+        raise UsageError("--workers applies to local runs; a Dask cluster brings its own workers")
+    version = code_version()
+    with ResultStore.create_or_resume(args.db, study, version) as store:
+        summary = run_study(
+            study,
+            store,
+            version,
+            workers=args.workers,
+            dask_scheduler=args.dask_scheduler,
+            progress=not args.no_progress,
+        )
+    statuses = ", ".join(f"{k} {v}" for k, v in sorted(summary.statuses.items())) or "none"
+    print(
+        f"{args.db}: {summary.already_done + summary.written} of {summary.requested} samples "
+        f"({summary.written} new in {summary.elapsed_s:.1f} s, "
+        f"{summary.samples_per_second:.2f} samples/s; runs: {statuses})"
+    )
+    return 0
+
+
+def report_command(args: argparse.Namespace) -> int:
+    with ResultStore.open_existing(args.db) as store:
+        path = write_report(store, args.out)
+    print(f"report written to {path}")
+    return 0

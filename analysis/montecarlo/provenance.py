@@ -1,0 +1,39 @@
+"""The code version stored with results: the package version and, in a git
+checkout, the commit and whether the working tree differs from it."""
+
+from __future__ import annotations
+
+import subprocess
+from importlib import metadata
+from pathlib import Path
+
+_ROOT = Path(__file__).resolve().parents[2]
+
+
+def _git(*args: str) -> str | None:
+    """Output of a read-only git command in the source tree (``None`` without git)."""
+    try:
+        done = subprocess.run(
+            ["git", "--no-optional-locks", *args],
+            cwd=_ROOT,
+            capture_output=True,
+            text=True,
+            timeout=10,
+        )
+    except (OSError, subprocess.TimeoutExpired):
+        return None
+    return done.stdout.strip() if done.returncode == 0 else None
+
+
+def code_version() -> str:
+    """E.g. ``posfb 0.1.0 git 3b23e65a1c2d+dirty`` (``+dirty``: tracked changes or new
+    files not ignored; ``posfb 0.1.0`` outside git)."""
+    try:
+        version = f"posfb {metadata.version('posfb')}"
+    except metadata.PackageNotFoundError:
+        version = "posfb (not installed)"
+    commit = _git("rev-parse", "--short=12", "HEAD")
+    if commit is None:
+        return version
+    dirty = _git("status", "--porcelain")
+    return f"{version} git {commit}{'+dirty' if dirty else ''}"

@@ -1,0 +1,49 @@
+"""What one finished sample produces: plain, picklable values that cross process
+boundaries (worker -> parent) and are what the store writes."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+#: Outcomes of one controller on one sample.
+STATUSES = ("ok", "diverged", "error")
+
+#: The per-controller numbers the store keeps (from ``analysis.metrics.RunMetrics``).
+METRIC_COLUMNS = (
+    "rms_q1",
+    "rms_q2",
+    "rms_u1",
+    "rms_u2",
+    "max_abs_q_err",
+    "saturated_fraction",
+    "wall_time_s",
+)
+
+
+@dataclass(frozen=True)
+class ControllerRun:
+    """One controller on one sampled plant. ``metrics`` maps ``METRIC_COLUMNS`` to
+    values (``None`` where the run produced none, e.g. an error before the first step)."""
+
+    controller: str
+    status: str
+    message: str
+    metrics: dict[str, float | None]
+
+    def __post_init__(self) -> None:
+        if self.status not in STATUSES:
+            raise ValueError(f"status = {self.status!r}; one of {STATUSES} is required")
+
+
+@dataclass(frozen=True)
+class SampleResult:
+    """Sample ``index``: its plant (``ArmParameters`` as a dict of lists), encoder
+    resolution, identified theta, Assumption-1 ratios and one run per controller."""
+
+    index: int
+    parameters: dict[str, list[float] | float]
+    encoder_counts: int
+    theta: dict[str, float]
+    bound_ratios: dict[str, float]
+    inside_bounds: bool
+    runs: tuple[ControllerRun, ...]

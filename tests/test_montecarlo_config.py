@@ -1,0 +1,146 @@
+"""The study file: typed loading, validation with the key named, CLI refusals."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+from montecarlo_helpers import TINY_STUDY, write_study
+
+from analysis.cli import main
+from analysis.montecarlo.config import (
+    Fixed,
+    Normal,
+    Uniform,
+    canonical_text,
+    identity,
+    load_study,
+    study_from_text,
+    with_overrides,
+)
+
+SHIPPED = Path(__file__).resolve().parent.parent / "analysis" / "studies" / "paper_uncertainty.yaml"
+
+
+def test_shipped_study_loads_with_the_documented_choices():
+    study = load_study(SHIPPED)
+    assert study.samples == 200 and study.duration == 20.0
+    assert set(study.controllers) == {"proposed", "lin_lc", "pid"}
+    assert study.parameters.link_mass == [Uniform(low=-0.2, high=0.2, relative=True)]
+    assert study.parameters.payload_mass == Uniform(low=0.0, high=0.5, relative=False)
+    assert isinstance(study.parameters.motor_constant[0], Normal)
+
+
+def test_tags_select_the_distribution_and_omitted_parameters_stay_nominal():
+    study = study_from_text(TINY_STUDY)
+    assert study.parameters.coulomb == [Uniform(-0.2, 0.2, True), Fixed()]
+    assert study.parameters.for_joint("coulomb", 1) == Fixed()
+    assert study.parameters.for_joint("link_mass", 1) == Uniform(-0.2, 0.2, True)
+    assert study.parameters.link_inertia == [Fixed()]
+
+
+def test_canonical_text_round_trips_and_identity_ignores_the_sample_count():
+    study = study_from_text(TINY_STUDY)
+    assert study_from_text(canonical_text(study)) == study
+    assert identity(with_overrides(study, samples=50)) == identity(study)
+    assert identity(with_overrides(study, seed=8)) != identity(study)
+
+
+@pytest.mark.parametrize(
+    ("edit", "needle"),
+    [
+        ("samples: 0", "samples"),
+        ("samples: -3", "samples"),
+        ("seed: -1", "seed"),
+        ("duration: 0.015", "duration"),
+        ("controllers: [proposed, lqr]", "lqr"),
+        ("controllers: []", "controllers"),
+        ("encoder_counts: [-5]", "encoder_counts"),
+        ("bogus_key: 1", "bogus_key"),
+        ("parameters: {link_mass: [!Uniform {low: 0.3, high: 0.1, relative: true}]}", "low"),
+        ("parameters: {link_mass: [!Uniform {lo: 0.1, high: 0.3}]}", "lo"),
+        ("parameters: {damping: [!Uniform {low: -2.0, high: 1.0}]}", "parameters.damping[0]"),
+        ("parameters: {link_mass: [!Uniform {low: -1.0, high: 0.1, relative: true}]}", "link_mass"),
+        ("parameters: {coulomb: [!Normal {mean: 0.0, std: -1.0, relative: true}]}", "std"),
+        ("parameters: {coulomb: [!Normal {mean: 0.0, std: 0.1, relative: true}]}", "coulomb"),
+        ("parameters: {payload_mass: !Uniform {low: 0.0, high: 0.2, relative: true}}", "payload"),
+        ("parameters: {damping: [!Fixed {}, !Fixed {}, !Fixed {}]}", "3 entries"),
+        ("overrides: [{sample: 1, values: {mass: [1.0, 1.0]}}]", "mass"),
+        ("overrides: [{sample: 1, values: {link_mass: [1.0]}}]", "link_mass"),
+        ("parameters: {link_mass: !Uniform {low: 0.1, high: 0.2}}", "parameters.link_mass"),
+        ("parameters: {link_mass: [3]}", "parameters.link_mass[0]"),
+        ("parameters: {link_mass: [!Gamma {k: 2}]}", "!Gamma"),
+        ("parameters: {payload_mass: !Normal {mean: 0.1, sd: 0.1}}", "payload_mass.sd"),
+        ("encoder_counts: [1.5]", "encoder_counts[0]"),
+        ("samples: [", "line"),
+    ],
+)
+def test_bad_study_is_refused_with_the_key_named(edit, needle):
+    text = "seed: 1\nsamples: 3\nduration: 1.0\n" + edit + "\n"
+    with pytest.raises(ValueError, match="study") as caught:
+        study_from_text(text)
+    assert needle in str(caught.value)
+    assert "\n" not in str(caught.value)
+
+
+def test_a_truncated_normal_fits_the_physical_range():
+    text = "parameters: {coulomb: [!Normal {mean: 0.0, std: 0.5, relative: true, low: -0.9}]}"
+    assert study_from_text(text).parameters.coulomb[0].low == -0.9
+
+
+@pytest.mark.parametrize(
+    ("edit", "needle"),
+    [
+        ("bogus_key: 1", "bogus_key"),
+        ("parameters: {link_mass: [!Uniform {low: -0.5, high: -0.1}]}", "link_mass"),
+        ("parameters: {link_com: [!Uniform {low: 0.3, high: 0.1}]}", "low"),
+        ("samples: 0", "samples"),
+    ],
+)
+def test_cli_refuses_bad_config_with_one_line(tmp_path, capsys, edit, needle):
+    study = write_study(tmp_path, "duration: 1.0\n" + edit + "\n")
+    code = main(["montecarlo", "run", str(study), "--db", str(tmp_path / "r.sqlite")])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert code == 2
+    assert len(err) == 1 and needle in err[0], err
+    assert not (tmp_path / "r.sqlite").exists()
+
+
+@pytest.mark.parametrize(
+    "args",
+    [
+        ["--samples", "0"],
+        ["--workers", "0"],
+        ["--seed", "-2"],
+        ["--workers", "two"],
+    ],
+)
+def test_cli_refuses_bad_arguments_with_one_line(tmp_path, capsys, args):
+    study = write_study(tmp_path)
+    with pytest.raises(SystemExit) as caught:
+        main(["montecarlo", "run", str(study), "--db", str(tmp_path / "r.sqlite"), *args])
+    assert caught.value.code == 2
+    assert len(capsys.readouterr().err.strip().splitlines()) == 1
+
+
+def test_entry_point_reports_a_missing_study_as_one_line(tmp_path):
+    result = subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "analysis.cli",
+            "montecarlo",
+            "run",
+            str(tmp_path / "none.yaml"),
+            "--db",
+            str(tmp_path / "r.sqlite"),
+        ],
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
+    assert result.returncode == 2
+    lines = result.stderr.strip().splitlines()
+    assert len(lines) == 1 and "none.yaml" in lines[0], result.stderr

@@ -1,0 +1,80 @@
+"""The SQLite store: one transaction per sample, resume, refusal of another study."""
+
+from __future__ import annotations
+
+import sqlite3
+from dataclasses import replace
+
+import pytest
+from montecarlo_helpers import TINY_STUDY, make_result
+
+from analysis.errors import UsageError
+from analysis.montecarlo.config import study_from_text
+from analysis.montecarlo.records import ControllerRun
+from analysis.montecarlo.store import ResultStore
+
+
+@pytest.fixture()
+def study():
+    return study_from_text(TINY_STUDY)
+
+
+def test_a_sample_and_its_runs_round_trip(tmp_path, study):
+    with ResultStore.create_or_resume(tmp_path / "r.sqlite", study, "v1") as store:
+        store.write(make_result(2), "v1")
+        assert store.finished() == {2}
+        (sample,) = store.sample_rows()
+        runs = store.run_rows()
+    assert sample["parameters"]["link_mass"] == [5.0, 0.9]
+    assert sample["payload_mass"] == pytest.approx(0.2)
+    assert sample["inside_bounds"] is False and sample["code_version"] == "v1"
+    assert [r["controller"] for r in runs] == ["pid", "proposed"]
+    assert runs[0]["rms_q2"] == pytest.approx(0.003 * 2)
+
+
+def test_a_sample_is_written_whole_or_not_at_all(tmp_path, study):
+    with ResultStore.create_or_resume(tmp_path / "r.sqlite", study, "v1") as store:
+        store.write(make_result(0), "v1")
+        with pytest.raises(sqlite3.IntegrityError):
+            store.write(make_result(0), "v1")  # already there: the whole sample is refused
+        broken = replace(make_result(1), runs=(make_result(1).runs[0],) * 2)
+        with pytest.raises(sqlite3.IntegrityError):
+            store.write(broken, "v1")  # second run fails: the sample row is rolled back too
+        assert store.finished() == {0}
+        assert len(store.run_rows()) == 2
+
+
+def test_resume_keeps_results_and_accepts_a_new_sample_count(tmp_path, study):
+    path = tmp_path / "r.sqlite"
+    with ResultStore.create_or_resume(path, study, "v1") as store:
+        store.write(make_result(0), "v1")
+    with ResultStore.create_or_resume(path, replace(study, samples=40), "v2") as store:
+        assert store.finished() == {0}
+        assert store.meta()["code_version"] == "v1"
+        assert store.study() == study
+
+
+def test_resume_under_another_study_is_refused_naming_the_difference(tmp_path, study):
+    path = tmp_path / "r.sqlite"
+    ResultStore.create_or_resume(path, study, "v1").close()
+    with pytest.raises(UsageError, match="differs in seed"):
+        ResultStore.create_or_resume(path, replace(study, seed=99), "v1")
+    with pytest.raises(UsageError, match="controllers"):
+        ResultStore.create_or_resume(path, replace(study, controllers=["pid"]), "v1")
+
+
+def test_other_sqlite_files_are_refused(tmp_path, study):
+    path = tmp_path / "other.sqlite"
+    with sqlite3.connect(path) as connection:
+        connection.execute("CREATE TABLE things (x)")
+    with pytest.raises(UsageError, match="not a posfb"):
+        ResultStore.create_or_resume(path, study, "v1")
+    with pytest.raises(UsageError, match="not a posfb"):
+        ResultStore.open_existing(path)
+    with pytest.raises(FileNotFoundError):
+        ResultStore.open_existing(tmp_path / "missing.sqlite")
+
+
+def test_invalid_status_is_refused():
+    with pytest.raises(ValueError, match="status"):
+        ControllerRun("pid", "exploded", "", {})
