@@ -238,8 +238,13 @@ def _make_coulomb() -> SymbolicVectorSystem:
 def add_arm(builder: DiagramBuilder, config: PlantConfig | None = None) -> Arm:
     """Add the URDF arm, its motor stage and Coulomb friction to ``builder``.
 
-    The defaults of every per-Context parameter come from the URDF; call
-    ``apply_parameters`` on a diagram Context to change them."""
+    The MultibodyPlant's defaults come from the URDF, but the motor constants
+    and Coulomb levels are numeric parameters of symbolic systems whose
+    defaults are NaN: every Context of the built diagram must get
+    ``apply_parameters(arm, context, arm.default_parameters)`` (or sampled
+    parameters) before it is simulated, as ``build_arm_diagram`` and
+    ``diagrams.closed_loop.ClosedLoopRunner`` do. Forgetting it fails loudly
+    ("Detected NaN in applied generalized force input port")."""
     config = config or PlantConfig()
     urdf = Path(config.urdf)
     if not urdf.is_file():

@@ -159,3 +159,15 @@ def test_urdf_without_posfb_extras_is_refused(tmp_path):
 def test_bad_plant_config_is_refused(field, value):
     with pytest.raises(ValueError, match=field):
         PlantConfig(**{field: value})
+
+
+def test_context_without_parameters_fails_loudly():
+    """The symbolic blocks' parameters default to NaN: a Context that never got
+    apply_parameters cannot be simulated silently with wrong physics."""
+    diagram, arm, _ = build_arm_diagram()
+    context = diagram.CreateDefaultContext()
+    diagram.get_input_port(0).FixValue(context, [10.0, 10.0])
+    with pytest.raises(RuntimeError, match="NaN"):
+        diagram.EvalTimeDerivatives(context)
+    apply_parameters(arm, context, arm.default_parameters)
+    assert np.all(np.isfinite(diagram.EvalTimeDerivatives(context).CopyToVector()))
