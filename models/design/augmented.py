@@ -42,6 +42,12 @@ def augmented_system(M0: np.ndarray, B: np.ndarray, lambdas: np.ndarray) -> Augm
     )
 
 
+def column_block(matrix: np.ndarray, index: int) -> np.ndarray:
+    """The ``index``-th ``n``-column block of a ``[X1 X2 X3]`` matrix (``K`` of Eq. 14,
+    ``E`` of Eq. 20)."""
+    return matrix[:, index * _N : (index + 1) * _N]
+
+
 @dataclass(frozen=True, eq=False)
 class LqrSolution:
     """``P`` of the Riccati equation (15) and ``K = R^-1 B_a1^T P = [K1 K2 K3]`` (Eq. 14)."""
@@ -51,15 +57,15 @@ class LqrSolution:
 
     @property
     def K1(self) -> np.ndarray:
-        return self.K[:, 0:_N]
+        return column_block(self.K, 0)
 
     @property
     def K2(self) -> np.ndarray:
-        return self.K[:, _N : 2 * _N]
+        return column_block(self.K, 1)
 
     @property
     def K3(self) -> np.ndarray:
-        return self.K[:, 2 * _N :]
+        return column_block(self.K, 2)
 
 
 def solve_lqr(system: AugmentedSystem, Q: np.ndarray, R: np.ndarray) -> LqrSolution:

@@ -18,7 +18,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from models.design.augmented import augmented_system, nonlinear_input_matrix, solve_lqr
+from models.design.augmented import (
+    augmented_system,
+    column_block,
+    nonlinear_input_matrix,
+    solve_lqr,
+)
 from models.design.bounds import (
     BoundFilterConstants,
     ResolvedBounds,
@@ -105,27 +110,27 @@ class Design:
 
     @property
     def K1(self) -> np.ndarray:
-        return self.K[:, :_N]
+        return column_block(self.K, 0)
 
     @property
     def K2(self) -> np.ndarray:
-        return self.K[:, _N : 2 * _N]
+        return column_block(self.K, 1)
 
     @property
     def K3(self) -> np.ndarray:
-        return self.K[:, 2 * _N :]
+        return column_block(self.K, 2)
 
     @property
     def E1(self) -> np.ndarray:
-        return self.E[:, :_N]
+        return column_block(self.E, 0)
 
     @property
     def E2(self) -> np.ndarray:
-        return self.E[:, _N : 2 * _N]
+        return column_block(self.E, 1)
 
     @property
     def E3(self) -> np.ndarray:
-        return self.E[:, 2 * _N :]
+        return column_block(self.E, 2)
 
     @property
     def warnings(self) -> list[str]:
