@@ -24,7 +24,10 @@ def main(case: str, description: str) -> None:
     parser.add_argument("--out", default=f"results/{case}", help="output folder")
     parser.add_argument("--duration", type=float, default=20.0, help="simulated seconds")
     args = parser.parse_args()
-    case_experiment(case, Path(args.out), args.duration)
+    try:
+        case_experiment(case, Path(args.out), args.duration)
+    except (ValueError, FileNotFoundError) as error:
+        parser.error(str(error).strip().splitlines()[0])
 
 
 if __name__ == "__main__":
