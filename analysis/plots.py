@@ -14,6 +14,7 @@ from __future__ import annotations
 from collections.abc import Mapping
 from pathlib import Path
 
+import matplotlib
 from matplotlib.figure import Figure
 
 from analysis.experiment import CONTROLLER_LABELS
@@ -95,9 +96,15 @@ def tracking_errors(
     return figure
 
 
-def save(figure: Figure, directory: Path, stem: str) -> list[Path]:
-    """Write ``stem.png`` (100 dpi, 1100 x 700 px) and ``stem.svg`` into ``directory``."""
+def save(
+    figure: Figure, directory: Path, stem: str, dpi: int = 100, tight: bool = False
+) -> list[Path]:
+    """Write ``stem.png`` (at ``dpi``; 1100 x 700 px for the Figs. 4-7 layout) and
+    ``stem.svg`` into ``directory``. The SVG carries no date and fixed element ids,
+    so re-running on the same data rewrites identical files."""
     paths = [directory / f"{stem}.png", directory / f"{stem}.svg"]
-    figure.savefig(paths[0], dpi=100)
-    figure.savefig(paths[1])
+    bbox = "tight" if tight else None
+    with matplotlib.rc_context({"svg.hashsalt": "posfb"}):
+        figure.savefig(paths[0], dpi=dpi, bbox_inches=bbox)
+        figure.savefig(paths[1], bbox_inches=bbox, metadata={"Date": None})
     return paths

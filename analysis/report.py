@@ -11,10 +11,10 @@ from collections.abc import Mapping
 from pathlib import Path
 
 from analysis.experiment import CASE_TITLES, CASES, CONTROLLER_LABELS
-from analysis.tables import PAPER_TABLES, ranking, ratios, row_values, side_by_side
+from analysis.tables import PAPER_TABLES, ranking, ratios, row_values, side_by_side, theta_table
 from models.controllers import CONTROLLER_KINDS
 from models.design import ControllerConfig
-from models.lumped import TABLE1
+from models.lumped import TABLE1, LumpedParameters
 
 Entry = Mapping[str, object]
 Runs = Mapping[str, Entry]
@@ -372,6 +372,23 @@ def _evidence_section(data: Mapping[str, object]) -> list[str]:
     return ["## Evidence studies", "", *lines] if lines else []
 
 
+def _identification_section(data: Mapping[str, object]) -> list[str]:
+    identification: Mapping[str, Mapping[str, float]] = data.get("identification", {})
+    if not identification:
+        return []
+    identified = {case: LumpedParameters(**theta) for case, theta in identification.items()}
+    return [
+        "## The simulated arm (`posfb identify`)",
+        "",
+        "theta_1..theta_11 identified from the true arm (URDF plant, `urdf/README.md`) "
+        "beside Table 1, the model every controller uses. With the payload, the "
+        "controllers' model is wrong by exactly the payload's share.",
+        "",
+        theta_table(identified),
+        "",
+    ]
+
+
 def build_report(data: Mapping[str, object]) -> str:
     """The Markdown text of ``report.md`` from a ``results.json`` object."""
     settings: Mapping[str, object] = data["settings"]
@@ -390,6 +407,7 @@ def build_report(data: Mapping[str, object]) -> str:
         "Labels: " + ", ".join(f"`{k}` = {CONTROLLER_LABELS[k]}" for k in CONTROLLER_KINDS) + ".",
         "",
     ]
+    lines += _identification_section(data)
     lines += _results_section(data)
     lines += ["## Closed-loop diagram", "", f"![closed loop]({data['artefacts']['graph']})", ""]
     lines += _design_section(data)

@@ -10,6 +10,7 @@ from collections.abc import Mapping
 
 from analysis.experiment import CONTROLLER_LABELS
 from models.controllers import CONTROLLER_KINDS
+from models.lumped import TABLE1, LumpedParameters
 
 #: ``{controller: (RMS(q~1), RMS(q~2), RMS(u1), RMS(u2))}``: Table 3 (nominal).
 PAPER_TABLE3 = {
@@ -87,3 +88,25 @@ def ratios(
 def ranking(values: Mapping[str, float]) -> str:
     """Controllers from smallest to largest value, e.g. ``proposed < lin_lc < pid``."""
     return " < ".join(kind for kind, _ in sorted(values.items(), key=lambda item: item[1]))
+
+
+def theta_table(
+    identified: Mapping[str, LumpedParameters], reference: LumpedParameters = TABLE1
+) -> str:
+    """theta_1..theta_11 identified from one or more plants (columns, e.g.
+    ``{"nominal": .., "payload": ..}``) beside Table 1, with relative differences."""
+    header = "| parameter | Table 1 | " + " | ".join(
+        f"{label} | difference" for label in identified
+    )
+    lines = [header + " |", "|---|---:|" + "---:|---:|" * len(identified)]
+    for i in range(1, 12):
+        name = f"theta{i}"
+        paper = getattr(reference, name)
+        cells = [
+            f"{getattr(theta, name):.6g} | {100 * (getattr(theta, name) / paper - 1):+.2f} %"
+            for theta in identified.values()
+        ]
+        lines.append(f"| {name} | {paper:.6g} | " + " | ".join(cells) + " |")
+    cells = [f"{theta.l1:.6g} | " for theta in identified.values()]
+    lines.append("| l1 (m) | (not printed) | " + " | ".join(cells) + " |")
+    return "\n".join(lines)

@@ -52,6 +52,21 @@ def test_results_json_has_the_documented_shape(reproduction):
     assert set(data["studies"]) >= {"alpha_star", "no_coulomb", "ideal_encoder"}
 
 
+def test_true_arm_is_identified_beside_table1(reproduction):
+    """The report states the plant the runs used: its theta in both cases; the
+    payload raises link 2's inertia (theta2) and nothing in the motor rows' damping."""
+    _, out, lines = reproduction
+    identified = json.loads((out / "results.json").read_text())["identification"]
+    assert set(identified) == {"nominal", "payload"}
+    for theta in identified.values():
+        assert set(theta) == {f"theta{i}" for i in range(1, 12)} | {"l1"}
+    assert identified["payload"]["theta2"] > identified["nominal"]["theta2"]
+    assert identified["payload"]["theta5"] == pytest.approx(identified["nominal"]["theta5"])
+    report = (out / "report.md").read_text()
+    assert "## The simulated arm" in report and "| theta11 |" in report
+    assert any("identified" in line for line in lines)
+
+
 def test_every_figure_opens(reproduction):
     _, out, _ = reproduction
     for stem in FIGURES:

@@ -6,8 +6,9 @@ from __future__ import annotations
 import argparse
 import json
 
+from analysis.tables import theta_table
 from models.identify import identify
-from models.lumped import TABLE1, LumpedParameters
+from models.lumped import LumpedParameters
 from models.plant import DEFAULT_URDF, PlantConfig, apply_parameters, build_arm_diagram
 from models.validation import require_nonnegative
 
@@ -30,26 +31,11 @@ def identify_urdf(urdf: str, payload: float) -> LumpedParameters:
     return identify(arm, context)
 
 
-def format_table(identified: LumpedParameters, reference: LumpedParameters = TABLE1) -> str:
-    """Markdown table: identified theta beside Table 1 with relative differences."""
-    lines = [
-        "| parameter | identified | Table 1 | difference |",
-        "|---|---:|---:|---:|",
-    ]
-    for name, value in identified.as_dict().items():
-        if name == "l1":
-            continue
-        paper = getattr(reference, name)
-        lines.append(f"| {name} | {value:.6g} | {paper:.6g} | {100 * (value / paper - 1):+.2f} % |")
-    lines.append(f"| l1 (m) | {identified.l1:.6g} | (not printed) | |")
-    return "\n".join(lines)
-
-
 def run(args: argparse.Namespace) -> int:
     identified = identify_urdf(args.urdf, args.payload)
     if args.json:
         print(json.dumps(identified.as_dict()))
     else:
         print(f"theta identified from {args.urdf} with a {args.payload:g} kg tip payload")
-        print(format_table(identified))
+        print(theta_table({"identified": identified}))
     return 0

@@ -25,6 +25,7 @@ from analysis.montecarlo.config import Study
 from analysis.montecarlo.coverage import BOUND_NAMES
 from analysis.montecarlo.records import STATUSES
 from analysis.montecarlo.store import ResultStore
+from analysis.plots import save
 
 #: A run "saturates often" when more than this share of its control samples
 #: command a voltage beyond the limit.
@@ -146,8 +147,7 @@ def beats(data: StudyData, challenger: str = "proposed", baseline: str = "pid") 
 
 
 def _save(figure: Figure, out: Path, name: str) -> None:
-    for suffix in ("png", "svg"):
-        figure.savefig(out / f"{name}.{suffix}", dpi=120, bbox_inches="tight")
+    save(figure, out, name, dpi=120, tight=True)
 
 
 def _two_joint_axes() -> tuple[Figure, np.ndarray]:
