@@ -15,7 +15,7 @@
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 
 import numpy as np
 import scipy.signal
@@ -81,7 +81,7 @@ def sampled_data_scan(
     true_models = {case: LumpedModel(true_lumped(case)) for case in CASES}
     rows = []
     for alpha_star in alpha_stars:
-        changed = replace(config, nonlinear=replace(config.nonlinear, alpha_star=alpha_star))
+        changed = config.with_alpha_star(alpha_star)
         design = cached_design(changed)
         filt = design.proposed_filter
         # outputs [eta~, phi, p, pbar]: u = eta~ - alpha* phi (the bound filter is open loop)

@@ -70,10 +70,7 @@ def _alpha_study(alpha_star: float) -> Study:
             "keep their paper-settings runs."
         ),
         controllers=("proposed",),
-        controller_config=replace(
-            ControllerConfig(),
-            nonlinear=replace(ControllerConfig().nonlinear, alpha_star=alpha_star),
-        ),
+        controller_config=ControllerConfig().with_alpha_star(alpha_star),
     )
 
 

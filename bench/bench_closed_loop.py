@@ -15,7 +15,6 @@ from __future__ import annotations
 import argparse
 import statistics
 import time
-from dataclasses import replace
 
 from analysis.experiment import case_parameters
 from diagrams.closed_loop import ClosedLoopConfig, ClosedLoopRunner
@@ -24,8 +23,7 @@ from models.design import ControllerConfig
 
 
 def _variants() -> list[tuple[str, str, ControllerConfig | None]]:
-    fixed = ControllerConfig()
-    fixed = replace(fixed, nonlinear=replace(fixed.nonlinear, alpha_star=2.75))
+    fixed = ControllerConfig().with_alpha_star(2.75)
     return [(kind, kind, None) for kind in CONTROLLER_KINDS] + [
         ("proposed, alpha*=2.75", "proposed", fixed)
     ]

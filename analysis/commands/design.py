@@ -39,10 +39,7 @@ def config_from_args(sample_time: float | None, alpha_star: float | None) -> Con
     if sample_time is not None:
         config = replace(config, sample_time=require_positive("--sample-time", sample_time))
     if alpha_star is not None:
-        nonlinear = replace(
-            config.nonlinear, alpha_star=require_positive("--alpha-star", alpha_star)
-        )
-        config = replace(config, nonlinear=nonlinear)
+        config = config.with_alpha_star(require_positive("--alpha-star", alpha_star))
     return config
 
 

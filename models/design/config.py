@@ -6,7 +6,7 @@ Defaults are the paper's Sec. 4.2 settings. Matrices are tuples of rows
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field, fields
+from dataclasses import dataclass, field, fields, replace
 
 import numpy as np
 
@@ -204,3 +204,8 @@ class ControllerConfig:
         ):
             if not isinstance(getattr(self, name), kind):
                 raise ValueError(f"{name} = {getattr(self, name)!r} is not a {kind.__name__}")
+
+    def with_alpha_star(self, alpha_star: float) -> ControllerConfig:
+        """This config with the nonlinear torque's steady-state gain ``alpha*`` changed
+        (validated by ``NonlinearTorqueConfig``)."""
+        return replace(self, nonlinear=replace(self.nonlinear, alpha_star=alpha_star))
