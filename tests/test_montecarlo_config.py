@@ -75,6 +75,9 @@ def test_canonical_text_round_trips_and_identity_ignores_the_sample_count():
         ("parameters: {payload_mass: !Normal {mean: 0.1, sd: 0.1}}", "payload_mass.sd"),
         ("encoder_counts: [1.5]", "encoder_counts[0]"),
         ("samples: [", "line"),
+        ("alpha_star: 0.0", "alpha_star"),
+        ("alpha_star: -2.0", "alpha_star"),
+        ("alpha_star: .nan", "alpha_star"),
     ],
 )
 def test_bad_study_is_refused_with_the_key_named(edit, needle):
@@ -83,6 +86,16 @@ def test_bad_study_is_refused_with_the_key_named(edit, needle):
         study_from_text(text)
     assert needle in str(caught.value)
     assert "\n" not in str(caught.value)
+
+
+def test_alpha_star_changes_only_the_proposed_design_and_the_identity():
+    paper = study_from_text("seed: 1\nsamples: 3\nduration: 1.0\n")
+    labelled = study_from_text("seed: 1\nsamples: 3\nduration: 1.0\nalpha_star: 2.75\n")
+    assert paper.controller_config().nonlinear.alpha_star == 4.0
+    assert labelled.controller_config().nonlinear.alpha_star == 2.75
+    assert labelled.controller_config().lqr == paper.controller_config().lqr
+    assert identity(labelled) != identity(paper)
+    assert study_from_text(canonical_text(labelled)) == labelled
 
 
 def test_a_truncated_normal_fits_the_physical_range():

@@ -195,3 +195,12 @@ def test_a_failing_worker_stops_the_run_and_keeps_what_finished(tmp_path):
         with pytest.raises(RuntimeError, match="bug in the worker"):
             run_study(study, store, "test", workers=1, progress=False, evaluate=fake_evaluate)
         assert {0, 1} <= store.finished() <= {0, 1, 3}
+
+
+def test_a_study_alpha_star_reaches_every_runner():
+    study = study_from_text(
+        "seed: 1\nsamples: 1\nduration: 0.5\ncontrollers: [proposed, lin_lc]\nalpha_star: 2.75\n"
+    )
+    evaluator = ClosedLoopEvaluator(study)
+    for runner in evaluator.runners.values():
+        assert runner.controller_config.nonlinear.alpha_star == 2.75

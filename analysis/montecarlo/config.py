@@ -51,6 +51,7 @@ from pydrake.common.yaml import yaml_dump_typed, yaml_load_typed
 from diagrams.closed_loop import DIVERGENCE_BOUND, ClosedLoopConfig
 from diagrams.encoder import DEFAULT_ENCODER_COUNTS
 from models.controllers import CONTROLLER_KINDS
+from models.design import ControllerConfig
 
 #: Per-joint physical parameters of ``ArmParameters`` (two values each), in draw order.
 JOINT_PARAMETERS = (
@@ -138,7 +139,8 @@ class Study:
     """A Monte-Carlo study (module docstring). ``duration`` (s) is a whole number of
     control periods (0.01 s); ``divergence_bound`` (rad) on ``|q~|`` ends a run as
     diverged (``diagrams.closed_loop``); ``encoder_counts`` lists the resolutions a
-    sample draws from (uniformly; one entry fixes it; 0 is an ideal sensor)."""
+    sample draws from (uniformly; one entry fixes it; 0 is an ideal sensor);
+    ``alpha_star`` overrides the paper's alpha* = 4 for a labelled study."""
 
     seed: int = 0
     samples: int = 100
@@ -148,6 +150,13 @@ class Study:
     encoder_counts: list[int] = field(default_factory=lambda: [DEFAULT_ENCODER_COUNTS])
     parameters: ParameterDistributions = field(default_factory=ParameterDistributions)
     overrides: list[SampleOverride] = field(default_factory=list)
+    alpha_star: float | None = None
+
+    def controller_config(self) -> ControllerConfig:
+        """The controllers' design: the paper's, with ``alpha_star`` (the proposed
+        controller's steady-state gain, Eq. 21) when the study sets it."""
+        config = ControllerConfig()
+        return config if self.alpha_star is None else config.with_alpha_star(self.alpha_star)
 
 
 def _require(condition: bool, message: str) -> None:
@@ -286,6 +295,9 @@ def validate_study(study: Study) -> Study:
     _require(len(study.encoder_counts) > 0, "encoder_counts is empty; give at least one")
     for counts in study.encoder_counts:
         _require(counts >= 0, f"encoder_counts has {counts!r}; integers >= 0 are required")
+    if study.alpha_star is not None:
+        _finite("alpha_star", study.alpha_star)
+    study.controller_config()  # NonlinearTorqueConfig refuses alpha_star <= 0, naming it
     _check_parameters(study.parameters)
     for position, override in enumerate(study.overrides):
         _check_override(position, override)

@@ -241,13 +241,18 @@ def _number(value: float) -> str:
 def markdown(data: StudyData, title: str = "Monte-Carlo robustness study") -> str:
     """The report as Markdown (figures referenced by relative path)."""
     study, n = data.study, len(data.samples)
+    design = (
+        ""
+        if study.alpha_star is None
+        else f" and the paper's design except **alpha* = {study.alpha_star:g}** (the paper: 4)"
+    )
     lines = [
         f"# {title}",
         "",
         f"{n} sampled plants (seed {study.seed}, {study.duration:g} s of the Sec. 4.2 "
         f"trajectory each, encoder counts {study.encoder_counts}), every plant run under "
-        f"{', '.join(data.controllers)}; controllers keep the nominal Table 1 model. "
-        f"Code: {', '.join(data.code_versions) or data.meta.get('code_version', '?')}.",
+        f"{', '.join(data.controllers)}; controllers keep the nominal Table 1 model"
+        f"{design}. Code: {', '.join(data.code_versions) or data.meta.get('code_version', '?')}.",
         "",
         "## RMS tracking error (rad), runs that finished",
         "",

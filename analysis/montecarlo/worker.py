@@ -50,7 +50,8 @@ class ClosedLoopEvaluator:
                     controller=controller,
                     duration=study.duration,
                     divergence_bound=study.divergence_bound,
-                )
+                ),
+                controller_config=study.controller_config(),
             )
             for controller in study.controllers
         }
