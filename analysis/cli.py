@@ -4,6 +4,7 @@
 from __future__ import annotations
 
 import argparse
+import os
 import sys
 from collections.abc import Sequence
 
@@ -46,13 +47,17 @@ def main(argv: Sequence[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
     try:
         return int(args.handler(args) or 0)
-    except (UsageError, ValueError, FileNotFoundError, KeyError) as error:
+    except (UsageError, ValueError, FileNotFoundError) as error:
         message = str(error).strip().splitlines()[0] if str(error).strip() else repr(error)
         sys.stderr.write(f"posfb {args.command}: error: {message}\n")
         return EXIT_BAD_INPUT
     except KeyboardInterrupt:
         sys.stderr.write(f"posfb {args.command}: interrupted\n")
         return 130
+    except BrokenPipeError:
+        # The reader of stdout left early (``posfb design | head``): not an error.
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        return 0
 
 
 if __name__ == "__main__":

@@ -48,11 +48,9 @@ def column_block(matrix: np.ndarray, index: int) -> np.ndarray:
     return matrix[:, index * _N : (index + 1) * _N]
 
 
-@dataclass(frozen=True, eq=False)
-class LqrSolution:
-    """``P`` of the Riccati equation (15) and ``K = R^-1 B_a1^T P = [K1 K2 K3]`` (Eq. 14)."""
+class GainBlocks:
+    """``K1, K2, K3`` of ``K = [K1 K2 K3]`` (Eq. 12) for a class that holds ``K``."""
 
-    P: np.ndarray
     K: np.ndarray
 
     @property
@@ -66,6 +64,14 @@ class LqrSolution:
     @property
     def K3(self) -> np.ndarray:
         return column_block(self.K, 2)
+
+
+@dataclass(frozen=True, eq=False)
+class LqrSolution(GainBlocks):
+    """``P`` of the Riccati equation (15) and ``K = R^-1 B_a1^T P = [K1 K2 K3]`` (Eq. 14)."""
+
+    P: np.ndarray
+    K: np.ndarray
 
 
 def solve_lqr(system: AugmentedSystem, Q: np.ndarray, R: np.ndarray) -> LqrSolution:

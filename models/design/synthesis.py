@@ -19,6 +19,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from models.design.augmented import (
+    GainBlocks,
     augmented_system,
     column_block,
     nonlinear_input_matrix,
@@ -67,7 +68,7 @@ class Check:
 
 
 @dataclass(frozen=True, eq=False)
-class Design:
+class Design(GainBlocks):
     """The computed design. ``M0``, ``B`` are the nominal ``M0*``, ``B*``; ``A_eta``,
     ``A_a``, ``B_a1``, ``B_a2`` Eq. 6 and 11; ``P``, ``K`` Eq. 14-15; ``E`` Eq. 20;
     ``Gamma``, ``kyp_gamma`` the KYP certificate of ``H(s)`` (``kyp_gamma = 0`` and
@@ -107,18 +108,6 @@ class Design:
     sampled_data_spectral_radius: float
     sampled_data_spectral_radius_lin_lc: float
     checks: tuple[Check, ...]
-
-    @property
-    def K1(self) -> np.ndarray:
-        return column_block(self.K, 0)
-
-    @property
-    def K2(self) -> np.ndarray:
-        return column_block(self.K, 1)
-
-    @property
-    def K3(self) -> np.ndarray:
-        return column_block(self.K, 2)
 
     @property
     def E1(self) -> np.ndarray:
