@@ -8,7 +8,7 @@ import os
 import sys
 from collections.abc import Sequence
 
-from analysis.commands import (
+from posfb.analysis.commands import (
     animate,
     design,
     graph,
@@ -17,7 +17,7 @@ from analysis.commands import (
     reproduce,
     simulate,
 )
-from analysis.errors import UsageError
+from posfb.analysis.errors import UsageError
 
 #: Subcommand modules, in the order ``posfb --help`` lists them.
 COMMANDS = [identify, design, simulate, reproduce, graph, animate, montecarlo]

@@ -19,15 +19,14 @@ from dataclasses import dataclass
 
 import numpy as np
 import scipy.signal
-
-from analysis.experiment import CASES, PAYLOAD_MASS
-from models.controllers import cached_design
-from models.design import ControllerConfig
-from models.design.closed_loop import sampled_data_closed_loop
-from models.identify import identify
-from models.lumped import LumpedModel, LumpedParameters
-from models.plant import apply_parameters, build_arm_diagram
-from models.trajectory import desired
+from posfb.analysis.experiment import CASES, PAYLOAD_MASS
+from posfb.models.controllers import cached_design
+from posfb.models.design import ControllerConfig
+from posfb.models.design.closed_loop import sampled_data_closed_loop
+from posfb.models.identify import identify
+from posfb.models.lumped import LumpedModel, LumpedParameters
+from posfb.models.plant import apply_parameters, build_arm_diagram
+from posfb.models.trajectory import desired
 
 #: Elbow angles (rad) at which the true arm is linearised: the trajectory's q2 range.
 ELBOW_ANGLES = (0.0, math.pi / 6, math.pi / 3, math.pi / 2)

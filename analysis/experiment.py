@@ -15,10 +15,10 @@ from collections.abc import Callable, Iterator
 from dataclasses import dataclass, replace
 from pathlib import Path
 
-from diagrams.closed_loop import ClosedLoopConfig, ClosedLoopResult, ClosedLoopRunner
-from models.controllers import CONTROLLER_KINDS, ControllerConfig
-from models.lumped import TABLE1, LumpedParameters
-from models.plant import Arm, ArmParameters
+from posfb.diagrams.closed_loop import ClosedLoopConfig, ClosedLoopResult, ClosedLoopRunner
+from posfb.models.controllers import CONTROLLER_KINDS, ControllerConfig
+from posfb.models.lumped import TABLE1, LumpedParameters
+from posfb.models.plant import Arm, ArmParameters
 
 #: The payload of the robustness test (Sec. 4.3), kg at the link-2 tip.
 PAYLOAD_MASS = 0.288

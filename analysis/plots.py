@@ -16,9 +16,8 @@ from pathlib import Path
 
 import matplotlib
 from matplotlib.figure import Figure
-
-from analysis.experiment import CONTROLLER_LABELS
-from diagrams.closed_loop import ClosedLoopResult
+from posfb.analysis.experiment import CONTROLLER_LABELS
+from posfb.diagrams.closed_loop import ClosedLoopResult
 
 STYLES = {
     "pid": {"linestyle": "-", "color": "tab:blue"},

@@ -10,11 +10,18 @@ from __future__ import annotations
 from collections.abc import Mapping
 from pathlib import Path
 
-from analysis.experiment import CASE_TITLES, CASES, CONTROLLER_LABELS
-from analysis.tables import PAPER_TABLES, ranking, ratios, row_values, side_by_side, theta_table
-from models.controllers import CONTROLLER_KINDS
-from models.design import ControllerConfig
-from models.lumped import TABLE1, LumpedParameters
+from posfb.analysis.experiment import CASE_TITLES, CASES, CONTROLLER_LABELS
+from posfb.analysis.tables import (
+    PAPER_TABLES,
+    ranking,
+    ratios,
+    row_values,
+    side_by_side,
+    theta_table,
+)
+from posfb.models.controllers import CONTROLLER_KINDS
+from posfb.models.design import ControllerConfig
+from posfb.models.lumped import TABLE1, LumpedParameters
 
 Entry = Mapping[str, object]
 Runs = Mapping[str, Entry]

@@ -23,8 +23,8 @@ from collections.abc import Callable
 from dataclasses import asdict, replace
 from pathlib import Path
 
-from analysis import diagnostics, plots
-from analysis.experiment import (
+from posfb.analysis import diagnostics, plots
+from posfb.analysis.experiment import (
     CASE_TITLES,
     CASES,
     PAPER_STUDY,
@@ -34,15 +34,15 @@ from analysis.experiment import (
     require_case,
     result_entry,
 )
-from analysis.report import write_report
-from analysis.tables import PAPER_TABLES, side_by_side, theta_table
-from diagrams.closed_loop import ClosedLoopConfig, ClosedLoopResult, ClosedLoopRunner
-from diagrams.graph import graphviz_source, render
-from models.controllers import cached_design
-from models.design import ControllerConfig
-from models.identify import identify
-from models.lumped import TABLE1
-from models.plant import apply_parameters, build_arm_diagram
+from posfb.analysis.report import write_report
+from posfb.analysis.tables import PAPER_TABLES, side_by_side, theta_table
+from posfb.diagrams.closed_loop import ClosedLoopConfig, ClosedLoopResult, ClosedLoopRunner
+from posfb.diagrams.graph import graphviz_source, render
+from posfb.models.controllers import cached_design
+from posfb.models.design import ControllerConfig
+from posfb.models.identify import identify
+from posfb.models.lumped import TABLE1
+from posfb.models.plant import apply_parameters, build_arm_diagram
 
 #: The ``alpha*`` values scanned for the second study (the paper's 4 down to 2).
 ALPHA_STAR_GRID = (4.0, 3.75, 3.5, 3.25, 3.0, 2.75, 2.5, 2.25, 2.0)

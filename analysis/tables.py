@@ -8,9 +8,9 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 
-from analysis.experiment import CONTROLLER_LABELS
-from models.controllers import CONTROLLER_KINDS
-from models.lumped import TABLE1, LumpedParameters
+from posfb.analysis.experiment import CONTROLLER_LABELS
+from posfb.models.controllers import CONTROLLER_KINDS
+from posfb.models.lumped import TABLE1, LumpedParameters
 
 #: ``{controller: (RMS(q~1), RMS(q~2), RMS(u1), RMS(u2))}``: Table 3 (nominal).
 PAPER_TABLE3 = {

@@ -16,10 +16,10 @@ import argparse
 import statistics
 import time
 
-from analysis.experiment import case_parameters
-from diagrams.closed_loop import ClosedLoopConfig, ClosedLoopRunner
-from models.controllers import CONTROLLER_KINDS
-from models.design import ControllerConfig
+from posfb.analysis.experiment import case_parameters
+from posfb.diagrams.closed_loop import ClosedLoopConfig, ClosedLoopRunner
+from posfb.models.controllers import CONTROLLER_KINDS
+from posfb.models.design import ControllerConfig
 
 
 def _variants() -> list[tuple[str, str, ControllerConfig | None]]:

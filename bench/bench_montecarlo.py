@@ -24,11 +24,10 @@ from dataclasses import replace
 from pathlib import Path
 
 import psutil
-
-from analysis.montecarlo.config import canonical_text, load_study
-from analysis.montecarlo.scheduler import run_study
-from analysis.montecarlo.store import ResultStore
-from analysis.montecarlo.worker import ClosedLoopEvaluator
+from posfb.analysis.montecarlo.config import canonical_text, load_study
+from posfb.analysis.montecarlo.scheduler import run_study
+from posfb.analysis.montecarlo.store import ResultStore
+from posfb.analysis.montecarlo.worker import ClosedLoopEvaluator
 
 SHIPPED = Path(__file__).resolve().parent.parent / "analysis" / "studies" / "paper_uncertainty.yaml"
 

@@ -10,10 +10,9 @@ from __future__ import annotations
 
 from pathlib import Path
 
+from posfb.analysis.experiment import case_parameters
+from posfb.diagrams.closed_loop import ClosedLoopConfig, ClosedLoopResult, ClosedLoopRunner
 from pydrake.geometry import StartMeshcat
-
-from analysis.experiment import case_parameters
-from diagrams.closed_loop import ClosedLoopConfig, ClosedLoopResult, ClosedLoopRunner
 
 
 def record_animation(

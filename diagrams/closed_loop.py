@@ -51,6 +51,13 @@ import time
 from dataclasses import dataclass, field, replace
 
 import numpy as np
+from posfb.analysis.metrics import RunMetrics, compute_metrics
+from posfb.diagrams.encoder import DEFAULT_ENCODER_COUNTS, Encoder, require_counts
+from posfb.models.controllers import CONTROLLER_KINDS, ControllerConfig, make_controller
+from posfb.models.lumped import TABLE1, LumpedParameters
+from posfb.models.plant import Arm, ArmParameters, PlantConfig, add_arm, apply_parameters
+from posfb.models.trajectory import DesiredTrajectory, desired
+from posfb.models.validation import require_positive
 from pydrake.geometry import Meshcat, MeshcatVisualizer, SceneGraph
 from pydrake.systems.analysis import (
     ApplySimulatorConfig,
@@ -64,14 +71,6 @@ from pydrake.systems.framework import (
     LeafSystem,
 )
 from pydrake.systems.primitives import Saturation, VectorLogSink
-
-from analysis.metrics import RunMetrics, compute_metrics
-from diagrams.encoder import DEFAULT_ENCODER_COUNTS, Encoder, require_counts
-from models.controllers import CONTROLLER_KINDS, ControllerConfig, make_controller
-from models.lumped import TABLE1, LumpedParameters
-from models.plant import Arm, ArmParameters, PlantConfig, add_arm, apply_parameters
-from models.trajectory import DesiredTrajectory, desired
-from models.validation import require_positive
 
 #: The paper's armature-voltage range, +-24 V (Sec. 4.1).
 VOLTAGE_LIMIT = 24.0

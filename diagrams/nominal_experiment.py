@@ -2,7 +2,7 @@
 
 Run it directly::
 
-    python -m diagrams.nominal_experiment [--out results/nominal] [--duration 20]
+    python -m posfb.diagrams.nominal_experiment [--out results/nominal] [--duration 20]
     python diagrams/nominal_experiment.py
 
 It simulates computed torque + PID, Lin+LC and the paper's controller on the
@@ -15,7 +15,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from analysis.reproduce import case_experiment
+from posfb.analysis.reproduce import case_experiment
 
 
 def main(case: str, description: str) -> None:

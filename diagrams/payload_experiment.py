@@ -3,7 +3,7 @@ the controllers keep the nominal model (Table 1).
 
 Run it directly::
 
-    python -m diagrams.payload_experiment [--out results/payload] [--duration 20]
+    python -m posfb.diagrams.payload_experiment [--out results/payload] [--duration 20]
     python diagrams/payload_experiment.py
 
 Same options and outputs as ``diagrams/nominal_experiment.py``.
@@ -11,7 +11,7 @@ Same options and outputs as ``diagrams/nominal_experiment.py``.
 
 from __future__ import annotations
 
-from diagrams.nominal_experiment import main
+from posfb.diagrams.nominal_experiment import main
 
 if __name__ == "__main__":
     main("payload", __doc__.splitlines()[0])

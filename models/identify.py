@@ -18,10 +18,9 @@ model reproduces the plant's dynamics exactly (up to round-off).
 from __future__ import annotations
 
 import numpy as np
+from posfb.models.lumped import LumpedParameters
+from posfb.models.plant import JOINTS, Arm, read_parameters
 from pydrake.systems.framework import Context
-
-from models.lumped import LumpedParameters
-from models.plant import JOINTS, Arm, read_parameters
 
 
 def identify(arm: Arm, root_context: Context) -> LumpedParameters:

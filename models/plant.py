@@ -34,6 +34,7 @@ from dataclasses import dataclass, fields, replace
 from pathlib import Path
 
 import numpy as np
+from posfb.models.validation import require_nonnegative, require_positive
 from pydrake.math import RigidTransform
 from pydrake.multibody.parsing import Parser
 from pydrake.multibody.plant import AddMultibodyPlant, MultibodyPlant, MultibodyPlantConfig
@@ -48,8 +49,6 @@ from pydrake.multibody.tree import (
 from pydrake.symbolic import Variable, tanh
 from pydrake.systems.framework import Context, Diagram, DiagramBuilder
 from pydrake.systems.primitives import Demultiplexer, Multiplexer, SymbolicVectorSystem
-
-from models.validation import require_nonnegative, require_positive
 
 #: The arm shipped with posfb.
 DEFAULT_URDF = Path(__file__).resolve().parent.parent / "urdf" / "two_link_arm.urdf"

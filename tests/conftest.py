@@ -3,8 +3,7 @@
 from __future__ import annotations
 
 import pytest
-
-from models.plant import build_arm_diagram
+from posfb.models.plant import build_arm_diagram
 
 
 @pytest.fixture()

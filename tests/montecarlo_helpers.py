@@ -4,9 +4,9 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from analysis.montecarlo.coverage import BOUND_NAMES
-from analysis.montecarlo.records import METRIC_COLUMNS, ControllerRun, SampleResult
-from analysis.montecarlo.store import ResultStore
+from posfb.analysis.montecarlo.coverage import BOUND_NAMES
+from posfb.analysis.montecarlo.records import METRIC_COLUMNS, ControllerRun, SampleResult
+from posfb.analysis.montecarlo.store import ResultStore
 
 #: A tiny study: two controllers, 1 s runs, parameters drawn the shipped study's way.
 TINY_STUDY = """\

@@ -8,8 +8,7 @@ import subprocess
 import sys
 
 import pytest
-
-from analysis.cli import main
+from posfb.analysis.cli import main
 
 
 def _run(capsys, *args: str) -> tuple[int, str, str]:
@@ -70,7 +69,7 @@ def test_bad_value_gives_one_line_and_exit_2(capsys, args, needle):
 
 def test_end_to_end_bad_input_is_one_line_and_nonzero():
     result = subprocess.run(
-        [sys.executable, "-m", "analysis.cli", "design", "--alpha-star", "big"],
+        [sys.executable, "-m", "posfb.analysis.cli", "design", "--alpha-star", "big"],
         capture_output=True, text=True, timeout=120,
     )  # fmt: skip
     assert result.returncode == 2

@@ -7,10 +7,9 @@ import subprocess
 import sys
 
 import pytest
+from posfb.models.lumped import TABLE1
 
-from models.lumped import TABLE1
-
-CLI = [sys.executable, "-m", "analysis.cli"]
+CLI = [sys.executable, "-m", "posfb.analysis.cli"]
 
 
 def _run(*args: str) -> subprocess.CompletedProcess:

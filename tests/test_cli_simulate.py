@@ -8,11 +8,10 @@ import sys
 import xml.etree.ElementTree as ET
 
 import pytest
+from posfb.analysis.cli import main
+from posfb.diagrams import graph
 
-from analysis.cli import main
-from diagrams import graph
-
-CLI = [sys.executable, "-m", "analysis.cli"]
+CLI = [sys.executable, "-m", "posfb.analysis.cli"]
 
 
 def _run(*args: str) -> subprocess.CompletedProcess:

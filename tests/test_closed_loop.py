@@ -7,12 +7,11 @@ import math
 
 import numpy as np
 import pytest
-
-from analysis.experiment import PAYLOAD_MASS, case_parameters
-from diagrams.closed_loop import ClosedLoopConfig, ClosedLoopRunner
-from diagrams.graph import edges, reachable
-from models.controllers import CONTROLLER_KINDS
-from models.trajectory import desired
+from posfb.analysis.experiment import PAYLOAD_MASS, case_parameters
+from posfb.diagrams.closed_loop import ClosedLoopConfig, ClosedLoopRunner
+from posfb.diagrams.graph import edges, reachable
+from posfb.models.controllers import CONTROLLER_KINDS
+from posfb.models.trajectory import desired
 
 #: Short runs keep the module fast; 3 s covers the transient and a joint-2 period.
 DURATION = 3.0

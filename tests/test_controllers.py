@@ -8,12 +8,11 @@ import math
 import numpy as np
 import pytest
 from lumped_plant import exact_model_config, simulate
+from posfb.models.controllers import CONTROLLER_KINDS, INTERNALS, make_controller
+from posfb.models.design import ControllerConfig, NonlinearTorqueConfig
+from posfb.models.lumped import LumpedModel
+from posfb.models.trajectory import DESIRED_SIZE, desired
 from pydrake.systems.analysis import Simulator
-
-from models.controllers import CONTROLLER_KINDS, INTERNALS, make_controller
-from models.design import ControllerConfig, NonlinearTorqueConfig
-from models.lumped import LumpedModel
-from models.trajectory import DESIRED_SIZE, desired
 
 T = ControllerConfig().sample_time
 Q_D, QD_DOT, QD_DDOT = desired(1.0)

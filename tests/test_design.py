@@ -7,15 +7,20 @@ import math
 import numpy as np
 import pytest
 import scipy.signal
+from posfb.models.design import (
+    ControllerConfig,
+    LqrWeights,
+    UncertaintyBounds,
+    compute_design,
+    diagonal,
+)
+from posfb.models.design.bounds import bound_filter_constants, coriolis_bound, resolve_bounds
+from posfb.models.design.closed_loop import continuous_closed_loop, spectral_radius
+from posfb.models.design.discretise import first_order_hold, zero_order_hold
+from posfb.models.design.realisation import ContinuousFilter
+from posfb.models.design.spr import spr_certificate
+from posfb.models.lumped import TABLE1, LumpedModel
 from pydrake.systems.controllers import LinearQuadraticRegulator
-
-from models.design import ControllerConfig, LqrWeights, UncertaintyBounds, compute_design, diagonal
-from models.design.bounds import bound_filter_constants, coriolis_bound, resolve_bounds
-from models.design.closed_loop import continuous_closed_loop, spectral_radius
-from models.design.discretise import first_order_hold, zero_order_hold
-from models.design.realisation import ContinuousFilter
-from models.design.spr import spr_certificate
-from models.lumped import TABLE1, LumpedModel
 
 
 @pytest.fixture(scope="module")
@@ -71,7 +76,7 @@ def test_riccati_without_solution_is_refused():
 
 
 def test_non_stabilising_lqr_is_a_failed_check_and_refused_by_controllers():
-    from models.controllers import make_controller
+    from posfb.models.controllers import make_controller
 
     config = ControllerConfig(lqr=LqrWeights(Q1=diagonal((0.0, 0.0, 0.0, 0.0))))
     design = compute_design(config)
@@ -199,7 +204,7 @@ def test_continuous_loop_with_nc_matches_the_full_state_loop(paper):
 
 def test_sampled_data_radius_against_scipy_holds(paper):
     """The loop rebuilt with scipy's FOH for the filters and ZOH for the plant."""
-    from models.design.realisation import nonlinear_control_filter
+    from posfb.models.design.realisation import nonlinear_control_filter
 
     T, alpha = 0.01, ControllerConfig().nonlinear.alpha_star
     nc = nonlinear_control_filter(

@@ -4,9 +4,8 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-
-from models.controllers import make_controller
-from models.design import (
+from posfb.models.controllers import make_controller
+from posfb.models.design import (
     ControllerConfig,
     LqrWeights,
     NonlinearTorqueConfig,

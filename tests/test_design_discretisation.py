@@ -6,12 +6,11 @@ from __future__ import annotations
 import numpy as np
 import pytest
 import scipy.signal
-
-from models.design import ControllerConfig
-from models.design.augmented import augmented_system, nonlinear_input_matrix, solve_lqr
-from models.design.closed_loop import sampled_data_closed_loop, spectral_radius
-from models.design.realisation import DiscreteFilter, nonlinear_control_filter
-from models.lumped import TABLE1, LumpedModel
+from posfb.models.design import ControllerConfig
+from posfb.models.design.augmented import augmented_system, nonlinear_input_matrix, solve_lqr
+from posfb.models.design.closed_loop import sampled_data_closed_loop, spectral_radius
+from posfb.models.design.realisation import DiscreteFilter, nonlinear_control_filter
+from posfb.models.lumped import TABLE1, LumpedModel
 
 SAMPLE_TIME = 0.01
 

@@ -5,15 +5,14 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from scipy.integrate import solve_ivp
-
-from models.design import compute_design
-from models.design.realisation import (
+from posfb.models.design import compute_design
+from posfb.models.design.realisation import (
     ContinuousFilter,
     linear_control_filter,
     nonlinear_control_filter,
     velocity_bound_filter,
 )
+from scipy.integrate import solve_ivp
 
 SAMPLE_TIMES = (0.01, 0.005, 0.0025)
 DURATION = 1.0

@@ -6,8 +6,7 @@ import math
 
 import numpy as np
 import pytest
-
-from analysis.diagnostics import (
+from posfb.analysis.diagnostics import (
     LoopEigen,
     ScanRow,
     band_rms,
@@ -17,9 +16,9 @@ from analysis.diagnostics import (
     pid_mismatch_prediction,
     sampled_data_scan,
 )
-from models.controllers import cached_design
-from models.design import ControllerConfig
-from models.lumped import TABLE1
+from posfb.models.controllers import cached_design
+from posfb.models.design import ControllerConfig
+from posfb.models.lumped import TABLE1
 
 
 def test_scan_at_the_paper_alpha_star_matches_the_design_check():

@@ -6,8 +6,7 @@ import math
 
 import numpy as np
 import pytest
-
-from diagrams.encoder import DEFAULT_ENCODER_COUNTS, Encoder, quantise
+from posfb.diagrams.encoder import DEFAULT_ENCODER_COUNTS, Encoder, quantise
 
 
 def test_quantise_rounds_to_the_nearest_count():

@@ -4,10 +4,9 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-
-from models.identify import identify
-from models.lumped import TABLE1, LumpedModel, LumpedParameters
-from models.plant import set_coulomb
+from posfb.models.identify import identify
+from posfb.models.lumped import TABLE1, LumpedModel, LumpedParameters
+from posfb.models.plant import set_coulomb
 
 
 def test_identified_model_reproduces_plant_acceleration(arm_diagram):

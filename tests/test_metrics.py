@@ -6,8 +6,7 @@ import math
 
 import numpy as np
 import pytest
-
-from analysis.metrics import RunMetrics, compute_metrics, rms
+from posfb.analysis.metrics import RunMetrics, compute_metrics, rms
 
 
 def _paper_rms(samples: list[float]) -> float:

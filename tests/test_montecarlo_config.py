@@ -8,9 +8,8 @@ from pathlib import Path
 
 import pytest
 from montecarlo_helpers import TINY_STUDY, write_study
-
-from analysis.cli import main
-from analysis.montecarlo.config import (
+from posfb.analysis.cli import main
+from posfb.analysis.montecarlo.config import (
     Fixed,
     Normal,
     Uniform,
@@ -143,7 +142,7 @@ def test_entry_point_reports_a_missing_study_as_one_line(tmp_path):
         [
             sys.executable,
             "-m",
-            "analysis.cli",
+            "posfb.analysis.cli",
             "montecarlo",
             "run",
             str(tmp_path / "none.yaml"),

@@ -6,11 +6,10 @@ from dataclasses import replace
 
 import numpy as np
 import pytest
-
-from analysis.montecarlo.coverage import BOUND_NAMES, coverage, uncertainty_norms
-from models.design import UncertaintyBounds
-from models.design.bounds import resolve_bounds
-from models.lumped import TABLE1, LumpedModel
+from posfb.analysis.montecarlo.coverage import BOUND_NAMES, coverage, uncertainty_norms
+from posfb.models.design import UncertaintyBounds
+from posfb.models.design.bounds import resolve_bounds
+from posfb.models.lumped import TABLE1, LumpedModel
 
 PERTURBED = replace(
     TABLE1,

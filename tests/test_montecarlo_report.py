@@ -5,13 +5,12 @@ from __future__ import annotations
 import numpy as np
 import pytest
 from montecarlo_helpers import TINY_STUDY
-
-from analysis.cli import main
-from analysis.montecarlo.config import study_from_text
-from analysis.montecarlo.coverage import BOUND_NAMES
-from analysis.montecarlo.records import METRIC_COLUMNS, ControllerRun, SampleResult
-from analysis.montecarlo.report import FIGURES, beats, joint_stats, load, status_counts
-from analysis.montecarlo.store import ResultStore
+from posfb.analysis.cli import main
+from posfb.analysis.montecarlo.config import study_from_text
+from posfb.analysis.montecarlo.coverage import BOUND_NAMES
+from posfb.analysis.montecarlo.records import METRIC_COLUMNS, ControllerRun, SampleResult
+from posfb.analysis.montecarlo.report import FIGURES, beats, joint_stats, load, status_counts
+from posfb.analysis.montecarlo.store import ResultStore
 
 #: rms_q per sample: (proposed joint 1, joint 2), (pid joint 1, joint 2); None: diverged.
 TABLE = [

@@ -20,16 +20,15 @@ from montecarlo_helpers import (
     fake_evaluate,
     write_study,
 )
+from posfb.analysis.cli import main
+from posfb.analysis.montecarlo import scheduler
+from posfb.analysis.montecarlo.config import study_from_text
+from posfb.analysis.montecarlo.scheduler import run_study
+from posfb.analysis.montecarlo.store import ResultStore
+from posfb.analysis.montecarlo.worker import ClosedLoopEvaluator
+from posfb.models.plant import build_arm_diagram
 
-from analysis.cli import main
-from analysis.montecarlo import scheduler
-from analysis.montecarlo.config import study_from_text
-from analysis.montecarlo.scheduler import run_study
-from analysis.montecarlo.store import ResultStore
-from analysis.montecarlo.worker import ClosedLoopEvaluator
-from models.plant import build_arm_diagram
-
-CLI = [sys.executable, "-m", "analysis.cli"]
+CLI = [sys.executable, "-m", "posfb.analysis.cli"]
 ROOT = Path(__file__).resolve().parent.parent
 
 

@@ -7,11 +7,10 @@ from dataclasses import replace
 
 import pytest
 from montecarlo_helpers import TINY_STUDY, make_result
-
-from analysis.errors import UsageError
-from analysis.montecarlo.config import study_from_text
-from analysis.montecarlo.records import ControllerRun
-from analysis.montecarlo.store import ResultStore
+from posfb.analysis.errors import UsageError
+from posfb.analysis.montecarlo.config import study_from_text
+from posfb.analysis.montecarlo.records import ControllerRun
+from posfb.analysis.montecarlo.store import ResultStore
 
 
 @pytest.fixture()

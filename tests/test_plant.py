@@ -6,9 +6,7 @@ import dataclasses
 
 import numpy as np
 import pytest
-from pydrake.systems.analysis import ApplySimulatorConfig, Simulator, SimulatorConfig
-
-from models.plant import (
+from posfb.models.plant import (
     ArmParameters,
     PlantConfig,
     apply_parameters,
@@ -16,6 +14,7 @@ from models.plant import (
     energy_accounts,
     read_parameters,
 )
+from pydrake.systems.analysis import ApplySimulatorConfig, Simulator, SimulatorConfig
 
 
 def _total_energy(arm, context) -> float:

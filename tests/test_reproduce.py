@@ -15,10 +15,9 @@ from pathlib import Path
 
 import pytest
 from matplotlib.image import imread
-
-from analysis.cli import main
-from analysis.experiment import ResultsFile
-from models.controllers import CONTROLLER_KINDS
+from posfb.analysis.cli import main
+from posfb.analysis.experiment import ResultsFile
+from posfb.models.controllers import CONTROLLER_KINDS
 
 FIGURES = [f"fig{n}{suffix}" for n in (4, 5, 6, 7) for suffix in ("", "_alpha_star")]
 

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from analysis.tables import PAPER_TABLE3, ranking, ratios, side_by_side
+from posfb.analysis.tables import PAPER_TABLE3, ranking, ratios, side_by_side
 
 
 def _entry(q1, q2, u1, u2):

@@ -4,8 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-
-from models.trajectory import DesiredTrajectory, desired
+from posfb.models.trajectory import DesiredTrajectory, desired
 
 
 def test_starts_at_rest_hanging_down():

@@ -5,11 +5,11 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from analysis.errors import UsageError
-from analysis.experiment import CASES
-from diagrams.animate import record_animation
-from diagrams.closed_loop import ClosedLoopConfig
-from models.controllers import CONTROLLER_KINDS
+from posfb.analysis.errors import UsageError
+from posfb.analysis.experiment import CASES
+from posfb.diagrams.animate import record_animation
+from posfb.diagrams.closed_loop import ClosedLoopConfig
+from posfb.models.controllers import CONTROLLER_KINDS
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:

@@ -14,9 +14,8 @@ import json
 from dataclasses import asdict, replace
 
 import numpy as np
-
-from models.design import ControllerConfig, Design, compute_design
-from models.validation import require_positive
+from posfb.models.design import ControllerConfig, Design, compute_design
+from posfb.models.validation import require_positive
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:

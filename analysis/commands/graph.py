@@ -6,9 +6,9 @@ import argparse
 import sys
 from pathlib import Path
 
-from diagrams.closed_loop import ClosedLoopConfig, ClosedLoopRunner
-from diagrams.graph import graphviz_source, render
-from models.controllers import CONTROLLER_KINDS
+from posfb.diagrams.closed_loop import ClosedLoopConfig, ClosedLoopRunner
+from posfb.diagrams.graph import graphviz_source, render
+from posfb.models.controllers import CONTROLLER_KINDS
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:

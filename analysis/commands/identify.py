@@ -6,11 +6,11 @@ from __future__ import annotations
 import argparse
 import json
 
-from analysis.tables import theta_table
-from models.identify import identify
-from models.lumped import LumpedParameters
-from models.plant import DEFAULT_URDF, PlantConfig, apply_parameters, build_arm_diagram
-from models.validation import require_nonnegative
+from posfb.analysis.tables import theta_table
+from posfb.models.identify import identify
+from posfb.models.lumped import LumpedParameters
+from posfb.models.plant import DEFAULT_URDF, PlantConfig, apply_parameters, build_arm_diagram
+from posfb.models.validation import require_nonnegative
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:

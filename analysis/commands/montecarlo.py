@@ -10,12 +10,12 @@ from __future__ import annotations
 
 import argparse
 
-from analysis.errors import UsageError
-from analysis.montecarlo.config import load_study, with_overrides
-from analysis.montecarlo.provenance import code_version
-from analysis.montecarlo.report import write_report
-from analysis.montecarlo.scheduler import run_study
-from analysis.montecarlo.store import ResultStore
+from posfb.analysis.errors import UsageError
+from posfb.analysis.montecarlo.config import load_study, with_overrides
+from posfb.analysis.montecarlo.provenance import code_version
+from posfb.analysis.montecarlo.report import write_report
+from posfb.analysis.montecarlo.scheduler import run_study
+from posfb.analysis.montecarlo.store import ResultStore
 
 
 def _integer_at_least(minimum: int):

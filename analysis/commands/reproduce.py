@@ -6,7 +6,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from analysis.reproduce import reproduce
+from posfb.analysis.reproduce import reproduce
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:

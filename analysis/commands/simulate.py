@@ -5,10 +5,10 @@ from __future__ import annotations
 import argparse
 import json
 
-from analysis.experiment import CASES, CONTROLLER_LABELS, result_entry, run_case
-from diagrams.closed_loop import ClosedLoopConfig
-from diagrams.encoder import DEFAULT_ENCODER_COUNTS
-from models.controllers import CONTROLLER_KINDS
+from posfb.analysis.experiment import CASES, CONTROLLER_LABELS, result_entry, run_case
+from posfb.diagrams.closed_loop import ClosedLoopConfig
+from posfb.diagrams.encoder import DEFAULT_ENCODER_COUNTS
+from posfb.models.controllers import CONTROLLER_KINDS
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:

@@ -46,12 +46,11 @@ from pathlib import Path
 
 import scipy.stats
 import yaml
+from posfb.diagrams.closed_loop import DIVERGENCE_BOUND, ClosedLoopConfig
+from posfb.diagrams.encoder import DEFAULT_ENCODER_COUNTS
+from posfb.models.controllers import CONTROLLER_KINDS
+from posfb.models.design import ControllerConfig
 from pydrake.common.yaml import yaml_dump_typed, yaml_load_typed
-
-from diagrams.closed_loop import DIVERGENCE_BOUND, ClosedLoopConfig
-from diagrams.encoder import DEFAULT_ENCODER_COUNTS
-from models.controllers import CONTROLLER_KINDS
-from models.design import ControllerConfig
 
 #: Per-joint physical parameters of ``ArmParameters`` (two values each), in draw order.
 JOINT_PARAMETERS = (

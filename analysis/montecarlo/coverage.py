@@ -33,9 +33,8 @@ import math
 from dataclasses import dataclass, replace
 
 import numpy as np
-
-from models.design.bounds import ResolvedBounds, coriolis_bound
-from models.lumped import LumpedModel, LumpedParameters
+from posfb.models.design.bounds import ResolvedBounds, coriolis_bound
+from posfb.models.lumped import LumpedModel, LumpedParameters
 
 #: The constants of Assumption 1, in the paper's order.
 BOUND_NAMES = ("delta_M0", "delta_M1", "delta_C", "delta_G", "delta_B", "delta_F")

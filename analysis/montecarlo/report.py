@@ -20,12 +20,11 @@ from pathlib import Path
 
 import numpy as np
 from matplotlib.figure import Figure
-
-from analysis.montecarlo.config import Study
-from analysis.montecarlo.coverage import BOUND_NAMES
-from analysis.montecarlo.records import STATUSES
-from analysis.montecarlo.store import ResultStore
-from analysis.plots import save
+from posfb.analysis.montecarlo.config import Study
+from posfb.analysis.montecarlo.coverage import BOUND_NAMES
+from posfb.analysis.montecarlo.records import STATUSES
+from posfb.analysis.montecarlo.store import ResultStore
+from posfb.analysis.plots import save
 
 #: A run "saturates often" when more than this share of its control samples
 #: command a voltage beyond the limit.

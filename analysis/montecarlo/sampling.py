@@ -13,8 +13,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-
-from analysis.montecarlo.config import (
+from posfb.analysis.montecarlo.config import (
     JOINT_PARAMETERS,
     Distribution,
     Fixed,
@@ -22,7 +21,7 @@ from analysis.montecarlo.config import (
     Study,
     Uniform,
 )
-from models.plant import ArmParameters
+from posfb.models.plant import ArmParameters
 
 #: The scalars of one sample, in stream order: (name, joint). Append only: a slot's
 #: position seeds its stream.

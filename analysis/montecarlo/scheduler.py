@@ -22,13 +22,12 @@ from collections.abc import Callable, Generator
 from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
 from dataclasses import dataclass
 
+from posfb.analysis.errors import UsageError
+from posfb.analysis.montecarlo import worker
+from posfb.analysis.montecarlo.config import Study, canonical_text, identity
+from posfb.analysis.montecarlo.records import SampleResult
+from posfb.analysis.montecarlo.store import ResultStore
 from tqdm import tqdm
-
-from analysis.errors import UsageError
-from analysis.montecarlo import worker
-from analysis.montecarlo.config import Study, canonical_text, identity
-from analysis.montecarlo.records import SampleResult
-from analysis.montecarlo.store import ResultStore
 
 #: Samples in flight per worker (one running, one queued so no worker idles).
 IN_FLIGHT_PER_WORKER = 2

@@ -27,9 +27,9 @@ from dataclasses import fields
 from datetime import UTC, datetime
 from pathlib import Path
 
-from analysis.errors import UsageError
-from analysis.montecarlo.config import Study, canonical_text, identity, study_from_text
-from analysis.montecarlo.records import METRIC_COLUMNS, STATUSES, SampleResult
+from posfb.analysis.errors import UsageError
+from posfb.analysis.montecarlo.config import Study, canonical_text, identity, study_from_text
+from posfb.analysis.montecarlo.records import METRIC_COLUMNS, STATUSES, SampleResult
 
 SCHEMA_VERSION = "1"
 

@@ -14,14 +14,14 @@ import math
 import threading
 from dataclasses import asdict
 
-from analysis.metrics import RunMetrics
-from analysis.montecarlo.config import Study, study_from_text
-from analysis.montecarlo.coverage import coverage
-from analysis.montecarlo.records import METRIC_COLUMNS, ControllerRun, SampleResult
-from analysis.montecarlo.sampling import SampledPlant, sample_plant
-from diagrams.closed_loop import ClosedLoopConfig, ClosedLoopRunner
-from models.design.bounds import resolve_bounds
-from models.identify import identify
+from posfb.analysis.metrics import RunMetrics
+from posfb.analysis.montecarlo.config import Study, study_from_text
+from posfb.analysis.montecarlo.coverage import coverage
+from posfb.analysis.montecarlo.records import METRIC_COLUMNS, ControllerRun, SampleResult
+from posfb.analysis.montecarlo.sampling import SampledPlant, sample_plant
+from posfb.diagrams.closed_loop import ClosedLoopConfig, ClosedLoopRunner
+from posfb.models.design.bounds import resolve_bounds
+from posfb.models.identify import identify
 
 
 def _metrics_dict(metrics: RunMetrics) -> dict[str, float | None]:

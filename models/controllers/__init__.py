@@ -9,11 +9,11 @@ from __future__ import annotations
 
 from functools import lru_cache
 
-from models.controllers.base import SampledController
-from models.controllers.lin_lc import LIN_LC_INTERNALS, LinLcController
-from models.controllers.pid import PID_INTERNALS, PidController
-from models.controllers.proposed import PROPOSED_INTERNALS, ProposedController
-from models.design import ControllerConfig, Design, compute_design
+from posfb.models.controllers.base import SampledController
+from posfb.models.controllers.lin_lc import LIN_LC_INTERNALS, LinLcController
+from posfb.models.controllers.pid import PID_INTERNALS, PidController
+from posfb.models.controllers.proposed import PROPOSED_INTERNALS, ProposedController
+from posfb.models.design import ControllerConfig, Design, compute_design
 
 #: The controllers of Sec. 4.2: computed torque + PID, Lin+LC, the paper's.
 CONTROLLER_KINDS = ("pid", "lin_lc", "proposed")

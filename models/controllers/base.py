@@ -16,11 +16,10 @@ first measurement (``_start``), then computes the first sample as any other.
 from __future__ import annotations
 
 import numpy as np
+from posfb.models.design.config import JOINTS
+from posfb.models.trajectory import DESIRED_SIZE
+from posfb.models.validation import require_positive
 from pydrake.systems.framework import Context, DiscreteValues, LeafSystem
-
-from models.design.config import JOINTS
-from models.trajectory import DESIRED_SIZE
-from models.validation import require_positive
 
 
 class SampledController(LeafSystem):

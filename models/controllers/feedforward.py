@@ -3,8 +3,7 @@
 from __future__ import annotations
 
 import numpy as np
-
-from models.lumped import LumpedModel
+from posfb.models.lumped import LumpedModel
 
 
 class NominalTorques:

@@ -8,11 +8,10 @@ initialised at rest (``eta~(0) = 0``) from the first measurement.
 from __future__ import annotations
 
 import numpy as np
-
-from models.controllers.base import SampledController
-from models.controllers.feedforward import NominalTorques
-from models.design import Design
-from models.lumped import LumpedModel
+from posfb.models.controllers.base import SampledController
+from posfb.models.controllers.feedforward import NominalTorques
+from posfb.models.design import Design
+from posfb.models.lumped import LumpedModel
 
 #: Columns of the ``internals`` output.
 LIN_LC_INTERNALS = ("tau_lin_1", "tau_lin_2", "tau_lc_1", "tau_lc_2")

@@ -13,10 +13,9 @@ estimate) and the integral is 0; the integral is the left-rectangle sum
 from __future__ import annotations
 
 import numpy as np
-
-from models.controllers.base import SampledController
-from models.design.config import JOINTS, PidGains
-from models.lumped import LumpedModel, LumpedParameters
+from posfb.models.controllers.base import SampledController
+from posfb.models.design.config import JOINTS, PidGains
+from posfb.models.lumped import LumpedModel, LumpedParameters
 
 #: Columns of the ``internals`` output.
 PID_INTERNALS = ("qdot_est_1", "qdot_est_2", "error_integral_1", "error_integral_2")

@@ -22,13 +22,12 @@ from __future__ import annotations
 import math
 
 import numpy as np
-
-from models.controllers.base import SampledController
-from models.controllers.feedforward import NominalTorques
-from models.design import Design
-from models.design.bounds import spectral_norm_2x2
-from models.design.config import JOINTS
-from models.lumped import LumpedModel
+from posfb.models.controllers.base import SampledController
+from posfb.models.controllers.feedforward import NominalTorques
+from posfb.models.design import Design
+from posfb.models.design.bounds import spectral_norm_2x2
+from posfb.models.design.config import JOINTS
+from posfb.models.lumped import LumpedModel
 
 #: Columns of the ``internals`` output.
 PROPOSED_INTERNALS = (

@@ -2,7 +2,7 @@
 SPR/KYP check, bounds, position-only filters, discretisation and the linear
 closed-loop checks. ``compute_design`` puts them together."""
 
-from models.design.config import (
+from posfb.models.design.config import (
     ControllerConfig,
     LqrWeights,
     NonlinearTorqueConfig,
@@ -10,7 +10,7 @@ from models.design.config import (
     UncertaintyBounds,
     diagonal,
 )
-from models.design.synthesis import Check, Design, compute_design
+from posfb.models.design.synthesis import Check, Design, compute_design
 
 __all__ = [
     "Check",

@@ -14,9 +14,8 @@ from dataclasses import dataclass
 
 import numpy as np
 import scipy.optimize
-
-from models.design.config import UncertaintyBounds
-from models.lumped import LumpedModel, LumpedParameters
+from posfb.models.design.config import UncertaintyBounds
+from posfb.models.lumped import LumpedModel, LumpedParameters
 
 
 @dataclass(frozen=True)

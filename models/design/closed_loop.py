@@ -12,9 +12,8 @@ as the controller LeafSystems do.
 from __future__ import annotations
 
 import numpy as np
-
-from models.design.discretise import zero_order_hold
-from models.design.realisation import ContinuousFilter, DiscreteFilter
+from posfb.models.design.discretise import zero_order_hold
+from posfb.models.design.realisation import ContinuousFilter, DiscreteFilter
 
 
 def _plant(M0: np.ndarray, B: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

@@ -9,9 +9,8 @@ from __future__ import annotations
 from dataclasses import dataclass, field, fields, replace
 
 import numpy as np
-
-from models.lumped import TABLE1, LumpedParameters
-from models.validation import (
+from posfb.models.lumped import TABLE1, LumpedParameters
+from posfb.models.validation import (
     require_matrix,
     require_nonnegative,
     require_positive,

@@ -24,8 +24,7 @@ from dataclasses import dataclass
 
 import numpy as np
 import scipy.linalg
-
-from models.design.discretise import first_order_hold
+from posfb.models.design.discretise import first_order_hold
 
 
 @dataclass(frozen=True, eq=False)

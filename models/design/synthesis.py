@@ -17,35 +17,34 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-
-from models.design.augmented import (
+from posfb.models.design.augmented import (
     GainBlocks,
     augmented_system,
     column_block,
     nonlinear_input_matrix,
     solve_lqr,
 )
-from models.design.bounds import (
+from posfb.models.design.bounds import (
     BoundFilterConstants,
     ResolvedBounds,
     bound_filter_constants,
     resolve_bounds,
 )
-from models.design.closed_loop import (
+from posfb.models.design.closed_loop import (
     continuous_closed_loop,
     sampled_data_closed_loop,
     spectral_radius,
 )
-from models.design.config import JOINTS, ControllerConfig
-from models.design.realisation import (
+from posfb.models.design.config import JOINTS, ControllerConfig
+from posfb.models.design.realisation import (
     DiscreteFilter,
     linear_control_filter,
     nonlinear_control_filter,
     stack,
     velocity_bound_filter,
 )
-from models.design.spr import SprCertificate, spr_certificate
-from models.lumped import LumpedModel
+from posfb.models.design.spr import SprCertificate, spr_certificate
+from posfb.models.lumped import LumpedModel
 
 _N = JOINTS
 
