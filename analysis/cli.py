@@ -15,12 +15,13 @@ from posfb.analysis.commands import (
     identify,
     montecarlo,
     reproduce,
+    scenario,
     simulate,
 )
 from posfb.analysis.errors import UsageError
 
 #: Subcommand modules, in the order ``posfb --help`` lists them.
-COMMANDS = [identify, design, simulate, reproduce, graph, animate, montecarlo]
+COMMANDS = [identify, design, scenario, simulate, reproduce, graph, animate, montecarlo]
 
 #: Exit code for bad input (argparse uses the same).
 EXIT_BAD_INPUT = 2

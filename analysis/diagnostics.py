@@ -19,14 +19,15 @@ from dataclasses import dataclass
 
 import numpy as np
 import scipy.signal
-from posfb.analysis.experiment import CASES, PAYLOAD_MASS
+
+from posfb.analysis.experiment import CASES, payload_mass
 from posfb.models.controllers import cached_design
 from posfb.models.design import ControllerConfig
 from posfb.models.design.closed_loop import sampled_data_closed_loop
 from posfb.models.identify import identify
 from posfb.models.lumped import LumpedModel, LumpedParameters
 from posfb.models.plant import apply_parameters, build_arm_diagram
-from posfb.models.trajectory import desired
+from posfb.models.trajectory import Trajectory
 
 #: Elbow angles (rad) at which the true arm is linearised: the trajectory's q2 range.
 ELBOW_ANGLES = (0.0, math.pi / 6, math.pi / 3, math.pi / 2)
@@ -35,8 +36,7 @@ ELBOW_ANGLES = (0.0, math.pi / 6, math.pi / 3, math.pi / 2)
 def true_lumped(case: str) -> LumpedParameters:
     """theta of the URDF arm of ``case`` (identified exactly, ``models.identify``)."""
     _, arm, context = build_arm_diagram()
-    payload = PAYLOAD_MASS if case == "payload" else 0.0
-    apply_parameters(arm, context, arm.default_parameters.with_payload(payload))
+    apply_parameters(arm, context, arm.default_parameters.with_payload(payload_mass(case)))
     return identify(arm, context)
 
 
@@ -110,7 +110,11 @@ def choose_alpha_star(rows: list[ScanRow]) -> float | None:
 
 
 def pid_mismatch_prediction(
-    case: str, duration: float, sample_time: float, config: ControllerConfig | None = None
+    case: str,
+    trajectory: Trajectory,
+    duration: float,
+    sample_time: float,
+    config: ControllerConfig | None = None,
 ) -> tuple[float, float]:
     """RMS (samples ``k = 1..N0``) of the PID error forced by the model mismatch alone.
 
@@ -123,7 +127,7 @@ def pid_mismatch_prediction(
     times = np.arange(round(duration / sample_time) + 1) * sample_time
     forcing = np.empty((len(times), 2))
     for k, t in enumerate(times):
-        q, qdot, qddot = desired(float(t))
+        q, qdot, qddot = trajectory.evaluate(float(t))
         mismatch = true.inverse_dynamics(q, qdot, qddot, friction=False) - nominal.inverse_dynamics(
             q, qdot, qddot, friction=False
         )
@@ -148,14 +152,14 @@ def peak_frequency(signal: np.ndarray, sample_time: float, above: float = 0.0) -
 
 
 def model_voltage_rms(
-    parameters: LumpedParameters, duration: float, sample_time: float
+    parameters: LumpedParameters, trajectory: Trajectory, duration: float, sample_time: float
 ) -> tuple[float, float]:
     """RMS (samples ``k = 1..N0``) of the voltage the lumped model with ``parameters``
     needs to follow the desired trajectory exactly (Sec. 4.1, Coulomb friction
     included): what any controller that tracks well must apply."""
     model = LumpedModel(parameters)
     times = np.arange(1, round(duration / sample_time) + 1) * sample_time
-    voltages = np.array([model.inverse_dynamics(*desired(float(t))) for t in times])
+    voltages = np.array([model.inverse_dynamics(*trajectory.evaluate(float(t))) for t in times])
     return tuple(float(v) for v in np.sqrt(np.mean(voltages**2, axis=0)))
 
 
@@ -170,13 +174,13 @@ def band_rms(signal: np.ndarray, sample_time: float, above: float) -> float:
 
 
 def reversal_share(
-    times: np.ndarray, error: np.ndarray, joint: int, window: float
+    trajectory: Trajectory, times: np.ndarray, error: np.ndarray, joint: int, window: float
 ) -> tuple[float, float]:
     """``(share of sum(error^2), share of the samples)`` within ``window`` seconds after
     the desired velocity of ``joint`` changes sign (rows ``k = 1..N0``). A share of
     the squared error well above the share of the time locates the error at the
     reversals, where Coulomb friction switches."""
-    velocity = np.array([desired(float(t))[1][joint] for t in times])
+    velocity = np.array([trajectory.evaluate(float(t))[1][joint] for t in times])
     flips = times[1:][np.sign(velocity[1:]) != np.sign(velocity[:-1])]
     after = np.zeros(len(times), dtype=bool)
     for flip in flips:

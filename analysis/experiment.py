@@ -1,9 +1,13 @@
-"""The experiments of Sec. 4: cases (nominal arm, 0.288 kg payload), studies (sets
-of runs that share a setting) and the incremental ``results.json`` store.
+"""The experiments of Sec. 4: cases (shipped scenario files), studies (sets of runs
+that share a setting) and the incremental ``results.json`` store.
 
-* ``nominal`` (Sec. 4.2, Table 3, Figs. 4-5): the URDF arm as identified from Table 1.
-* ``payload`` (Sec. 4.3, Table 4, Figs. 6-7): 0.288 kg at the link-2 tip; the
-  controllers keep the nominal model (Table 1).
+* ``nominal`` (Sec. 4.2, Table 3, Figs. 4-5): ``scenarios/paper_nominal.yaml``,
+  the URDF arm as identified from Table 1.
+* ``payload`` (Sec. 4.3, Table 4, Figs. 6-7): ``scenarios/paper_payload.yaml``,
+  a payload at the link-2 tip; the controllers keep the nominal Table 1 model.
+
+A study is a list of ``KEY=VALUE`` scenario settings applied on top of each case
+(``diagrams.scenario.apply_setting``), so every run it makes is one scenario.
 """
 
 from __future__ import annotations
@@ -12,29 +16,29 @@ import json
 import math
 import os
 from collections.abc import Callable, Iterator
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
+from functools import cache
 from pathlib import Path
 
-from posfb.diagrams.closed_loop import ClosedLoopConfig, ClosedLoopResult, ClosedLoopRunner
-from posfb.models.controllers import CONTROLLER_KINDS, ControllerConfig
-from posfb.models.lumped import TABLE1, LumpedParameters
+from posfb.analysis.metrics import run_metrics
+from posfb.diagrams.closed_loop import ClosedLoopResult
+from posfb.diagrams.scenario import LoadedScenario, load_scenario, resolve, run_scenario
+from posfb.models.controllers import CONTROLLER_KINDS
 from posfb.models.plant import Arm, ArmParameters
 
-#: The payload of the robustness test (Sec. 4.3), kg at the link-2 tip.
-PAYLOAD_MASS = 0.288
-
-#: The two experiments of Sec. 4.
-CASES = ("nominal", "payload")
+#: The shipped scenario files of the two experiments of Sec. 4.
+SCENARIO_DIR = Path(__file__).resolve().parent / "scenarios"
+CASE_FILES = {
+    "nominal": SCENARIO_DIR / "paper_nominal.yaml",
+    "payload": SCENARIO_DIR / "paper_payload.yaml",
+}
+CASES = tuple(CASE_FILES)
 
 #: Human-readable names (figure legends, tables).
 CONTROLLER_LABELS = {
     "pid": "computed torque + PID",
     "lin_lc": "Lin + LC",
     "proposed": "Lin + LC + NC (paper)",
-}
-CASE_TITLES = {
-    "nominal": "nominal arm (Sec. 4.2)",
-    "payload": f"{PAYLOAD_MASS} kg payload at the link-2 tip (Sec. 4.3)",
 }
 
 
@@ -44,55 +48,52 @@ def require_case(case: str) -> str:
     return case
 
 
-def case_parameters(arm: Arm, case: str, coulomb_off: bool = False) -> ArmParameters:
-    """The true plant of ``case``: the URDF arm, with the payload for ``"payload"``;
-    ``coulomb_off`` removes the plant's Coulomb friction (evidence studies)."""
-    payload = PAYLOAD_MASS if require_case(case) == "payload" else 0.0
-    parameters = arm.default_parameters.with_payload(payload)
-    return replace(parameters, coulomb=(0.0, 0.0)) if coulomb_off else parameters
+def case_scenario(case: str, settings: tuple[str, ...] = ()) -> LoadedScenario:
+    """The shipped scenario of ``case`` with ``KEY=VALUE`` ``settings`` applied."""
+    return load_scenario(CASE_FILES[require_case(case)], settings)
+
+
+@cache
+def payload_mass(case: str) -> float:
+    """The tip payload (kg) of ``case``'s scenario file."""
+    return float(case_scenario(case).scenario.plant.payload_mass)
+
+
+def case_title(case: str) -> str:
+    """A title for tables and figures, with the payload read from the scenario file."""
+    if require_case(case) == "nominal":
+        return "nominal arm (Sec. 4.2)"
+    return f"{payload_mass(case):g} kg payload at the link-2 tip (Sec. 4.3)"
+
+
+def case_parameters(arm: Arm, case: str) -> ArmParameters:
+    """The true plant of ``case``: ``arm``'s URDF values with the scenario's payload
+    and overrides."""
+    return resolve(case_scenario(case)).true_parameters(arm.default_parameters)
 
 
 @dataclass(frozen=True)
 class Study:
     """A set of runs that share one setting; ``key`` names it in ``results.json``.
 
-    ``controller_config`` overrides the controllers' design (default: the paper's),
-    ``nominal`` is the model they use, ``coulomb_off`` removes the plant's Coulomb
-    friction, ``encoder_counts`` / ``integrator_accuracy`` override the defaults."""
+    ``settings`` are scenario ``KEY=VALUE`` changes applied to every case (default:
+    none, the paper's settings)."""
 
     key: str
     title: str
     description: str
     controllers: tuple[str, ...] = CONTROLLER_KINDS
     cases: tuple[str, ...] = CASES
-    controller_config: ControllerConfig | None = None
-    nominal: LumpedParameters = TABLE1
-    coulomb_off: bool = False
-    encoder_counts: int | None = None
-    integrator_accuracy: float | None = None
+    settings: tuple[str, ...] = ()
 
-    def closed_loop_config(self, kind: str, base: ClosedLoopConfig) -> ClosedLoopConfig:
-        changes: dict[str, object] = {"controller": kind}
-        if self.encoder_counts is not None:
-            changes["encoder_counts"] = self.encoder_counts
-        if self.integrator_accuracy is not None:
-            changes["integrator_accuracy"] = self.integrator_accuracy
-        return replace(base, **changes)
-
-    def runs(
-        self, base: ClosedLoopConfig
-    ) -> Iterator[tuple[str, str, Callable[[], ClosedLoopResult]]]:
-        """``(case, controller, run)`` for every run of the study, controllers outermost
-        (one diagram per controller)."""
+    def runs(self, duration: float) -> Iterator[tuple[str, str, Callable[[], ClosedLoopResult]]]:
+        """``(case, controller, run)`` for every run of the study."""
         for kind in self.controllers:
-            runner = ClosedLoopRunner(
-                self.closed_loop_config(kind, base),
-                self.nominal,
-                controller_config=self.controller_config,
-            )
             for case in self.cases:
-                parameters = case_parameters(runner.arm, case, self.coulomb_off)
-                yield case, kind, lambda p=parameters, r=runner: r.run(p)
+                loaded = case_scenario(
+                    case, (*self.settings, f"controller.kind={kind}", f"timing.duration={duration}")
+                )
+                yield case, kind, lambda loaded=loaded: run_scenario(loaded)
 
 
 #: The paper's settings as printed (Sec. 4.2-4.3).
@@ -101,17 +102,6 @@ PAPER_STUDY = Study(
     title="Paper settings",
     description="Sec. 4.2 gains and weights, T_s = 0.01 s, +-24 V, Table 1 model.",
 )
-
-
-def run_case(
-    kind: str,
-    case: str,
-    config: ClosedLoopConfig,
-    controller_config: ControllerConfig | None = None,
-) -> ClosedLoopResult:
-    """One run of controller ``kind`` on ``case`` (``posfb simulate``)."""
-    runner = ClosedLoopRunner(replace(config, controller=kind), controller_config=controller_config)
-    return runner.run(case_parameters(runner.arm, case))
 
 
 def _json_number(value: object) -> object:
@@ -123,7 +113,7 @@ def _json_number(value: object) -> object:
 
 def result_entry(result: ClosedLoopResult) -> dict[str, object]:
     """The ``results.json`` entry of a run: metrics, status and message."""
-    metrics = {key: _json_number(value) for key, value in result.metrics.as_dict().items()}
+    metrics = {key: _json_number(value) for key, value in run_metrics(result).as_dict().items()}
     return {**metrics, "status": result.status, "message": result.message}
 
 

@@ -13,9 +13,13 @@ commanded voltage only enters ``saturated_fraction``.
 
 from __future__ import annotations
 
+import math
+from collections.abc import Sequence
 from dataclasses import asdict, dataclass
 
 import numpy as np
+
+from posfb.diagrams.closed_loop import ClosedLoopResult
 
 
 def rms(x: np.ndarray) -> np.ndarray | float:
@@ -55,10 +59,11 @@ def compute_metrics(
     q_error: np.ndarray,
     u_applied: np.ndarray,
     u_commanded: np.ndarray,
-    voltage_limit: float,
+    voltage_limit: float | Sequence[float],
     wall_time_s: float,
 ) -> RunMetrics:
-    """``RunMetrics`` from sample arrays (rows ``k = 1..N0``, one column per joint)."""
+    """``RunMetrics`` from sample arrays (rows ``k = 1..N0``, one column per joint);
+    ``voltage_limit`` is one limit for all joints or one per joint."""
     error, applied, commanded = (
         np.asarray(a, dtype=float) for a in (q_error, u_applied, u_commanded)
     )
@@ -70,4 +75,19 @@ def compute_metrics(
         max_abs_q_err=float(np.max(np.abs(error))),
         saturated_fraction=float(np.mean(saturated)),
         wall_time_s=float(wall_time_s),
+    )
+
+
+def run_metrics(result: ClosedLoopResult) -> RunMetrics:
+    """The metrics of a closed-loop run over its samples ``k = 1..K`` (NaN where the run
+    stopped before its second sample)."""
+    if len(result.times) < 2:
+        nan = (math.nan, math.nan)
+        return RunMetrics(nan, nan, math.nan, math.nan, result.wall_time_s)
+    return compute_metrics(
+        result.q_error[1:],
+        result.u_applied[1:],
+        result.u_commanded[1:],
+        result.config.voltage_limit,
+        result.wall_time_s,
     )

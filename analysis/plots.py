@@ -16,6 +16,7 @@ from pathlib import Path
 
 import matplotlib
 from matplotlib.figure import Figure
+
 from posfb.analysis.experiment import CONTROLLER_LABELS
 from posfb.diagrams.closed_loop import ClosedLoopResult
 

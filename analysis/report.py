@@ -10,7 +10,7 @@ from __future__ import annotations
 from collections.abc import Mapping
 from pathlib import Path
 
-from posfb.analysis.experiment import CASE_TITLES, CASES, CONTROLLER_LABELS
+from posfb.analysis.experiment import CASES, CONTROLLER_LABELS, case_title, payload_mass
 from posfb.analysis.tables import (
     PAPER_TABLES,
     ranking,
@@ -82,7 +82,7 @@ def _results_section(data: Mapping[str, object]) -> list[str]:
     for case, table, figs in (("nominal", "Table 3", (4, 5)), ("payload", "Table 4", (6, 7))):
         runs: Runs = data[case]
         paper = PAPER_TABLES[case]
-        lines += [f"### {table}: {CASE_TITLES[case]}", "", side_by_side(runs, paper), ""]
+        lines += [f"### {table}: {case_title(case)}", "", side_by_side(runs, paper), ""]
         if "pid" in runs:
             lines += ["Errors relative to computed torque + PID:", "", ratios(runs, paper), ""]
         lines += ["Orderings:", "", *_orderings(runs, paper), ""]
@@ -135,7 +135,7 @@ def _second_study_section(data: Mapping[str, object]) -> list[str]:
     for case, table, figs in (("nominal", "Table 3", (4, 5)), ("payload", "Table 4", (6, 7))):
         runs = {**data[case], "proposed": study[case]["proposed"]}
         lines += [
-            f"### {table} with alpha* = {chosen:g}: {CASE_TITLES[case]}",
+            f"### {table} with alpha* = {chosen:g}: {case_title(case)}",
             "",
             side_by_side(runs, PAPER_TABLES[case]),
             "",
@@ -371,7 +371,7 @@ def _evidence_section(data: Mapping[str, object]) -> list[str]:
         for case in CASES:
             if case in study:
                 lines += [
-                    f"{CASE_TITLES[case]}:",
+                    f"{case_title(case)}:",
                     "",
                     side_by_side(study[case], PAPER_TABLES[case]),
                     "",
@@ -399,15 +399,22 @@ def _identification_section(data: Mapping[str, object]) -> list[str]:
 def build_report(data: Mapping[str, object]) -> str:
     """The Markdown text of ``report.md`` from a ``results.json`` object."""
     settings: Mapping[str, object] = data["settings"]
+
+    def per_joint(values: object) -> str:
+        entries = values if isinstance(values, list) else [values]
+        return f"{entries[0]:g}" if len(set(entries)) == 1 else "/".join(f"{v:g}" for v in entries)
+
     lines = [
         "# Sec. 4 of the paper in simulation (`posfb reproduce`)",
         "",
         f"Every run: {settings['duration']:g} s of the Sec. 4.2 trajectory, T_s = "
-        f"{settings['sample_time']:g} s, +-{settings['voltage_limit']:g} V, encoder "
-        f"{settings['encoder_counts']} counts per joint revolution (round to nearest), RK3 "
+        f"{settings['sample_time']:g} s, +-{per_joint(settings['voltage_limit'])} V, "
+        f"encoder {per_joint(settings['encoder_counts'])} counts per joint revolution "
+        "(round to nearest), RK3 "
         f"at accuracy {settings['integrator_accuracy']:g}, the arm at rest at q_d(0). "
-        "Controllers use Table 1; the payload case puts 0.288 kg at the link-2 tip of the "
-        "true arm only. RMS over the samples k = 1..N0 (paper's definition), q~ from the "
+        "Controllers use Table 1; the payload case puts "
+        f"{payload_mass('payload'):g} kg at the link-2 tip of the true arm only. RMS over "
+        "the samples k = 1..N0 (paper's definition), q~ from the "
         "*true* position, u the *applied* voltage. Tables 3-4 are hardware measurements: "
         "compare orderings and ratios (reading note 11).",
         "",

@@ -25,19 +25,22 @@ from pathlib import Path
 
 from posfb.analysis import diagnostics, plots
 from posfb.analysis.experiment import (
-    CASE_TITLES,
     CASES,
     PAPER_STUDY,
     ResultsFile,
     Study,
     case_parameters,
+    case_scenario,
+    case_title,
     require_case,
     result_entry,
 )
+from posfb.analysis.metrics import run_metrics
 from posfb.analysis.report import write_report
 from posfb.analysis.tables import PAPER_TABLES, side_by_side, theta_table
-from posfb.diagrams.closed_loop import ClosedLoopConfig, ClosedLoopResult, ClosedLoopRunner
+from posfb.diagrams.closed_loop import ClosedLoopResult, ClosedLoopRunner
 from posfb.diagrams.graph import graphviz_source, render
+from posfb.diagrams.scenario import resolve
 from posfb.models.controllers import cached_design
 from posfb.models.design import ControllerConfig
 from posfb.models.identify import identify
@@ -70,7 +73,7 @@ def _alpha_study(alpha_star: float) -> Study:
             "keep their paper-settings runs."
         ),
         controllers=("proposed",),
-        controller_config=ControllerConfig().with_alpha_star(alpha_star),
+        settings=(f"controller.alpha_star={alpha_star!r}",),
     )
 
 
@@ -83,22 +86,24 @@ EVIDENCE_STUDIES = (
             "Paper settings, but neither the arm nor the controllers' model has Coulomb "
             "friction: shows which behaviour friction causes and which it hides."
         ),
-        nominal=replace(TABLE1, theta6=0.0, theta11=0.0),
-        coulomb_off=True,
+        settings=(
+            "plant.parameters.coulomb=[0.0, 0.0]",
+            "nominal_model=!Theta {theta6: 0.0, theta11: 0.0}",
+        ),
     ),
     Study(
         key="ideal_encoder",
         title="Evidence: ideal encoder (no quantisation)",
         description="Paper settings, nominal arm, encoder_counts = 0 (exact positions).",
         cases=("nominal",),
-        encoder_counts=0,
+        settings=("sensor.encoder_counts=0",),
     ),
     Study(
         key="fine_integrator",
         title="Numerics: integrator accuracy 1e-4 instead of 3e-3",
         description="Paper settings, nominal arm, RK3 accuracy 1e-4 (default 3e-3).",
         cases=("nominal",),
-        integrator_accuracy=1e-4,
+        settings=("timing.simulator.accuracy=1e-4",),
     ),
 )
 
@@ -108,7 +113,8 @@ class Reproduction:
 
     def __init__(self, out: Path, duration: float, progress: Callable[[str], None]) -> None:
         self.out = Path(out)
-        self.base = ClosedLoopConfig(duration=duration)
+        self.duration = duration
+        self.base = resolve(case_scenario("nominal", (f"timing.duration={duration}",))).config
         self.progress = progress
         self.out.mkdir(parents=True, exist_ok=True)
         self.results = ResultsFile(
@@ -120,10 +126,14 @@ class Reproduction:
                     "second study and the evidence studies."
                 ),
                 "settings": {
-                    key: value
-                    for key, value in asdict(self.base).items()
-                    if key not in ("controller", "plant")
-                },  # fmt: skip
+                    "sample_time": self.base.sample_time,
+                    "duration": self.base.duration,
+                    "encoder_counts": list(self.base.encoder_counts),
+                    "voltage_limit": list(self.base.voltage_limit),
+                    "divergence_bound": self.base.divergence_bound,
+                    "integration_scheme": self.base.simulator.integration_scheme,
+                    "integrator_accuracy": self.base.simulator.accuracy,
+                },
             },
         )
         self.artefacts: list[Path] = [self.out / "results.json"]
@@ -176,12 +186,12 @@ class Reproduction:
             self.results.set((*keys, "title"), study.title)
             self.results.set((*keys, "description"), study.description)
         runs: dict[str, dict[str, ClosedLoopResult]] = {case: {} for case in study.cases}
-        for case, kind, run in study.runs(self.base):
+        for case, kind, run in study.runs(self.duration):
             result = run()
             runs[case][kind] = result
             self.results.set((*keys, case, kind), self._entry(result))
             self._count += 1
-            m = result.metrics
+            m = run_metrics(result)
             self.progress(
                 f"[{self._count:2d}] {label} | {case} | {kind}: rms_q = "
                 f"({m.rms_q[0]:.5f}, {m.rms_q[1]:.5f}) rad, rms_u = ({m.rms_u[0]:.3f}, "
@@ -202,7 +212,8 @@ class Reproduction:
                 diagnostics.band_rms(error[:, j], T, FAST_BAND_HZ) for j in range(2)
             ],
             "error_share_after_reversal": [
-                diagnostics.reversal_share(result.times[1:], error[:, j], j, REVERSAL_WINDOW_S)
+                diagnostics.reversal_share(
+                    self.base.trajectory, result.times[1:], error[:, j], j, REVERSAL_WINDOW_S)
                 for j in range(2)
             ],
         }
@@ -217,7 +228,7 @@ class Reproduction:
         numbers = {"nominal": (4, 5), "payload": (6, 7)}
         for case in CASES:
             first, second = numbers[case]
-            title = f"{CASE_TITLES[case]}, {label}"
+            title = f"{case_title(case)}, {label}"
             figures = (
                 (
                     f"fig{first}{suffix}",
@@ -261,14 +272,17 @@ class Reproduction:
         T, duration = self.base.sample_time, self.base.duration
         self.results.set(
             ("evidence", "pid_mismatch_prediction"),
-            {case: diagnostics.pid_mismatch_prediction(case, duration, T) for case in CASES},
+            {
+                case: diagnostics.pid_mismatch_prediction(case, self.base.trajectory, duration, T)
+                for case in CASES
+            },
         )
         self.results.set(
             ("evidence", "model_voltage_rms"),
             {
-                "table1": diagnostics.model_voltage_rms(TABLE1, duration, T),
+                "table1": diagnostics.model_voltage_rms(TABLE1, self.base.trajectory, duration, T),
                 "payload_arm": diagnostics.model_voltage_rms(
-                    diagnostics.true_lumped("payload"), duration, T
+                    diagnostics.true_lumped("payload"), self.base.trajectory, duration, T
                 ),
             },
         )
@@ -278,7 +292,7 @@ class Reproduction:
 
     def _graph(self) -> None:
         source = graphviz_source(
-            ClosedLoopRunner(replace(self.base, controller="proposed")).diagram
+            ClosedLoopRunner(self.base).diagram
         )
         path, note = render(source, self.out / "closed_loop_proposed.svg")
         self.artefacts.append(path)
@@ -290,7 +304,7 @@ class Reproduction:
         lines = ["# Simulated RMS values beside the paper's Tables 3 and 4", ""]
         for case, table in (("nominal", "Table 3"), ("payload", "Table 4")):
             if case in data:
-                lines += [f"## {table}: {CASE_TITLES[case]}, paper settings", ""]
+                lines += [f"## {table}: {case_title(case)}, paper settings", ""]
                 lines += [side_by_side(data[case], PAPER_TABLES[case]), ""]
         path = self.out / "tables.md"
         path.write_text("\n".join(lines))
@@ -308,23 +322,24 @@ def reproduce(
 def case_experiment(
     case: str, out: Path, duration: float = 20.0, progress: Callable[[str], None] = print
 ) -> dict[str, ClosedLoopResult]:
-    """One experiment of Sec. 4 with the paper's settings (the scripts in
-    ``diagrams/``): the three controllers on ``case``, its two figures (Figs. 4-5 or
-    6-7, PNG and SVG) and its table beside the paper's (``table3.md`` / ``table4.md``)."""
+    """One experiment of Sec. 4 with the paper's settings (``analysis/nominal_experiment.py``,
+    ``analysis/payload_experiment.py``): the three controllers on ``case``'s shipped
+    scenario, its two figures (Figs. 4-5 or 6-7, PNG and SVG) and its table beside the
+    paper's (``table3.md`` / ``table4.md``)."""
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     study = replace(PAPER_STUDY, cases=(require_case(case),))
     runs: dict[str, ClosedLoopResult] = {}
-    for _, kind, run in study.runs(ClosedLoopConfig(duration=duration)):
+    for _, kind, run in study.runs(duration):
         runs[kind] = run()
-        progress(f"{kind}: {runs[kind].status}, {runs[kind].metrics.wall_time_s:.2f} s")
+        progress(f"{kind}: {runs[kind].status}, {runs[kind].wall_time_s:.2f} s")
     first, table = {"nominal": (4, "Table 3"), "payload": (6, "Table 4")}[case]
-    title = f"{CASE_TITLES[case]}, paper settings"
+    title = f"{case_title(case)}, paper settings"
     plots.save(plots.positions_and_voltages(runs, title), out, f"fig{first}")
     plots.save(plots.tracking_errors(runs, title), out, f"fig{first + 1}")
     text = side_by_side({k: result_entry(r) for k, r in runs.items()}, PAPER_TABLES[case])
     (out / f"table{3 if case == 'nominal' else 4}.md").write_text(
-        f"# {table}: {CASE_TITLES[case]}\n\n{text}\n"
+        f"# {table}: {case_title(case)}\n\n{text}\n"
     )
     progress(f"{table} (simulated | paper):\n{text}")
     progress(f"figures fig{first}, fig{first + 1} (.png, .svg) and the table are in {out}/")

@@ -24,6 +24,7 @@ from dataclasses import replace
 from pathlib import Path
 
 import psutil
+
 from posfb.analysis.montecarlo.config import canonical_text, load_study
 from posfb.analysis.montecarlo.scheduler import run_study
 from posfb.analysis.montecarlo.store import ResultStore

@@ -1,11 +1,13 @@
 """The closed loop of Sec. 4 for any of the three controllers, built once and run
 many times::
 
-    desired_trajectory --desired--> controller --voltage--> saturation (+-24 V)
+    desired_trajectory --desired--> controller --voltage--> saturation (+-limit)
                                         ^                       |
                                    q_measured              u applied
                                         |                       v
-    encoder (quantiser) <----q---- state_split <--- arm (URDF plant, motor, Coulomb)
+    [sensor_delay] <- encoder <--q---- state_split <--- arm (URDF plant, motor, Coulomb)
+                        ^
+                  [encoder_noise]  (bracketed blocks only where the config asks)
 
 The only path from the plant to the controller is the quantised position
 (``tests/test_closed_loop.py`` checks it on the diagram's graph): the true
@@ -13,7 +15,12 @@ velocity feeds the friction and motor-work blocks and the loggers, never the
 controller. Timing: the controller's periodic update at ``t_k = k T_s`` reads
 ``q_measured(t_k)`` straight from the stateless encoder and holds its voltage on
 ``[t_k, t_k + T_s)``; there is no ZeroOrderHold in between (it would add one
-sample of delay, ``../shared/DRAKE-NOTES.md``).
+sample of delay, ``docs/drake-notes.md``). A sensor delay of ``d`` samples is a
+``DiscreteTimeDelay`` of ``d - 1`` steps at ``T_s`` (read at ``t_k`` before its own
+update, it lags one period more than its step count): the controller's update at
+``t_k`` reads the measurement of ``t_{k-d}`` (the buffer starts filled with the
+first measurement; ``tests/test_scenario.py`` checks the lag); sensor noise
+is a ``RandomSource`` sampled at ``T_s`` and scaled inside the encoder.
 
 Loggers (``VectorLogSink``, period ``T_s``) record the true and measured ``q``,
 the desired trajectory, the commanded and applied voltage and the controller's
@@ -33,8 +40,8 @@ and an integrator failure is caught. Any of these gives ``status = "diverged"``.
 check and, at a period of ``10 T_s``, event times one rounding error away from
 the controller's, i.e. extra integrator steps.)
 
-Integration: Drake's RK3 with error control at accuracy ``integrator_accuracy``
-(default 3e-3), steps capped at ``T_s``. Measured on 20 s runs (paper settings,
+Integration: ``ClosedLoopConfig.simulator``, by default Drake's RK3 with error
+control at accuracy 3e-3, steps capped at ``T_s``. Measured on 20 s runs (paper settings,
 nominal and payload) against RK3 at 1e-5: Lin+LC's and the proposed
 controller's RMS errors change by at most 2 % (joint 2) and 6 % (joint 1, where
 they are a few 1e-4 rad) at any accuracy from 1e-2 down.
@@ -46,21 +53,17 @@ about 1.2x the wall time of 1e-2; 1e-3 costs 1.3-1.9x for no further gain.
 
 from __future__ import annotations
 
-import math
 import time
-from dataclasses import dataclass, field, replace
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from functools import partial
 
 import numpy as np
-from posfb.analysis.metrics import RunMetrics, compute_metrics
-from posfb.diagrams.encoder import DEFAULT_ENCODER_COUNTS, Encoder, require_counts
-from posfb.models.controllers import CONTROLLER_KINDS, ControllerConfig, make_controller
-from posfb.models.lumped import TABLE1, LumpedParameters
-from posfb.models.plant import Arm, ArmParameters, PlantConfig, add_arm, apply_parameters
-from posfb.models.trajectory import DesiredTrajectory, desired
-from posfb.models.validation import require_positive
+from pydrake.common import RandomDistribution, RandomGenerator
 from pydrake.geometry import Meshcat, MeshcatVisualizer, SceneGraph
 from pydrake.systems.analysis import (
     ApplySimulatorConfig,
+    GetIntegrationSchemes,
     Simulator,
     SimulatorConfig,
 )
@@ -69,8 +72,20 @@ from pydrake.systems.framework import (
     Diagram,
     DiagramBuilder,
     LeafSystem,
+    OutputPort,
 )
-from pydrake.systems.primitives import Saturation, VectorLogSink
+from pydrake.systems.primitives import (
+    DiscreteTimeDelay,
+    RandomSource,
+    Saturation,
+    VectorLogSink,
+)
+
+from posfb.diagrams.encoder import DEFAULT_ENCODER_COUNTS, Encoder, per_joint_counts
+from posfb.models.controllers import CONTROLLER_KINDS, ControllerConfig, make_controller
+from posfb.models.plant import Arm, ArmParameters, PlantConfig, add_arm, apply_parameters
+from posfb.models.trajectory import JOINTS, DesiredTrajectory, Trajectory, WaveTrajectory
+from posfb.models.validation import require_finite, require_nonnegative, require_positive
 
 #: The paper's armature-voltage range, +-24 V (Sec. 4.1).
 VOLTAGE_LIMIT = 24.0
@@ -87,23 +102,55 @@ MONITOR_SAMPLES = 10
 LOGGED = ("q_true", "q_measured", "desired", "u_commanded", "u_applied", "internals")
 
 
-@dataclass(frozen=True)
-class ClosedLoopConfig:
-    """One closed-loop experiment of Sec. 4 (defaults: the paper's settings).
+def default_simulator() -> SimulatorConfig:
+    """Drake's RK3 with error control at accuracy 3e-3 (module docstring)."""
+    return SimulatorConfig(
+        integration_scheme="runge_kutta3", accuracy=3e-3, use_error_control=True
+    )
 
-    ``encoder_counts`` per joint revolution (0: ideal sensor; default and its
-    justification in ``diagrams.encoder``), ``voltage_limit`` in volts,
-    ``divergence_bound`` on ``|q~|`` in rad, ``integrator_accuracy`` for RK3.
+
+def _per_joint(name: str, value: float | Sequence[float]) -> tuple[float, ...]:
+    values = list(value) if isinstance(value, list | tuple | np.ndarray) else [value]
+    if len(values) == 1:
+        values = values * JOINTS
+    if len(values) != JOINTS:
+        raise ValueError(
+            f"{name} = {value!r}; one number for both joints or {JOINTS} (one per joint) "
+            "is required"
+        )
+    return tuple(require_finite(f"{name}[{j}]", v) for j, v in enumerate(values))
+
+
+@dataclass(frozen=True, eq=False)
+class ClosedLoopConfig:
+    """One closed-loop run, resolved and validated (``diagrams.scenario`` builds it
+    from a scenario file; the defaults are the paper's settings).
+
+    ``design`` is everything the controller is built from, its sample time ``T_s``
+    included (the only one: ``sample_time`` reads it); ``trajectory`` the desired
+    path; the sensor: ``encoder_counts`` per joint revolution (0: ideal; default
+    and its justification in ``diagrams.encoder``), ``zero_offset`` (rad, added to
+    the true position before quantisation), ``noise_std`` (rad, additive Gaussian
+    noise after it, drawn from ``noise_seed``), ``delay_samples`` (whole periods);
+    ``voltage_limit`` (V) per joint; ``divergence_bound`` on ``|q~|`` in rad;
+    ``simulator`` Drake's integrator settings (the runner caps ``max_step_size`` at
+    ``T_s``: a step never spans more than one control period). Per-joint values take
+    one number for both joints or one per joint.
     """
 
     controller: str = "proposed"
-    sample_time: float = 0.01
+    design: ControllerConfig = field(default_factory=ControllerConfig)
     duration: float = 20.0
-    encoder_counts: int = DEFAULT_ENCODER_COUNTS
-    voltage_limit: float = VOLTAGE_LIMIT
+    trajectory: Trajectory = field(default_factory=WaveTrajectory)
+    encoder_counts: int | tuple[int, ...] = DEFAULT_ENCODER_COUNTS
+    zero_offset: float | tuple[float, ...] = 0.0
+    noise_std: float | tuple[float, ...] = 0.0
+    noise_seed: int = 0
+    delay_samples: int = 0
+    voltage_limit: float | tuple[float, ...] = VOLTAGE_LIMIT
     plant: PlantConfig = field(default_factory=PlantConfig)
     divergence_bound: float = DIVERGENCE_BOUND
-    integrator_accuracy: float = 3e-3
+    simulator: SimulatorConfig = field(default_factory=default_simulator)
 
     def __post_init__(self) -> None:
         if self.controller not in CONTROLLER_KINDS:
@@ -111,7 +158,8 @@ class ClosedLoopConfig:
                 f"controller = {self.controller!r}; one of {', '.join(CONTROLLER_KINDS)} "
                 "is required"
             )
-        require_positive("sample_time", self.sample_time)
+        if not isinstance(self.design, ControllerConfig):
+            raise ValueError(f"design = {self.design!r} is not a ControllerConfig")
         require_positive("duration", self.duration)
         if (
             self.duration < self.sample_time
@@ -121,19 +169,58 @@ class ClosedLoopConfig:
                 f"duration = {self.duration!r} is not a whole number (>= 1) of sample_time = "
                 f"{self.sample_time!r} periods"
             )
-        require_counts("encoder_counts", self.encoder_counts)
-        require_positive("voltage_limit", self.voltage_limit)
+        if not callable(getattr(self.trajectory, "evaluate", None)):
+            raise ValueError(f"trajectory = {self.trajectory!r} has no evaluate(t)")
+        set_field = partial(object.__setattr__, self)
+        set_field("encoder_counts", per_joint_counts("encoder_counts", self.encoder_counts, JOINTS))
+        set_field("zero_offset", _per_joint("zero_offset", self.zero_offset))
+        set_field("noise_std", _per_joint("noise_std", self.noise_std))
+        for j, std in enumerate(self.noise_std):
+            require_nonnegative(f"noise_std[{j}]", std)
+        for name in ("noise_seed", "delay_samples"):
+            value = getattr(self, name)
+            if isinstance(value, bool) or not isinstance(value, int | np.integer) or value < 0:
+                raise ValueError(f"{name} = {value!r}; an integer >= 0 is required")
+        set_field("voltage_limit", _per_joint("voltage_limit", self.voltage_limit))
+        for j, limit in enumerate(self.voltage_limit):
+            require_positive(f"voltage_limit[{j}]", limit)
         require_positive("divergence_bound", self.divergence_bound)
-        accuracy = require_positive("integrator_accuracy", self.integrator_accuracy)
-        if accuracy >= 1.0:
-            raise ValueError(f"integrator_accuracy = {accuracy!r}; a value in (0, 1) is required")
+        self._check_simulator()
         if not isinstance(self.plant, PlantConfig):
             raise ValueError(f"plant = {self.plant!r} is not a PlantConfig")
+
+    def _check_simulator(self) -> None:
+        simulator = self.simulator
+        schemes = GetIntegrationSchemes()
+        if simulator.integration_scheme not in schemes:
+            raise ValueError(
+                f"integration_scheme = {simulator.integration_scheme!r}; one of "
+                f"{', '.join(schemes)} is required"
+            )
+        accuracy = require_positive("accuracy", simulator.accuracy)
+        if accuracy >= 1.0:
+            raise ValueError(f"accuracy = {accuracy!r}; a value in (0, 1) is required")
+        require_positive("max_step_size", simulator.max_step_size)
+        require_nonnegative("target_realtime_rate", simulator.target_realtime_rate)
+        if simulator.start_time != 0.0:
+            raise ValueError(
+                f"start_time = {simulator.start_time!r}; 0 is required (a run starts at t = 0)"
+            )
+
+    @property
+    def sample_time(self) -> float:
+        """``T_s`` (s): the controller's period, which the loggers and the sensor share."""
+        return self.design.sample_time
 
     @property
     def samples(self) -> int:
         """``N0 = duration / T_s``, the number of samples ``k = 1..N0`` the metrics use."""
         return round(self.duration / self.sample_time)
+
+    @property
+    def noisy(self) -> bool:
+        """Whether the sensor adds noise (the diagram then has a noise source)."""
+        return any(std > 0.0 for std in self.noise_std)
 
 
 @dataclass(frozen=True, eq=False)
@@ -143,11 +230,13 @@ class ClosedLoopResult:
     Arrays have one row per sample: ``q_true``, ``q_measured``, ``q_desired`` (rad,
     2 columns); ``u_commanded``, ``u_applied`` (V, the voltage computed at ``t_k``
     and applied on ``[t_k, t_k + T_s)``); ``internals`` (columns
-    ``internals_names``). ``metrics`` use rows ``1..K``. ``status`` is ``"ok"`` or
-    ``"diverged"``; ``message`` says why a run stopped early (empty if it did not).
+    ``internals_names``). ``status`` is ``"ok"`` or ``"diverged"``; ``message`` says
+    why a run stopped early (empty if it did not); ``wall_time_s`` is the
+    simulation's wall time (build excluded). Metrics are computed from these logs
+    in ``analysis.metrics``.
     """
 
-    controller: str
+    config: ClosedLoopConfig
     times: np.ndarray
     q_true: np.ndarray
     q_measured: np.ndarray
@@ -156,9 +245,13 @@ class ClosedLoopResult:
     u_applied: np.ndarray
     internals: np.ndarray
     internals_names: tuple[str, ...]
-    metrics: RunMetrics
     status: str
     message: str
+    wall_time_s: float
+
+    @property
+    def controller(self) -> str:
+        return self.config.controller
 
     @property
     def q_error(self) -> np.ndarray:
@@ -168,7 +261,8 @@ class ClosedLoopResult:
 
 @dataclass(frozen=True, eq=False)
 class ClosedLoop:
-    """A built closed-loop diagram and handles to its parts."""
+    """A built closed-loop diagram and handles to its parts (``delay`` and
+    ``noise_source`` are ``None`` where the sensor has no delay or noise)."""
 
     diagram: Diagram
     arm: Arm
@@ -177,6 +271,8 @@ class ClosedLoop:
     loggers: dict[str, VectorLogSink]
     scene_graph: SceneGraph
     visualizer: MeshcatVisualizer | None
+    delay: DiscreteTimeDelay | None
+    noise_source: RandomSource | None
 
 
 def _find_scene_graph(builder: DiagramBuilder) -> SceneGraph:
@@ -187,39 +283,53 @@ def _find_scene_graph(builder: DiagramBuilder) -> SceneGraph:
     raise RuntimeError("add_arm did not add a SceneGraph")
 
 
-def build_closed_loop(
-    config: ClosedLoopConfig,
-    controller_config: ControllerConfig,
-    meshcat: Meshcat | None = None,
-) -> ClosedLoop:
-    """Wire plant, trajectory, encoder, controller, saturation, loggers and monitor.
-
-    ``controller_config.sample_time`` must equal ``config.sample_time``. With
-    ``meshcat``, a ``MeshcatVisualizer`` of the arm is added (for recordings)."""
-    if controller_config.sample_time != config.sample_time:
-        raise ValueError(
-            f"controller sample_time = {controller_config.sample_time!r} differs from "
-            f"sample_time = {config.sample_time!r}"
+def _add_sensor(
+    builder: DiagramBuilder, config: ClosedLoopConfig, arm: Arm
+) -> tuple[Encoder, OutputPort, DiscreteTimeDelay | None, RandomSource | None]:
+    """true q -> encoder (offset, quantiser, noise) -> delay: the measured-position port."""
+    encoder = builder.AddSystem(Encoder(JOINTS, config.encoder_counts, noisy=config.noisy))
+    builder.Connect(arm.position_output_port(), encoder.GetInputPort("q"))
+    noise_source = None
+    if config.noisy:
+        noise_source = builder.AddSystem(
+            RandomSource(RandomDistribution.kGaussian, JOINTS, config.sample_time)
         )
+        noise_source.set_name("encoder_noise")
+        builder.Connect(noise_source.get_output_port(0), encoder.GetInputPort("unit_noise"))
+    measured = encoder.GetOutputPort("q_measured")
+    delay = None
+    if config.delay_samples > 0:
+        delay = builder.AddSystem(
+            # Read at t_k before its own update, a delay of n steps lags n + 1 periods.
+            DiscreteTimeDelay(config.sample_time, config.delay_samples - 1, JOINTS)
+        )
+        delay.set_name("sensor_delay")
+        builder.Connect(measured, delay.get_input_port())
+        measured = delay.get_output_port()
+    return encoder, measured, delay, noise_source
+
+
+def build_closed_loop(config: ClosedLoopConfig, meshcat: Meshcat | None = None) -> ClosedLoop:
+    """Wire plant, trajectory, sensor, controller, saturation and loggers. With
+    ``meshcat``, a ``MeshcatVisualizer`` of the arm is added (for recordings)."""
     builder = DiagramBuilder()
     arm = add_arm(builder, config.plant)
-    trajectory = builder.AddSystem(DesiredTrajectory())
-    encoder = builder.AddSystem(Encoder(2, config.encoder_counts))
-    controller = builder.AddSystem(make_controller(config.controller, controller_config))
-    limit = np.full(2, config.voltage_limit)
+    trajectory = builder.AddSystem(DesiredTrajectory(config.trajectory))
+    encoder, measured, delay, noise_source = _add_sensor(builder, config, arm)
+    controller = builder.AddSystem(make_controller(config.controller, config.design))
+    limit = np.array(config.voltage_limit)
     saturation = builder.AddSystem(Saturation(-limit, limit))
     saturation.set_name("voltage_saturation")
 
     desired_port = trajectory.get_output_port(0)
-    builder.Connect(arm.position_output_port(), encoder.get_input_port(0))
-    builder.Connect(encoder.get_output_port(0), controller.GetInputPort("q_measured"))
+    builder.Connect(measured, controller.GetInputPort("q_measured"))
     builder.Connect(desired_port, controller.GetInputPort("desired"))
     builder.Connect(controller.GetOutputPort("voltage"), saturation.get_input_port(0))
     builder.Connect(saturation.get_output_port(0), arm.voltage_input_port())
 
     sources = {
         "q_true": arm.position_output_port(),
-        "q_measured": encoder.get_output_port(0),
+        "q_measured": measured,
         "desired": desired_port,
         "u_commanded": controller.GetOutputPort("voltage"),
         "u_applied": saturation.get_output_port(0),
@@ -239,38 +349,19 @@ def build_closed_loop(
     )
     diagram = builder.Build()
     diagram.set_name(f"closed_loop_{config.controller}")
-    return ClosedLoop(diagram, arm, encoder, controller, loggers, scene_graph, visualizer)
+    return ClosedLoop(
+        diagram, arm, encoder, controller, loggers, scene_graph, visualizer, delay, noise_source
+    )
 
 
 class ClosedLoopRunner:
     """Builds the closed loop of ``config`` once; ``run`` simulates it on a fresh
-    Context with given true plant parameters (the controller keeps ``nominal``).
+    Context with given true plant parameters (the controller keeps the model of
+    ``config.design.nominal``)."""
 
-    ``controller_config`` overrides the controller design (default: the paper's
-    Sec. 4.2 settings); its ``nominal`` and ``sample_time`` are replaced by
-    ``nominal`` and ``config.sample_time``."""
-
-    def __init__(
-        self,
-        config: ClosedLoopConfig,
-        nominal: LumpedParameters = TABLE1,
-        *,
-        controller_config: ControllerConfig | None = None,
-        meshcat: Meshcat | None = None,
-    ) -> None:
+    def __init__(self, config: ClosedLoopConfig, *, meshcat: Meshcat | None = None) -> None:
         self.config = config
-        self.controller_config = replace(
-            controller_config or ControllerConfig(),
-            nominal=nominal,
-            sample_time=config.sample_time,
-        )
-        self.loop = build_closed_loop(config, self.controller_config, meshcat)
-        self._simulator_config = SimulatorConfig(
-            integration_scheme="runge_kutta3",
-            accuracy=config.integrator_accuracy,
-            max_step_size=config.sample_time,
-            use_error_control=True,
-        )
+        self.loop = build_closed_loop(config, meshcat)
 
     @property
     def diagram(self) -> Diagram:
@@ -281,29 +372,47 @@ class ClosedLoopRunner:
         return self.loop.arm
 
     def new_context(
-        self, parameters: ArmParameters | None = None, encoder_counts: int | None = None
+        self,
+        parameters: ArmParameters | None = None,
+        encoder_counts: int | tuple[int, ...] | None = None,
     ) -> Context:
-        """A fresh Context: true ``parameters`` (default: the URDF's), the encoder
-        resolution (default: the config's), the arm at rest at ``q_d(0)``."""
-        loop = self.loop
+        """A fresh Context: true ``parameters`` (default: the URDF's), the sensor of the
+        config (``encoder_counts`` may override the resolution), the arm at rest at
+        ``q_d(0)``; a sensor delay line is filled with the first measurement."""
+        loop, config = self.loop, self.config
         context = loop.diagram.CreateDefaultContext()
         apply_parameters(loop.arm, context, parameters or loop.arm.default_parameters)
-        counts = self.config.encoder_counts if encoder_counts is None else encoder_counts
-        loop.encoder.set_counts(loop.encoder.GetMyMutableContextFromRoot(context), counts)
+        encoder_context = loop.encoder.GetMyMutableContextFromRoot(context)
+        counts = config.encoder_counts if encoder_counts is None else encoder_counts
+        loop.encoder.set_counts(encoder_context, counts)
+        loop.encoder.set_zero_offset(encoder_context, config.zero_offset)
+        if loop.noise_source is not None:
+            loop.encoder.set_noise_std(encoder_context, config.noise_std)
+            loop.noise_source.SetRandomContext(
+                loop.noise_source.GetMyMutableContextFromRoot(context),
+                RandomGenerator(config.noise_seed),
+            )
         plant = loop.arm.plant
         plant_context = plant.GetMyMutableContextFromRoot(context)
-        plant.SetPositions(plant_context, desired(0.0)[0])
-        plant.SetVelocities(plant_context, np.zeros(2))
+        plant.SetPositions(plant_context, config.trajectory.evaluate(0.0)[0])
+        plant.SetVelocities(plant_context, np.zeros(JOINTS))
+        if loop.delay is not None:
+            first = loop.encoder.GetOutputPort("q_measured").Eval(encoder_context)
+            delay_context = loop.delay.GetMyMutableContextFromRoot(context)
+            buffer = delay_context.get_discrete_state_vector().size() // JOINTS
+            delay_context.SetDiscreteState(np.tile(first, buffer))
         return context
 
     def run(
-        self, parameters: ArmParameters | None = None, encoder_counts: int | None = None
+        self,
+        parameters: ArmParameters | None = None,
+        encoder_counts: int | tuple[int, ...] | None = None,
     ) -> ClosedLoopResult:
         """Simulate ``duration`` seconds; never raises for a diverging run."""
         context = self.new_context(parameters, encoder_counts)
         simulator = Simulator(self.loop.diagram, context)
-        ApplySimulatorConfig(self._simulator_config, simulator)
         T_s = self.config.sample_time
+        ApplySimulatorConfig(self._simulator_config(), simulator)
         # One sample past the end: the voltage computed at t_N0 is logged at t_N0+1.
         last = self.config.samples + 1
         status, message = "ok", ""
@@ -322,13 +431,21 @@ class ClosedLoopRunner:
         wall = time.perf_counter() - start
         return self._collect(context, status, message, wall)
 
+    def _simulator_config(self) -> SimulatorConfig:
+        """The config's integrator with steps capped at one sample period ``T_s``."""
+        settings = self.config.simulator
+        values = {entry.name: getattr(settings, entry.name) for entry in SimulatorConfig.__fields__}
+        values["max_step_size"] = min(settings.max_step_size, self.config.sample_time)
+        return SimulatorConfig(**values)
+
     def _divergence(self, context: Context) -> str:
         """Why the run in ``context`` counts as diverged now ("" if it does not)."""
         plant = self.loop.arm.plant
         q = plant.GetPositions(plant.GetMyContextFromRoot(context))
         if not np.all(np.isfinite(q)):
             return f"non-finite joint position {q.tolist()} at t = {context.get_time():g} s"
-        error = float(np.max(np.abs(q - desired(context.get_time())[0])))
+        q_desired = self.config.trajectory.evaluate(context.get_time())[0]
+        error = float(np.max(np.abs(q - q_desired)))
         if error > self.config.divergence_bound:
             return (
                 f"|q~| = {error:.3g} rad exceeds divergence_bound = "
@@ -340,7 +457,7 @@ class ClosedLoopRunner:
         """Divergence the monitor (every ``MONITOR_SAMPLES`` periods) may have missed."""
         if not np.all(np.isfinite(q_error)):
             return "diverged", "non-finite joint position in the log"
-        worst = float(np.max(np.abs(q_error)))
+        worst = float(np.max(np.abs(q_error))) if q_error.size else 0.0
         if worst > self.config.divergence_bound:
             return "diverged", (
                 f"|q~| = {worst:.3g} rad exceeds divergence_bound = "
@@ -354,46 +471,32 @@ class ClosedLoopRunner:
         logs = {name: logger.FindLog(context) for name, logger in self.loop.loggers.items()}
         data = {name: log.data().T for name, log in logs.items()}
         times = logs["q_true"].sample_times()
-        # Rows 0..K of the state-like logs; voltage/internals rows shifted by one sample.
         rows = min(len(values) for values in data.values())
         # Rows 0..K of the state-like logs; the voltage logged at t_{k+1} belongs to t_k.
         # A run that stopped early ends at its last complete pair (at least row 0).
         count = min(rows - 1, self.config.samples + 1)
         kept = max(count, min(rows, 1))
         q_true, q_measured = data["q_true"][:kept], data["q_measured"][:kept]
-        q_desired = data["desired"][:kept, :2]
+        q_desired = data["desired"][:kept, :JOINTS]
         shifted = {}
         for name in ("u_commanded", "u_applied", "internals"):
             values = data[name][1 : count + 1]
             shifted[name] = (
                 values if len(values) == kept else np.full((kept, values.shape[1]), np.nan)
             )
-        u_commanded, u_applied = shifted["u_commanded"], shifted["u_applied"]
-        internals = shifted["internals"]
-        if count < 2:
-            nan = (math.nan, math.nan)
-            metrics = RunMetrics(nan, nan, math.nan, math.nan, wall)
-        else:
-            metrics = compute_metrics(
-                q_true[1:] - q_desired[1:],
-                u_applied[1:],
-                u_commanded[1:],
-                self.config.voltage_limit,
-                wall,
-            )
         if status == "ok":
             status, message = self._check_logged(q_true - q_desired)
         return ClosedLoopResult(
-            controller=self.config.controller,
+            config=self.config,
             times=times[:kept],
             q_true=q_true,
             q_measured=q_measured,
             q_desired=q_desired,
-            u_commanded=u_commanded,
-            u_applied=u_applied,
-            internals=internals,
+            u_commanded=shifted["u_commanded"],
+            u_applied=shifted["u_applied"],
+            internals=shifted["internals"],
             internals_names=tuple(self.loop.controller.internals_names),
-            metrics=metrics,
             status=status,
             message=message,
+            wall_time_s=wall,
         )

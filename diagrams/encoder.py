@@ -14,8 +14,12 @@ average, a bias that is an artefact of where the zero was set. Rounding keeps th
 error in ``[-Delta/2, Delta/2]`` with zero mean (Drake's ``RotaryEncoders`` floors,
 which is why it is not used here; it also fixes the resolution at construction).
 
-``N`` is a numeric parameter of the Context, so the resolution changes per run
-without rebuilding; ``N = 0`` means an ideal (unquantised) sensor.
+``N`` (one per joint) is a numeric parameter of the Context, so the resolution
+changes per run without rebuilding; ``N = 0`` means an ideal (unquantised)
+sensor. So are a zero offset per joint (the encoder reads ``q + offset``) and,
+when the encoder is built ``noisy``, the standard deviation of additive Gaussian
+noise per joint; a sensor delay is a ``DiscreteTimeDelay`` after it
+(``diagrams.closed_loop``).
 
 Default ``N = 20000`` counts per joint revolution (``Delta = 3.14e-4 rad``): a
 500-line optical encoder read in quadrature (2000 counts per motor revolution,
@@ -30,6 +34,7 @@ baseline then moves in steps of ``Delta / T_s = 0.031 rad/s``.
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 
 import numpy as np
 from pydrake.systems.framework import BasicVector, Context, LeafSystem
@@ -48,37 +53,84 @@ def require_counts(name: str, counts: int) -> int:
     return int(counts)
 
 
-def quantise(q: np.ndarray, counts: int) -> np.ndarray:
-    """``Delta round(q / Delta)``, ``Delta = 2 pi / counts``; ``q`` itself if ``counts == 0``."""
-    if counts == 0:
-        return np.asarray(q, dtype=float).copy()
-    step = 2.0 * math.pi / counts
-    return step * np.round(np.asarray(q, dtype=float) / step)
+def quantise(q: np.ndarray, counts: int | np.ndarray) -> np.ndarray:
+    """``Delta round(q / Delta)``, ``Delta = 2 pi / counts`` (one count for all entries or
+    one per entry); an entry with ``counts == 0`` is passed through unquantised."""
+    q = np.asarray(q, dtype=float)
+    counts = np.broadcast_to(np.asarray(counts, dtype=float), q.shape)
+    ideal = counts == 0
+    step = 2.0 * math.pi / np.where(ideal, 1.0, counts)
+    return np.where(ideal, q, step * np.round(q / step))
+
+
+def per_joint_counts(name: str, counts: int | Sequence[int], size: int) -> tuple[int, ...]:
+    """``counts`` for each of ``size`` joints: one integer for all, or one per joint."""
+    values = list(counts) if isinstance(counts, list | tuple | np.ndarray) else [counts]
+    if len(values) == 1:
+        values = values * size
+    if len(values) != size:
+        raise ValueError(
+            f"{name} = {counts!r}; one integer for all joints or {size} (one per joint) "
+            "is required"
+        )
+    return tuple(require_counts(name, value) for value in values)
 
 
 class Encoder(LeafSystem):
-    """Input ``q`` (true joint positions), output ``q_measured`` (quantised), both size ``n``.
+    """Input ``q`` (true joint positions), output ``q_measured``, both size ``n``::
 
-    The counts per revolution are numeric parameter 0 (``set_counts``)."""
+        q_measured = quantise(q + zero_offset, counts) + noise_std * w
 
-    def __init__(self, size: int = 2, counts: int = DEFAULT_ENCODER_COUNTS) -> None:
+    Numeric parameters (per Context, ``set_counts`` etc.): the counts per revolution
+    and the zero offset (rad) per joint and, with ``noisy``, the noise standard
+    deviation (rad) per joint; ``w`` is then the input ``unit_noise`` (a standard
+    normal sample held over each period, ``diagrams.closed_loop``)."""
+
+    def __init__(
+        self, size: int = 2, counts: int | Sequence[int] = DEFAULT_ENCODER_COUNTS,
+        noisy: bool = False,
+    ) -> None:  # fmt: skip
         super().__init__()
         self.set_name("encoder")
         self._counts_index = self.DeclareNumericParameter(
-            BasicVector([float(require_counts("encoder_counts", counts))])
+            BasicVector([float(c) for c in per_joint_counts("encoder_counts", counts, size)])
         )
+        self._offset_index = self.DeclareNumericParameter(BasicVector(np.zeros(size)))
         self._q = self.DeclareVectorInputPort("q", size)
+        self._noise = None
+        if noisy:
+            self._noise_index = self.DeclareNumericParameter(BasicVector(np.zeros(size)))
+            self._noise = self.DeclareVectorInputPort("unit_noise", size)
         self.DeclareVectorOutputPort("q_measured", size, self._calc_measured)
 
-    def counts(self, context: Context) -> int:
-        """Counts per revolution in this system's ``context``."""
-        return int(context.get_numeric_parameter(self._counts_index).GetAtIndex(0))
+    def counts(self, context: Context) -> tuple[int, ...]:
+        """Counts per revolution of each joint in this system's ``context``."""
+        values = context.get_numeric_parameter(self._counts_index).CopyToVector()
+        return tuple(int(value) for value in values)
 
-    def set_counts(self, context: Context, counts: int) -> None:
+    def set_counts(self, context: Context, counts: int | Sequence[int]) -> None:
         """Change the resolution in this system's ``context`` (0: ideal sensor)."""
-        context.get_mutable_numeric_parameter(self._counts_index).SetAtIndex(
-            0, float(require_counts("encoder_counts", counts))
+        size = self._q.size()
+        values = per_joint_counts("encoder_counts", counts, size)
+        context.get_mutable_numeric_parameter(self._counts_index).SetFromVector(
+            np.array(values, dtype=float)
         )
 
+    def set_zero_offset(self, context: Context, offset: Sequence[float]) -> None:
+        """The encoder zero offset per joint (rad) in this system's ``context``."""
+        context.get_mutable_numeric_parameter(self._offset_index).SetFromVector(offset)
+
+    def set_noise_std(self, context: Context, std: Sequence[float]) -> None:
+        """The additive noise's standard deviation per joint (rad); needs ``noisy``."""
+        if self._noise is None:
+            raise ValueError("this encoder was built without noise (noisy = False)")
+        context.get_mutable_numeric_parameter(self._noise_index).SetFromVector(std)
+
     def _calc_measured(self, context: Context, output: BasicVector) -> None:
-        output.SetFromVector(quantise(self._q.Eval(context), self.counts(context)))
+        q = self._q.Eval(context) + context.get_numeric_parameter(self._offset_index).value()
+        counts = context.get_numeric_parameter(self._counts_index).value()
+        measured = quantise(q, counts)
+        if self._noise is not None:
+            std = context.get_numeric_parameter(self._noise_index).value()
+            measured += std * self._noise.Eval(context)
+        output.SetFromVector(measured)

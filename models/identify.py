@@ -18,9 +18,10 @@ model reproduces the plant's dynamics exactly (up to round-off).
 from __future__ import annotations
 
 import numpy as np
+from pydrake.systems.framework import Context
+
 from posfb.models.lumped import LumpedParameters
 from posfb.models.plant import JOINTS, Arm, read_parameters
-from pydrake.systems.framework import Context
 
 
 def identify(arm: Arm, root_context: Context) -> LumpedParameters:

@@ -25,6 +25,7 @@ from __future__ import annotations
 from dataclasses import dataclass, fields
 
 import numpy as np
+
 from posfb.models.validation import require_finite, require_positive, require_vector
 
 #: Gravity used throughout (Drake's default, m/s^2).

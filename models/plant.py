@@ -34,7 +34,6 @@ from dataclasses import dataclass, fields, replace
 from pathlib import Path
 
 import numpy as np
-from posfb.models.validation import require_nonnegative, require_positive
 from pydrake.math import RigidTransform
 from pydrake.multibody.parsing import Parser
 from pydrake.multibody.plant import AddMultibodyPlant, MultibodyPlant, MultibodyPlantConfig
@@ -50,11 +49,11 @@ from pydrake.symbolic import Variable, tanh
 from pydrake.systems.framework import Context, Diagram, DiagramBuilder
 from pydrake.systems.primitives import Demultiplexer, Multiplexer, SymbolicVectorSystem
 
+from posfb.models.urdf_check import POSFB_NS, check_arm_urdf
+from posfb.models.validation import require_finite, require_nonnegative, require_positive
+
 #: The arm shipped with posfb.
 DEFAULT_URDF = Path(__file__).resolve().parent.parent / "urdf" / "two_link_arm.urdf"
-
-#: XML namespace of posfb's own URDF elements (motor constants, Coulomb levels).
-POSFB_NS = "https://posfb.example/urdf"
 
 JOINTS = ("joint1", "joint2")
 LINKS = ("link1", "link2")
@@ -80,6 +79,27 @@ class PlantConfig:
         require_positive("friction_velocity", self.friction_velocity)
 
 
+#: The heaviest tip payload accepted (kg). An absolute cap, not a multiple of
+#: the link masses, so that every place a payload enters (``posfb identify
+#: --payload``, a scenario, a Monte-Carlo study) can check it before an arm is
+#: built and whatever link masses a sample draws. 100 kg is 15 times the
+#: shipped arm's moving mass (6.41 kg) and 350 times the paper's 0.288 kg
+#: payload: anything heavier is a unit slip or an overflow, not a payload
+#: change the two-link model of Sec. 4.1 is meant for.
+MAX_PAYLOAD_MASS = 100.0
+
+
+def require_payload_mass(value: float) -> float:
+    """Return ``value`` if it is an accepted tip payload: 0..``MAX_PAYLOAD_MASS`` kg."""
+    mass = require_finite("payload_mass", value)
+    if not 0.0 <= mass <= MAX_PAYLOAD_MASS:
+        raise ValueError(
+            f"payload_mass = {value!r} kg; 0 <= payload_mass <= {MAX_PAYLOAD_MASS:g} kg "
+            "is allowed (a tip payload)"
+        )
+    return mass
+
+
 @dataclass(frozen=True)
 class ArmParameters:
     """The physical parameters that can change per Context (SI units).
@@ -87,7 +107,8 @@ class ArmParameters:
     Link inertias are about the centre of mass and the joint axis; centres of
     mass lie on the link's x axis at ``com`` from the joint. ``rotor_inertia``
     is the reflected value (rotor inertia x gear ratio^2) seen at the joint.
-    ``payload_mass`` is a point mass at the link-2 tip.
+    ``payload_mass`` is a point mass at the link-2 tip, at most
+    ``MAX_PAYLOAD_MASS``.
     """
 
     link_mass: tuple[float, float]
@@ -103,7 +124,7 @@ class ArmParameters:
         for field in fields(self):
             value = getattr(self, field.name)
             if field.name == "payload_mass":
-                require_nonnegative(field.name, value)
+                require_payload_mass(value)
                 continue
             if len(value) != 2:
                 raise ValueError(f"{field.name} = {value!r}; two values (one per joint) required")
@@ -148,10 +169,7 @@ class Arm:
 
 def _read_posfb_extras(urdf: Path) -> tuple[tuple[float, float], tuple[float, float]]:
     """Coulomb levels and motor constants from posfb's own URDF elements."""
-    try:
-        root = ET.parse(urdf).getroot()
-    except ET.ParseError as error:
-        raise ValueError(f"URDF {urdf} is not well-formed XML: {error}") from None
+    root = ET.parse(urdf).getroot()
     coulomb = {}
     for joint in root.iter("joint"):
         element = joint.find(f"{{{POSFB_NS}}}coulomb_friction")
@@ -246,8 +264,7 @@ def add_arm(builder: DiagramBuilder, config: PlantConfig | None = None) -> Arm:
     ("Detected NaN in applied generalized force input port")."""
     config = config or PlantConfig()
     urdf = Path(config.urdf)
-    if not urdf.is_file():
-        raise FileNotFoundError(f"URDF {urdf} does not exist")
+    check_arm_urdf(urdf, payload_link=PAYLOAD_BODY)
     coulomb_levels, motor_constant = _read_posfb_extras(urdf)
     plant, _ = AddMultibodyPlant(MultibodyPlantConfig(time_step=config.time_step), builder)
     plant.set_name("arm")

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import pytest
+
 from posfb.models.plant import build_arm_diagram
 
 

@@ -12,14 +12,15 @@ from __future__ import annotations
 from dataclasses import dataclass, replace
 
 import numpy as np
-from posfb.models.controllers import INTERNALS, make_controller
-from posfb.models.design import ControllerConfig, NonlinearTorqueConfig
-from posfb.models.lumped import TABLE1, LumpedModel, LumpedParameters
-from posfb.models.trajectory import DesiredTrajectory, desired
 from pydrake.symbolic import Variable
 from pydrake.systems.analysis import ApplySimulatorConfig, Simulator, SimulatorConfig
 from pydrake.systems.framework import DiagramBuilder
 from pydrake.systems.primitives import SymbolicVectorSystem, VectorLogSink
+
+from posfb.models.controllers import INTERNALS, make_controller
+from posfb.models.design import ControllerConfig, NonlinearTorqueConfig
+from posfb.models.lumped import TABLE1, LumpedModel, LumpedParameters
+from posfb.models.trajectory import DesiredTrajectory, desired
 
 #: Table 1 without Coulomb friction: plant and controllers share it exactly.
 FRICTIONLESS = replace(TABLE1, theta6=0.0, theta11=0.0)

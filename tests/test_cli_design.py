@@ -8,6 +8,7 @@ import subprocess
 import sys
 
 import pytest
+
 from posfb.analysis.cli import main
 
 
@@ -53,11 +54,11 @@ def test_text_report_flags_failed_checks_in_words(capsys):
 @pytest.mark.parametrize(
     ("args", "needle"),
     [
-        (["design", "--sample-time", "0"], "--sample-time"),
-        (["design", "--sample-time", "-0.01"], "--sample-time"),
-        (["design", "--sample-time", "nan"], "--sample-time"),
-        (["design", "--alpha-star", "0"], "--alpha-star"),
-        (["design", "--alpha-star", "inf"], "--alpha-star"),
+        (["design", "--sample-time", "0"], "timing.sample_time"),
+        (["design", "--sample-time", "-0.01"], "timing.sample_time"),
+        (["design", "--sample-time", "nan"], "timing.sample_time"),
+        (["design", "--alpha-star", "0"], "controller.alpha_star"),
+        (["design", "--alpha-star", "inf"], "controller.alpha_star"),
     ],
 )
 def test_bad_value_gives_one_line_and_exit_2(capsys, args, needle):

@@ -7,6 +7,7 @@ import subprocess
 import sys
 
 import pytest
+
 from posfb.models.lumped import TABLE1
 
 CLI = [sys.executable, "-m", "posfb.analysis.cli"]

@@ -8,6 +8,7 @@ import sys
 import xml.etree.ElementTree as ET
 
 import pytest
+
 from posfb.analysis.cli import main
 from posfb.diagrams import graph
 
@@ -26,7 +27,7 @@ def test_simulate_json_has_the_documented_keys():
     data = json.loads(result.stdout)
     assert {"rms_q", "rms_u", "max_abs_q_err", "saturated_fraction", "wall_time_s"} <= set(data)
     assert len(data["rms_q"]) == len(data["rms_u"]) == 2
-    assert data["status"] == "ok" and data["case"] == "payload"
+    assert data["status"] == "ok" and data["scenario"] == "payload"
 
 
 def test_simulate_prints_a_summary(capsys):

@@ -8,11 +8,12 @@ import math
 import numpy as np
 import pytest
 from lumped_plant import exact_model_config, simulate
+from pydrake.systems.analysis import Simulator
+
 from posfb.models.controllers import CONTROLLER_KINDS, INTERNALS, make_controller
 from posfb.models.design import ControllerConfig, NonlinearTorqueConfig
 from posfb.models.lumped import LumpedModel
 from posfb.models.trajectory import DESIRED_SIZE, desired
-from pydrake.systems.analysis import Simulator
 
 T = ControllerConfig().sample_time
 Q_D, QD_DOT, QD_DDOT = desired(1.0)

@@ -7,6 +7,8 @@ import math
 import numpy as np
 import pytest
 import scipy.signal
+from pydrake.systems.controllers import LinearQuadraticRegulator
+
 from posfb.models.design import (
     ControllerConfig,
     LqrWeights,
@@ -20,7 +22,6 @@ from posfb.models.design.discretise import first_order_hold, zero_order_hold
 from posfb.models.design.realisation import ContinuousFilter
 from posfb.models.design.spr import spr_certificate
 from posfb.models.lumped import TABLE1, LumpedModel
-from pydrake.systems.controllers import LinearQuadraticRegulator
 
 
 @pytest.fixture(scope="module")

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+
 from posfb.models.controllers import make_controller
 from posfb.models.design import (
     ControllerConfig,

@@ -6,6 +6,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 import scipy.signal
+
 from posfb.models.design import ControllerConfig
 from posfb.models.design.augmented import augmented_system, nonlinear_input_matrix, solve_lqr
 from posfb.models.design.closed_loop import sampled_data_closed_loop, spectral_radius

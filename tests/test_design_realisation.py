@@ -5,6 +5,8 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from scipy.integrate import solve_ivp
+
 from posfb.models.design import compute_design
 from posfb.models.design.realisation import (
     ContinuousFilter,
@@ -12,7 +14,6 @@ from posfb.models.design.realisation import (
     nonlinear_control_filter,
     velocity_bound_filter,
 )
-from scipy.integrate import solve_ivp
 
 SAMPLE_TIMES = (0.01, 0.005, 0.0025)
 DURATION = 1.0

@@ -6,6 +6,7 @@ import math
 
 import numpy as np
 import pytest
+
 from posfb.analysis.diagnostics import (
     LoopEigen,
     ScanRow,
@@ -19,6 +20,7 @@ from posfb.analysis.diagnostics import (
 from posfb.models.controllers import cached_design
 from posfb.models.design import ControllerConfig
 from posfb.models.lumped import TABLE1
+from posfb.models.trajectory import WaveTrajectory
 
 
 def test_scan_at_the_paper_alpha_star_matches_the_design_check():
@@ -53,11 +55,11 @@ def test_band_rms_and_peak_frequency_on_a_two_tone_signal():
 
 
 def test_pid_mismatch_prediction_grows_with_the_payload():
-    nominal = pid_mismatch_prediction("nominal", 2.0, 0.01)
-    payload = pid_mismatch_prediction("payload", 2.0, 0.01)
+    nominal = pid_mismatch_prediction("nominal", WaveTrajectory(), 2.0, 0.01)
+    payload = pid_mismatch_prediction("payload", WaveTrajectory(), 2.0, 0.01)
     assert nominal[1] < 0.005 < payload[1]
 
 
 def test_model_voltage_is_the_inverse_dynamics_rms():
-    u = model_voltage_rms(TABLE1, 20.0, 0.01)
+    u = model_voltage_rms(TABLE1, WaveTrajectory(), 20.0, 0.01)
     assert 4.0 < u[0] < 5.0 and 2.5 < u[1] < 3.5

@@ -6,6 +6,7 @@ import math
 
 import numpy as np
 import pytest
+
 from posfb.diagrams.encoder import DEFAULT_ENCODER_COUNTS, Encoder, quantise
 
 
@@ -36,10 +37,23 @@ def test_encoder_system_resolution_changes_per_context():
     np.testing.assert_allclose(encoder.get_output_port(0).Eval(context), quantise(q, 1000))
     encoder.set_counts(context, 0)
     np.testing.assert_array_equal(encoder.get_output_port(0).Eval(context), q)
-    assert encoder.counts(encoder.CreateDefaultContext()) == 1000
+    assert encoder.counts(encoder.CreateDefaultContext()) == (1000, 1000)
 
 
 @pytest.mark.parametrize("counts", [-1, 2.5, True])
 def test_bad_counts_are_refused_by_name(counts):
     with pytest.raises(ValueError, match="encoder_counts"):
         Encoder(2, counts)
+
+
+def test_counts_offset_and_noise_are_per_joint():
+    encoder = Encoder(2, [1000, 0], noisy=True)
+    context = encoder.CreateDefaultContext()
+    q = np.array([0.0031, -0.0094])
+    encoder.GetInputPort("q").FixValue(context, q)
+    encoder.GetInputPort("unit_noise").FixValue(context, [1.0, -2.0])
+    encoder.set_zero_offset(context, [0.01, 0.02])
+    encoder.set_noise_std(context, [1e-3, 1e-4])
+    step = 2 * math.pi / 1000
+    expected = [step * round((q[0] + 0.01) / step) + 1e-3, q[1] + 0.02 - 2e-4]
+    np.testing.assert_allclose(encoder.get_output_port(0).Eval(context), expected, rtol=1e-15)

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+
 from posfb.models.identify import identify
 from posfb.models.lumped import TABLE1, LumpedModel, LumpedParameters
 from posfb.models.plant import set_coulomb

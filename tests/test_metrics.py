@@ -6,6 +6,7 @@ import math
 
 import numpy as np
 import pytest
+
 from posfb.analysis.metrics import RunMetrics, compute_metrics, rms
 
 

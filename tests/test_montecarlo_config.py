@@ -8,6 +8,7 @@ from pathlib import Path
 
 import pytest
 from montecarlo_helpers import TINY_STUDY, write_study
+
 from posfb.analysis.cli import main
 from posfb.analysis.montecarlo.config import (
     Fixed,

@@ -5,6 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 from montecarlo_helpers import TINY_STUDY
+
 from posfb.analysis.cli import main
 from posfb.analysis.montecarlo.config import study_from_text
 from posfb.analysis.montecarlo.coverage import BOUND_NAMES

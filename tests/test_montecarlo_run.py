@@ -20,6 +20,7 @@ from montecarlo_helpers import (
     fake_evaluate,
     write_study,
 )
+
 from posfb.analysis.cli import main
 from posfb.analysis.montecarlo import scheduler
 from posfb.analysis.montecarlo.config import study_from_text
@@ -202,4 +203,4 @@ def test_a_study_alpha_star_reaches_every_runner():
     )
     evaluator = ClosedLoopEvaluator(study)
     for runner in evaluator.runners.values():
-        assert runner.controller_config.nonlinear.alpha_star == 2.75
+        assert runner.config.design.nonlinear.alpha_star == 2.75

@@ -7,6 +7,7 @@ from dataclasses import replace
 import numpy as np
 import pytest
 from montecarlo_helpers import TINY_STUDY
+
 from posfb.analysis.montecarlo.config import study_from_text
 from posfb.analysis.montecarlo.sampling import sample_plant
 from posfb.models.plant import build_arm_diagram

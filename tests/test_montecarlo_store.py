@@ -7,6 +7,7 @@ from dataclasses import replace
 
 import pytest
 from montecarlo_helpers import TINY_STUDY, make_result
+
 from posfb.analysis.errors import UsageError
 from posfb.analysis.montecarlo.config import study_from_text
 from posfb.analysis.montecarlo.records import ControllerRun

@@ -6,6 +6,8 @@ import dataclasses
 
 import numpy as np
 import pytest
+from pydrake.systems.analysis import ApplySimulatorConfig, Simulator, SimulatorConfig
+
 from posfb.models.plant import (
     ArmParameters,
     PlantConfig,
@@ -14,7 +16,6 @@ from posfb.models.plant import (
     energy_accounts,
     read_parameters,
 )
-from pydrake.systems.analysis import ApplySimulatorConfig, Simulator, SimulatorConfig
 
 
 def _total_energy(arm, context) -> float:

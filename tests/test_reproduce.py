@@ -15,6 +15,7 @@ from pathlib import Path
 
 import pytest
 from matplotlib.image import imread
+
 from posfb.analysis.cli import main
 from posfb.analysis.experiment import ResultsFile
 from posfb.models.controllers import CONTROLLER_KINDS
@@ -107,7 +108,7 @@ def test_results_file_is_rewritten_after_every_entry(tmp_path):
 
 
 def test_experiment_script_runs_directly(tmp_path):
-    script = Path(__file__).resolve().parent.parent / "diagrams" / "payload_experiment.py"
+    script = Path(__file__).resolve().parent.parent / "analysis" / "payload_experiment.py"
     result = subprocess.run(
         [sys.executable, str(script), "--out", str(tmp_path), "--duration", "0.5"],
         capture_output=True,

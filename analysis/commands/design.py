@@ -11,35 +11,28 @@ from __future__ import annotations
 
 import argparse
 import json
-from dataclasses import asdict, replace
+from dataclasses import asdict
 
 import numpy as np
+
+from posfb.analysis.commands.scenario_args import add_scenario_arguments, scenario_from_args
+from posfb.diagrams.scenario import resolve
 from posfb.models.design import ControllerConfig, Design, compute_design
-from posfb.models.validation import require_positive
+from posfb.models.design.discretise import DISCRETISATION_NAMES
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
     parser = subparsers.add_parser(
         "design", help="design the position-feedback controller (Sec. 3) and check it"
     )
-    parser.add_argument(
-        "--sample-time", type=float, metavar="TS", help="sample time T_s in s (default 0.01)"
-    )
-    parser.add_argument(
-        "--alpha-star", type=float, metavar="A", help="steady nonlinear gain alpha* (default 4)"
-    )
+    add_scenario_arguments(parser, ("sample_time", "alpha_star"))
     parser.add_argument("--json", action="store_true", help="print one JSON object")
     parser.set_defaults(handler=run)
 
 
-def config_from_args(sample_time: float | None, alpha_star: float | None) -> ControllerConfig:
-    """The paper's config with the command-line overrides, checked."""
-    config = ControllerConfig()
-    if sample_time is not None:
-        config = replace(config, sample_time=require_positive("--sample-time", sample_time))
-    if alpha_star is not None:
-        config = config.with_alpha_star(require_positive("--alpha-star", alpha_star))
-    return config
+def design_config(args: argparse.Namespace) -> ControllerConfig:
+    """The design inputs of the scenario the command line describes."""
+    return resolve(scenario_from_args(args)).config.design
 
 
 def _poles(poles: np.ndarray) -> list[list[float]]:
@@ -52,6 +45,7 @@ def design_to_dict(design: Design) -> dict:
     return {
         "sample_time": design.config.sample_time,
         "alpha_star": design.config.nonlinear.alpha_star,
+        "discretisation": design.config.discretisation,
         "M0": design.M0.tolist(),
         "B": design.B.tolist(),
         "K": design.K.tolist(),
@@ -99,8 +93,9 @@ def format_report(design: Design) -> str:
     config = design.config
     lines = [
         f"Design of Sec. 3 at T_s = {config.sample_time:g} s, alpha* = "
-        f"{config.nonlinear.alpha_star:g}, K_alpha = {config.nonlinear.K_alpha:g} "
-        "(Table 1 nominal model, Sec. 4.2 weights)",
+        f"{config.nonlinear.alpha_star:g}, K_alpha = {config.nonlinear.K_alpha:g}, "
+        f"G(s) pole a = {config.nonlinear.filter_a:g}, filters discretised by "
+        f"{DISCRETISATION_NAMES[config.discretisation]}",
         *_matrix("K = [K1 K2 K3] (Eq. 14)", design.K),
         *_matrix("P (Eq. 15)", design.P),
         *_matrix("E = (M0*)^-T P2^T = [E1 E2 E3] (Eq. 20)", design.E),
@@ -119,6 +114,6 @@ def format_report(design: Design) -> str:
 
 
 def run(args: argparse.Namespace) -> int:
-    design = compute_design(config_from_args(args.sample_time, args.alpha_star))
+    design = compute_design(design_config(args))
     print(json.dumps(design_to_dict(design)) if args.json else format_report(design))
     return 0

@@ -6,22 +6,23 @@ import argparse
 import sys
 from pathlib import Path
 
-from posfb.diagrams.closed_loop import ClosedLoopConfig, ClosedLoopRunner
+from posfb.analysis.commands.scenario_args import add_scenario_arguments, scenario_from_args
+from posfb.diagrams.closed_loop import ClosedLoopRunner
 from posfb.diagrams.graph import graphviz_source, render
-from posfb.models.controllers import CONTROLLER_KINDS
+from posfb.diagrams.scenario import resolve
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
     parser = subparsers.add_parser(
         "graph", help="render the closed-loop diagram (.svg/.png/.pdf, or .dot text)"
     )
-    parser.add_argument("--controller", choices=CONTROLLER_KINDS, default="proposed")
+    add_scenario_arguments(parser, ("controller",))
     parser.add_argument("--out", required=True, help="file to write, e.g. closed_loop.svg")
     parser.set_defaults(handler=run)
 
 
 def run(args: argparse.Namespace) -> int:
-    diagram = ClosedLoopRunner(ClosedLoopConfig(controller=args.controller)).diagram
+    diagram = ClosedLoopRunner(resolve(scenario_from_args(args)).config).diagram
     path, note = render(graphviz_source(diagram), Path(args.out))
     if note:
         sys.stderr.write(f"posfb graph: {note}\n")

@@ -9,8 +9,13 @@ import json
 from posfb.analysis.tables import theta_table
 from posfb.models.identify import identify
 from posfb.models.lumped import LumpedParameters
-from posfb.models.plant import DEFAULT_URDF, PlantConfig, apply_parameters, build_arm_diagram
-from posfb.models.validation import require_nonnegative
+from posfb.models.plant import (
+    DEFAULT_URDF,
+    PlantConfig,
+    apply_parameters,
+    build_arm_diagram,
+    require_payload_mass,
+)
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -24,8 +29,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
 
 def identify_urdf(urdf: str, payload: float) -> LumpedParameters:
-    """theta of the URDF plant with ``payload`` kg at the link-2 tip."""
-    require_nonnegative("payload", payload)
+    """theta of the URDF plant with ``payload`` kg at the link-2 tip (refused,
+    naming ``payload_mass``, outside 0..``MAX_PAYLOAD_MASS`` kg)."""
+    require_payload_mass(payload)
     _, arm, context = build_arm_diagram(PlantConfig(urdf=urdf))
     apply_parameters(arm, context, arm.default_parameters.with_payload(payload))
     return identify(arm, context)

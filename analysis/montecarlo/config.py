@@ -36,21 +36,19 @@ loaded ``Study`` as read-only. ``validate_study`` then checks every value,
 naming the key.
 """
 
-import dataclasses
 import hashlib
 import math
-import types
-import typing
-from dataclasses import dataclass, field, fields, replace
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import scipy.stats
-import yaml
+from pydrake.common.yaml import yaml_dump_typed
+
 from posfb.diagrams.closed_loop import DIVERGENCE_BOUND, ClosedLoopConfig
 from posfb.diagrams.encoder import DEFAULT_ENCODER_COUNTS
+from posfb.diagrams.yaml_schema import load_typed
 from posfb.models.controllers import CONTROLLER_KINDS
 from posfb.models.design import ControllerConfig
-from pydrake.common.yaml import yaml_dump_typed, yaml_load_typed
 
 #: Per-joint physical parameters of ``ArmParameters`` (two values each), in draw order.
 JOINT_PARAMETERS = (
@@ -313,89 +311,9 @@ def load_study(path: str | Path) -> Study:
     return study_from_text(path.read_text(), source=f"study {path}")
 
 
-class _TaggedLoader(yaml.SafeLoader):
-    """Reads ``!Tag {map}`` as the map with ``"_tag": "Tag"`` (for ``_check_shape``)."""
-
-
-_TaggedLoader.add_multi_constructor(
-    "!",
-    lambda loader, tag, node: {
-        **(loader.construct_mapping(node, deep=True) if isinstance(node, yaml.MappingNode) else {}),
-        "_tag": tag.lstrip("!"),
-    },
-)
-
-
-#: How a scalar type is named in messages.
-_KINDS = {bool: "true or false", int: "an integer", float: "a number", str: "a string"}
-
-
-def _scalar_ok(value: object, schema: type) -> bool:
-    if isinstance(value, bool):
-        return schema is bool
-    if schema is float:
-        return isinstance(value, int | float)
-    return isinstance(value, schema)
-
-
-def _check_shape(value: object, schema: object, key: str) -> None:
-    """Refuse YAML whose structure does not fit ``schema``, naming the key.
-
-    ``yaml_load_typed`` refuses unknown keys but neither says where nor refuses
-    every misfit (it pours a scalar into a dataclass's first field), so the raw
-    document is checked against the dataclasses first."""
-    where = key or "the study"
-    origin, args = typing.get_origin(schema), typing.get_args(schema)
-    if dataclasses.is_dataclass(schema):
-        _require(isinstance(value, dict), f"{where} = {value!r}; a map of keys is required")
-        allowed = {f.name: f.type for f in fields(schema)}
-        for name, item in value.items():
-            if name == "_tag":
-                continue
-            path = f"{key}.{name}" if key else str(name)
-            _require(name in allowed, f"{path}: unknown key; known keys: {', '.join(allowed)}")
-            _check_shape(item, allowed[name], path)
-    elif origin in (typing.Union, types.UnionType):
-        if value is None and types.NoneType in args:
-            return
-        options = [a for a in args if a is not types.NoneType]
-        if not dataclasses.is_dataclass(options[0]):
-            _check_shape(value, options[0], key)
-            return
-        tags = {option.__name__: option for option in options}
-        _require(
-            isinstance(value, dict),
-            f"{where} = {value!r}; a distribution (!{' {...}, !'.join(tags)} {{...}}) is required",
-        )
-        tag = value.get("_tag", options[0].__name__)
-        _require(tag in tags, f"{where}: unknown tag !{tag}; one of !{', !'.join(tags)}")
-        _check_shape(value, tags[tag], key)
-    elif origin is list:
-        _require(isinstance(value, list), f"{where} = {value!r}; a list [...] is required")
-        for i, item in enumerate(value):
-            _check_shape(item, args[0], f"{key}[{i}]")
-    elif origin is dict:
-        _require(isinstance(value, dict), f"{where} = {value!r}; a map is required")
-        for name, item in value.items():
-            _check_shape(item, args[1], f"{key}.{name}")
-    else:
-        _require(_scalar_ok(value, schema), f"{where} = {value!r}; {_KINDS[schema]} is required")
-
-
 def study_from_text(text: str, source: str = "study") -> Study:
     """Parse and validate a study from YAML text."""
-    try:
-        raw = yaml.load(text, Loader=_TaggedLoader)
-    except yaml.MarkedYAMLError as error:
-        mark = error.problem_mark
-        at = f" at line {mark.line + 1}, column {mark.column + 1}" if mark else ""
-        raise ValueError(f"{source}: YAML syntax error{at}: {error.problem}") from None
-    try:
-        _check_shape({} if raw is None else raw, Study, "")
-        study = yaml_load_typed(schema=Study, data=text)
-    except Exception as error:  # shape, and yaml_load_typed's own errors
-        first = str(error).strip().splitlines()[0] if str(error).strip() else type(error).__name__
-        raise ValueError(f"{source}: {first}") from None
+    study = load_typed(Study, text, source)
     try:
         return validate_study(study)
     except ValueError as error:

@@ -33,6 +33,7 @@ import math
 from dataclasses import dataclass, replace
 
 import numpy as np
+
 from posfb.models.design.bounds import ResolvedBounds, coriolis_bound
 from posfb.models.lumped import LumpedModel, LumpedParameters
 

@@ -20,6 +20,7 @@ from pathlib import Path
 
 import numpy as np
 from matplotlib.figure import Figure
+
 from posfb.analysis.montecarlo.config import Study
 from posfb.analysis.montecarlo.coverage import BOUND_NAMES
 from posfb.analysis.montecarlo.records import STATUSES

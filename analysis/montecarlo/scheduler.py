@@ -22,12 +22,13 @@ from collections.abc import Callable, Generator
 from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
 from dataclasses import dataclass
 
+from tqdm import tqdm
+
 from posfb.analysis.errors import UsageError
 from posfb.analysis.montecarlo import worker
 from posfb.analysis.montecarlo.config import Study, canonical_text, identity
 from posfb.analysis.montecarlo.records import SampleResult
 from posfb.analysis.montecarlo.store import ResultStore
-from tqdm import tqdm
 
 #: Samples in flight per worker (one running, one queued so no worker idles).
 IN_FLIGHT_PER_WORKER = 2

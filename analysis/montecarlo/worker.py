@@ -14,7 +14,7 @@ import math
 import threading
 from dataclasses import asdict
 
-from posfb.analysis.metrics import RunMetrics
+from posfb.analysis.metrics import RunMetrics, run_metrics
 from posfb.analysis.montecarlo.config import Study, study_from_text
 from posfb.analysis.montecarlo.coverage import coverage
 from posfb.analysis.montecarlo.records import METRIC_COLUMNS, ControllerRun, SampleResult
@@ -48,17 +48,17 @@ class ClosedLoopEvaluator:
             controller: ClosedLoopRunner(
                 ClosedLoopConfig(
                     controller=controller,
+                    design=study.controller_config(),
                     duration=study.duration,
                     divergence_bound=study.divergence_bound,
-                ),
-                controller_config=study.controller_config(),
+                )
             )
             for controller in study.controllers
         }
         reference = self.runners[study.controllers[0]]
         self._reference = reference
         self.nominal_plant = reference.arm.default_parameters
-        design = reference.controller_config
+        design = reference.config.design
         self.nominal_model = design.nominal
         self.bounds = resolve_bounds(design.bounds, design.nominal)
 
@@ -88,7 +88,7 @@ class ClosedLoopEvaluator:
         except Exception as error:  # recorded, never stops the study
             return ControllerRun(controller, "error", _one_line(error), {})
         return ControllerRun(
-            controller, result.status, result.message, _metrics_dict(result.metrics)
+            controller, result.status, result.message, _metrics_dict(run_metrics(result))
         )
 
 

@@ -16,10 +16,11 @@ first measurement (``_start``), then computes the first sample as any other.
 from __future__ import annotations
 
 import numpy as np
+from pydrake.systems.framework import Context, DiscreteValues, LeafSystem
+
 from posfb.models.design.config import JOINTS
 from posfb.models.trajectory import DESIRED_SIZE
 from posfb.models.validation import require_positive
-from pydrake.systems.framework import Context, DiscreteValues, LeafSystem
 
 
 class SampledController(LeafSystem):

@@ -8,6 +8,7 @@ initialised at rest (``eta~(0) = 0``) from the first measurement.
 from __future__ import annotations
 
 import numpy as np
+
 from posfb.models.controllers.base import SampledController
 from posfb.models.controllers.feedforward import NominalTorques
 from posfb.models.design import Design

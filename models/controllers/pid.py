@@ -13,6 +13,7 @@ estimate) and the integral is 0; the integral is the left-rectangle sum
 from __future__ import annotations
 
 import numpy as np
+
 from posfb.models.controllers.base import SampledController
 from posfb.models.design.config import JOINTS, PidGains
 from posfb.models.lumped import LumpedModel, LumpedParameters

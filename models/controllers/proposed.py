@@ -22,6 +22,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
+
 from posfb.models.controllers.base import SampledController
 from posfb.models.controllers.feedforward import NominalTorques
 from posfb.models.design import Design

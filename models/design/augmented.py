@@ -10,6 +10,7 @@ from dataclasses import dataclass
 
 import numpy as np
 import scipy.linalg
+
 from posfb.models.design.config import JOINTS
 
 _N = JOINTS

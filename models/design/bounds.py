@@ -14,6 +14,7 @@ from dataclasses import dataclass
 
 import numpy as np
 import scipy.optimize
+
 from posfb.models.design.config import UncertaintyBounds
 from posfb.models.lumped import LumpedModel, LumpedParameters
 

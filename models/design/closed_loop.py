@@ -12,6 +12,7 @@ as the controller LeafSystems do.
 from __future__ import annotations
 
 import numpy as np
+
 from posfb.models.design.discretise import zero_order_hold
 from posfb.models.design.realisation import ContinuousFilter, DiscreteFilter
 

@@ -9,6 +9,8 @@ from __future__ import annotations
 from dataclasses import dataclass, field, fields, replace
 
 import numpy as np
+
+from posfb.models.design.discretise import DISCRETISATIONS
 from posfb.models.lumped import TABLE1, LumpedParameters
 from posfb.models.validation import (
     require_matrix,
@@ -182,7 +184,9 @@ class ControllerConfig:
 
     ``nominal`` is the model the controllers use (Table 1; ``M0*`` is its
     q-independent part, reading note 5), ``sample_time`` the period ``T_s`` of
-    every controller.
+    every controller, ``discretisation`` how the filters of Eq. 13, 20 and 25 are
+    sampled (``models.design.discretise.DISCRETISATIONS``; first-order hold by
+    default).
     """
 
     nominal: LumpedParameters = TABLE1
@@ -191,9 +195,15 @@ class ControllerConfig:
     nonlinear: NonlinearTorqueConfig = field(default_factory=NonlinearTorqueConfig)
     bounds: UncertaintyBounds = field(default_factory=UncertaintyBounds)
     pid: PidGains = field(default_factory=PidGains)
+    discretisation: str = "foh"
 
     def __post_init__(self) -> None:
         require_positive("sample_time", self.sample_time)
+        if self.discretisation not in DISCRETISATIONS:
+            raise ValueError(
+                f"discretisation = {self.discretisation!r}; one of "
+                f"{', '.join(DISCRETISATIONS)} is required"
+            )
         for name, kind in (
             ("nominal", LumpedParameters),
             ("lqr", LqrWeights),

@@ -8,12 +8,28 @@ as the straight line between consecutive samples. FOH keeps the exact pole map
 and its causal form below has a direct feedthrough, so the output at ``t_k`` uses
 ``q~(t_k)`` with no extra sample of delay. The plant's input, the voltage, really
 is held (ZOH) between samples.
+
+Zero-order hold of the filters' input and Tustin's bilinear map are equally valid
+choices (``DISCRETISATIONS``); at the paper's ``alpha* = 4`` the sampled-data loop
+sits near its stability margin (spectral radius 1.04-1.06 for all three), so they
+give visibly different joint-2 errors and the design report names the one used.
 """
 
 from __future__ import annotations
 
 import numpy as np
 import scipy.linalg
+
+#: The discretisations a controller's filters may use (``ControllerConfig.discretisation``):
+#: first-order hold (the default), zero-order hold, Tustin (bilinear).
+DISCRETISATIONS = ("foh", "zoh", "tustin")
+
+#: How reports name each discretisation.
+DISCRETISATION_NAMES = {
+    "foh": "first-order hold (FOH)",
+    "zoh": "zero-order hold (ZOH)",
+    "tustin": "Tustin (bilinear)",
+}
 
 
 def zero_order_hold(A: np.ndarray, B: np.ndarray, T: float) -> tuple[np.ndarray, np.ndarray]:

@@ -24,7 +24,9 @@ from dataclasses import dataclass
 
 import numpy as np
 import scipy.linalg
-from posfb.models.design.discretise import first_order_hold
+import scipy.signal
+
+from posfb.models.design.discretise import DISCRETISATIONS, first_order_hold, zero_order_hold
 
 
 @dataclass(frozen=True, eq=False)
@@ -48,8 +50,26 @@ class ContinuousFilter:
     D: np.ndarray
     rest: np.ndarray
 
-    def discretise(self, sample_time: float) -> DiscreteFilter:
-        """First-order hold in its causal form: the state ``s_k = x_k - Gamma1 q~_k``."""
+    def discretise(self, sample_time: float, method: str = "foh") -> DiscreteFilter:
+        """The filter sampled at ``sample_time`` by ``method`` (``DISCRETISATIONS``).
+
+        ``foh``: first-order hold in its causal form, state ``s_k = x_k - Gamma1 q~_k``;
+        ``zoh``: the input held over each period (``s_k = x_k``); ``tustin``: the
+        bilinear map ``s = (2/T)(z - 1)/(z + 1)`` (scipy's state coordinates). All three
+        have a direct feedthrough (the output at ``t_k`` uses ``q~_k``) and start at rest."""
+        if method == "zoh":
+            Phi, Gamma0 = zero_order_hold(self.A, self.B, sample_time)
+            return DiscreteFilter(A=Phi, B=Gamma0, C=self.C, D=self.D, initial=self.rest)
+        if method == "tustin":
+            A, B, C, D, _ = scipy.signal.cont2discrete(
+                (self.A, self.B, self.C, self.D), sample_time, method="bilinear"
+            )
+            # At rest x = A x + B q~ holds for the continuous rest state as well.
+            return DiscreteFilter(A=A, B=B, C=C, D=D, initial=self.rest)
+        if method != "foh":
+            raise ValueError(
+                f"discretisation = {method!r}; one of {', '.join(DISCRETISATIONS)} is required"
+            )
         Phi, Gamma0, Gamma1 = first_order_hold(self.A, self.B, sample_time)
         return DiscreteFilter(
             A=Phi,

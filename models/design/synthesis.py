@@ -17,6 +17,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+
 from posfb.models.design.augmented import (
     GainBlocks,
     augmented_system,
@@ -207,6 +208,7 @@ def compute_design(config: ControllerConfig | None = None) -> Design:
     M0, B = model.M0(), model.B()
     nonlinear = config.nonlinear
     T = config.sample_time
+    method = config.discretisation
 
     augmented = augmented_system(M0, B, np.asarray(config.lqr.lambdas))
     lqr = solve_lqr(augmented, config.lqr.Q, np.asarray(config.lqr.R))
@@ -222,8 +224,8 @@ def compute_design(config: ControllerConfig | None = None) -> Design:
         lqr.K1, lqr.K2, lqr.K3, augmented.A_eta, E, A_zeta, B_zeta, C_zeta
     )
     nc_gain = np.hstack([np.eye(_N), -nonlinear.alpha_star * np.eye(_N)])
-    lin_lc_filter = lc.discretise(T)
-    radius = spectral_radius(sampled_data_closed_loop(M0, B, nc.discretise(T), nc_gain, T))
+    lin_lc_filter = lc.discretise(T, method)
+    radius = spectral_radius(sampled_data_closed_loop(M0, B, nc.discretise(T, method), nc_gain, T))
     radius_lin_lc = spectral_radius(sampled_data_closed_loop(M0, B, lin_lc_filter, np.eye(_N), T))
     continuous_poles = _sorted_poles(augmented.A_a - augmented.B_a1 @ lqr.K)
     poles_with_nc = _sorted_poles(continuous_closed_loop(M0, B, nc, nc_gain))
@@ -252,12 +254,13 @@ def compute_design(config: ControllerConfig | None = None) -> Design:
         _stability_check(
             "sampled_data",
             f"sampled-data closed loop of the proposed controller (nominal linear plant held "
-            f"over T_s = {T:g} s, alpha = alpha* = {nonlinear.alpha_star:g})",
+            f"over T_s = {T:g} s, alpha = alpha* = {nonlinear.alpha_star:g}, "
+            f"{method.upper()} filters)",
             radius,
         ),
         _stability_check(
             "sampled_data_lin_lc",
-            f"sampled-data closed loop of Lin+LC (T_s = {T:g} s)",
+            f"sampled-data closed loop of Lin+LC (T_s = {T:g} s, {method.upper()} filters)",
             radius_lin_lc,
         ),
     )
@@ -281,7 +284,9 @@ def compute_design(config: ControllerConfig | None = None) -> Design:
         bound_filter=bound_filter,
         bounds=resolve_bounds(config.bounds, config.nominal),
         lin_lc_filter=lin_lc_filter,
-        proposed_filter=stack(nc, velocity_bound_filter(nonlinear.filter_a, _N)).discretise(T),
+        proposed_filter=stack(nc, velocity_bound_filter(nonlinear.filter_a, _N)).discretise(
+            T, method
+        ),
         sampled_data_spectral_radius=radius,
         sampled_data_spectral_radius_lin_lc=radius_lin_lc,
         checks=checks,

@@ -2,8 +2,8 @@
 
 Run it directly::
 
-    python -m posfb.diagrams.nominal_experiment [--out results/nominal] [--duration 20]
-    python diagrams/nominal_experiment.py
+    python -m posfb.analysis.nominal_experiment [--out results/nominal] [--duration 20]
+    python analysis/nominal_experiment.py
 
 It simulates computed torque + PID, Lin+LC and the paper's controller on the
 nominal arm for 20 s and writes Figs. 4-5 (PNG, SVG) and Table 3 beside the

@@ -1,0 +1,620 @@
+"""The scenario: one typed settings tree for everything a closed-loop run depends on.
+
+A scenario file is YAML loaded with Drake's ``yaml_load_typed`` into the
+dataclasses below (the way RussTedrake/manipulation's ``Scenario`` wraps
+``SimulatorConfig``). A file gives only what differs from the paper: every key
+it omits keeps the paper's value, and each default is read from the one place
+the code defines it (``ControllerConfig``, ``ClosedLoopConfig``, ``PlantConfig``,
+``LumpedParameters``, ``models.trajectory.PAPER_TRAJECTORY``)::
+
+    plant:          URDF, tip payload, physical parameter overrides (Monte-Carlo names)
+    nominal_model:  what the controllers believe: !Table1 {}, !IdentifiedFromUrdf, !Theta
+    trajectory:     !Wave {joints: [...]}, !Waypoints {times, positions}, !CsvFile {path}
+    timing:         sample_time, duration, divergence_bound, simulator (SimulatorConfig)
+    sensor:         encoder_counts, zero_offset, noise_std, noise_seed, delay_samples
+    actuator:       voltage_limit
+    controller:     kind, discretisation and every design input of Sec. 3 and 4.2
+
+Per-joint lists take one value (both joints) or two. Relative paths (``urdf``,
+``path``) are read from the scenario file's folder (the working directory when
+there is no file); ``package://posfb/two_link_arm.urdf`` is the shipped arm.
+``resolve`` validates a scenario into the frozen ``ClosedLoopConfig`` the runner
+builds from; every error names the dotted key.
+"""
+
+# No "from __future__ import annotations": Drake's YAML reads the field types at runtime.
+
+import copy
+import dataclasses
+import re
+import typing
+from collections.abc import Iterable
+from dataclasses import dataclass, field, fields, replace
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+from pydrake.common.yaml import yaml_dump_typed, yaml_load_typed
+from pydrake.systems.analysis import SimulatorConfig
+
+from posfb.diagrams.closed_loop import (
+    DIVERGENCE_BOUND,
+    VOLTAGE_LIMIT,
+    ClosedLoopConfig,
+    ClosedLoopResult,
+    ClosedLoopRunner,
+    default_simulator,
+)
+from posfb.diagrams.encoder import DEFAULT_ENCODER_COUNTS
+from posfb.diagrams.yaml_schema import check_shape, load_typed, parse
+from posfb.models.controllers import CONTROLLER_KINDS
+from posfb.models.design import ControllerConfig
+from posfb.models.design.config import (
+    LqrWeights,
+    NonlinearTorqueConfig,
+    PidGains,
+    UncertaintyBounds,
+)
+from posfb.models.identify import identify
+from posfb.models.lumped import TABLE1, LumpedParameters
+from posfb.models.plant import (
+    DEFAULT_URDF,
+    ArmParameters,
+    PlantConfig,
+    apply_parameters,
+    build_arm_diagram,
+)
+from posfb.models.trajectory import (
+    JOINTS,
+    PAPER_TRAJECTORY,
+    JointWave,
+    SplineTrajectory,
+    Trajectory,
+    WaveTrajectory,
+)
+
+#: How a scenario names the arm shipped with posfb.
+SHIPPED_URDF = "package://posfb/two_link_arm.urdf"
+
+#: Physical parameters a scenario (and a Monte-Carlo study) may override, two values each.
+PARAMETER_NAMES = (
+    "link_mass",
+    "link_com",
+    "link_inertia",
+    "rotor_inertia",
+    "damping",
+    "coulomb",
+    "motor_constant",
+)
+
+
+def _rows(matrix: tuple[tuple[float, ...], ...]) -> list[list[float]]:
+    return [list(row) for row in matrix]
+
+
+def _default(cls: type, name: str) -> typing.Callable[[], object]:
+    """A default factory that copies the default of ``cls.name`` (tuples become lists)."""
+    value = next(f for f in fields(cls) if f.name == name).default
+
+    def factory() -> object:
+        if isinstance(value, tuple):
+            return [list(v) if isinstance(v, tuple) else v for v in value]
+        return value
+
+    return factory
+
+
+# --- plant -------------------------------------------------------------------------
+
+
+@dataclass
+class ParameterOverrides:
+    """Absolute values (SI units, joint 1 and joint 2) that replace the URDF's; omitted
+    parameters keep the URDF's values. Names as in ``models.plant.ArmParameters``."""
+
+    link_mass: list[float] | None = None
+    link_com: list[float] | None = None
+    link_inertia: list[float] | None = None
+    rotor_inertia: list[float] | None = None
+    damping: list[float] | None = None
+    coulomb: list[float] | None = None
+    motor_constant: list[float] | None = None
+
+
+@dataclass
+class PlantSettings:
+    """The true arm: its URDF, a point payload (kg) at the link-2 tip, the Coulomb
+    smoothing velocity (rad/s, ``models.plant``) and parameter overrides."""
+
+    urdf: str = SHIPPED_URDF
+    payload_mass: float = field(default_factory=_default(ArmParameters, "payload_mass"))
+    friction_velocity: float = field(default_factory=_default(PlantConfig, "friction_velocity"))
+    parameters: ParameterOverrides = field(default_factory=ParameterOverrides)
+
+
+# --- nominal model -----------------------------------------------------------------
+
+
+@dataclass
+class Table1:
+    """The paper's identified model (Table 1) with the shipped arm's ``l1``."""
+
+
+@dataclass
+class IdentifiedFromUrdf:
+    """theta identified exactly from a URDF arm with ``payload_mass`` kg at its tip."""
+
+    urdf: str = SHIPPED_URDF
+    payload_mass: float = 0.0
+
+
+@dataclass
+class Theta:
+    """Explicit theta_1..theta_11 of Sec. 4.1 (SI units per volt) and ``l1`` (m)."""
+
+    theta1: float = TABLE1.theta1
+    theta2: float = TABLE1.theta2
+    theta3: float = TABLE1.theta3
+    theta4: float = TABLE1.theta4
+    theta5: float = TABLE1.theta5
+    theta6: float = TABLE1.theta6
+    theta7: float = TABLE1.theta7
+    theta8: float = TABLE1.theta8
+    theta9: float = TABLE1.theta9
+    theta10: float = TABLE1.theta10
+    theta11: float = TABLE1.theta11
+    l1: float = TABLE1.l1
+
+
+NominalModel = Table1 | IdentifiedFromUrdf | Theta
+
+
+# --- trajectory --------------------------------------------------------------------
+
+
+@dataclass
+class WaveJoint:
+    """``offset + s(t) (amplitude + wave_amplitude sin(frequency t))`` (rad, rad/s)."""
+
+    offset: float = 0.0
+    amplitude: float = 0.0
+    wave_amplitude: float = 0.0
+    frequency: float = 0.0
+
+
+def _paper_waves() -> list[WaveJoint]:
+    return [WaveJoint(**dataclasses.asdict(wave)) for wave in PAPER_TRAJECTORY]
+
+
+@dataclass
+class Wave:
+    """The Sec. 4.2 form, one entry per joint (default: the paper's trajectory)."""
+
+    joints: list[WaveJoint] = field(default_factory=_paper_waves)
+
+
+@dataclass
+class Waypoints:
+    """A clamped cubic through ``positions[i]`` (rad, one list per waypoint) at
+    ``times[i]`` (s), at rest at both ends."""
+
+    times: list[float] = field(default_factory=list)
+    positions: list[list[float]] = field(default_factory=list)
+
+
+@dataclass
+class CsvFile:
+    """Sampled positions: a CSV file whose columns are time (s), q1, q2 (rad), with
+    or without a header row; a not-a-knot cubic spline interpolates them."""
+
+    path: str = ""
+
+
+TrajectorySettings = Wave | Waypoints | CsvFile
+
+
+# --- timing, sensor, actuator -------------------------------------------------------
+
+
+@dataclass
+class Timing:
+    """Sample time ``T_s`` (s) of the controller and the sensor, simulated ``duration``
+    (s, a whole number of periods), the ``|q~|`` (rad) beyond which a run is stopped
+    as diverged, and Drake's integrator settings."""
+
+    sample_time: float = field(default_factory=_default(ControllerConfig, "sample_time"))
+    duration: float = field(default_factory=_default(ClosedLoopConfig, "duration"))
+    divergence_bound: float = DIVERGENCE_BOUND
+    simulator: SimulatorConfig = field(default_factory=default_simulator)
+
+
+@dataclass
+class Sensor:
+    """Joint encoders: counts per revolution (0: ideal), zero offset (rad), additive
+    Gaussian noise (rad, from ``noise_seed``) and a delay of whole samples."""
+
+    encoder_counts: list[int] = field(default_factory=lambda: [DEFAULT_ENCODER_COUNTS] * JOINTS)
+    zero_offset: list[float] = field(default_factory=lambda: [0.0] * JOINTS)
+    noise_std: list[float] = field(default_factory=lambda: [0.0] * JOINTS)
+    noise_seed: int = 0
+    delay_samples: int = 0
+
+
+@dataclass
+class Actuator:
+    """Armature-voltage saturation (V) per joint."""
+
+    voltage_limit: list[float] = field(default_factory=lambda: [VOLTAGE_LIMIT] * JOINTS)
+
+
+# --- controller ---------------------------------------------------------------------
+
+
+@dataclass
+class Bounds:
+    """Assumption 1 and ``k_C1`` (``models.design.config.UncertaintyBounds``): a bound
+    left empty is ``relative`` times the matching norm of the nominal model."""
+
+    relative: float = field(default_factory=_default(UncertaintyBounds, "relative"))
+    delta_M0: float | None = None
+    delta_M1: float | None = None
+    delta_C: float | None = None
+    delta_G: float | None = None
+    delta_B: float | None = None
+    delta_F: float | None = None
+    k_C1: float | None = None
+
+
+@dataclass
+class ControllerSettings:
+    """The controller ``kind`` and its design inputs (Sec. 3, 4.2): LQR weights ``Q1``,
+    ``Q2``, ``R`` and ``lambdas`` of ``Lambda(s)``; ``alpha_star``, ``K_alpha``, ``alpha0``
+    of Eq. 21; ``H(s) = C_zeta (sI - A_zeta)^-1 B_zeta``; the pole ``filter_a`` of
+    ``G(s)``; the Assumption-1 ``bounds``; the PID gains ``Kp``, ``Kv``, ``KI``
+    (Eq. 26); how the filters are sampled (``discretisation``: foh, zoh, tustin)."""
+
+    kind: str = field(default_factory=_default(ClosedLoopConfig, "controller"))
+    discretisation: str = field(default_factory=_default(ControllerConfig, "discretisation"))
+    Q1: list[list[float]] = field(default_factory=_default(LqrWeights, "Q1"))
+    Q2: list[list[float]] = field(default_factory=_default(LqrWeights, "Q2"))
+    R: list[list[float]] = field(default_factory=_default(LqrWeights, "R"))
+    lambdas: list[float] = field(default_factory=_default(LqrWeights, "lambdas"))
+    alpha_star: float = field(default_factory=_default(NonlinearTorqueConfig, "alpha_star"))
+    K_alpha: float = field(default_factory=_default(NonlinearTorqueConfig, "K_alpha"))
+    alpha0: float = field(default_factory=_default(NonlinearTorqueConfig, "alpha0"))
+    A_zeta: list[list[float]] = field(default_factory=_default(NonlinearTorqueConfig, "A_zeta"))
+    B_zeta: list[list[float]] = field(default_factory=_default(NonlinearTorqueConfig, "B_zeta"))
+    C_zeta: list[list[float]] = field(default_factory=_default(NonlinearTorqueConfig, "C_zeta"))
+    filter_a: float = field(default_factory=_default(NonlinearTorqueConfig, "filter_a"))
+    bounds: Bounds = field(default_factory=Bounds)
+    Kp: list[float] = field(default_factory=_default(PidGains, "Kp"))
+    Kv: list[float] = field(default_factory=_default(PidGains, "Kv"))
+    KI: list[float] = field(default_factory=_default(PidGains, "KI"))
+
+
+@dataclass
+class Scenario:
+    """Everything one closed-loop run depends on (module docstring)."""
+
+    plant: PlantSettings = field(default_factory=PlantSettings)
+    nominal_model: NominalModel = field(default_factory=Table1)
+    trajectory: TrajectorySettings = field(default_factory=Wave)
+    timing: Timing = field(default_factory=Timing)
+    sensor: Sensor = field(default_factory=Sensor)
+    actuator: Actuator = field(default_factory=Actuator)
+    controller: ControllerSettings = field(default_factory=ControllerSettings)
+
+
+# --- load, dump, --set -------------------------------------------------------------
+
+
+@dataclass
+class LoadedScenario:
+    """A scenario and the folder its relative paths are read from."""
+
+    scenario: Scenario
+    base_dir: Path
+
+
+def load_scenario(path: str | Path | None = None, settings: Iterable[str] = ()) -> LoadedScenario:
+    """The scenario of file ``path`` (the paper's defaults without one), with the
+    ``KEY=VALUE`` ``settings`` applied in order, validated by ``resolve``."""
+    if path is None:
+        loaded = LoadedScenario(Scenario(), Path.cwd())
+    else:
+        file = Path(path)
+        if file.is_dir():
+            raise ValueError(f"scenario {file} is a directory; a YAML file is required")
+        if not file.is_file():
+            raise ValueError(f"scenario {file} does not exist")
+        try:
+            text = file.read_text()
+        except (OSError, UnicodeDecodeError) as error:
+            raise ValueError(f"scenario {file} cannot be read: {error}") from None
+        scenario = load_typed(Scenario, text, f"scenario {file}")
+        loaded = LoadedScenario(scenario, file.resolve().parent)
+    for setting in settings:
+        loaded.scenario = apply_setting(loaded.scenario, setting)
+    resolve(loaded)
+    return loaded
+
+
+def dump_scenario(scenario: Scenario) -> str:
+    """The complete scenario as YAML, every default written out. Drake writes the first
+    member of a union without its tag; it is added back so that the file names the
+    form it holds (``nominal_model: !Table1 {}``, ``trajectory: !Wave``)."""
+    text = yaml_dump_typed(scenario)
+    hints = typing.get_type_hints(Scenario)
+    for entry in fields(Scenario):
+        options = typing.get_args(hints[entry.name])
+        value = getattr(scenario, entry.name)
+        if options and type(value) is options[0]:
+            tag = f"!{options[0].__name__}"
+            text = re.sub(rf"^{entry.name}:", rf"\g<0> {tag}", text, count=1, flags=re.MULTILINE)
+    return text
+
+
+def _field_types(schema: type) -> dict[str, object]:
+    """Field names and types of a dataclass or a Drake config."""
+    if dataclasses.is_dataclass(schema):
+        return typing.get_type_hints(schema)
+    return {f.name: f.type for f in schema.__fields__}
+
+
+def _is_list(kind: object) -> bool:
+    """Whether ``kind`` is ``list[...]`` or ``list[...] | None``."""
+    if typing.get_origin(kind) is list:
+        return True
+    return any(typing.get_origin(option) is list for option in typing.get_args(kind))
+
+
+def _is_section(value: object) -> bool:
+    """A dataclass or a Drake config (``SimulatorConfig``): something with sub-keys."""
+    return dataclasses.is_dataclass(value) or hasattr(type(value), "__fields__")
+
+
+def apply_setting(scenario: Scenario, setting: str) -> Scenario:
+    """A copy of ``scenario`` with ``KEY=VALUE`` applied: ``KEY`` is a dotted path
+    (``timing.sample_time``), ``VALUE`` YAML (``0.005``, ``[4096, 2048]``, ``lin_lc``,
+    or a whole section such as ``!Theta {theta6: 0}`` for ``nominal_model``). A single
+    number given to a per-joint list applies to both joints."""
+    key, equals, text = setting.partition("=")
+    key = key.strip()
+    if not equals or not key:
+        raise ValueError(f"--set {setting!r}; KEY=VALUE is required (e.g. timing.duration=5)")
+    result = copy.deepcopy(scenario)
+    parts = key.split(".")
+    parent: object = result
+    for depth, name in enumerate(parts):
+        known = list(_field_types(type(parent)))
+        if name not in known:
+            where = ".".join(parts[: depth + 1])
+            raise ValueError(f"--set {where}: unknown key; known keys: {', '.join(known)}")
+        if depth == len(parts) - 1:
+            break
+        parent = getattr(parent, name)
+        if not _is_section(parent):
+            raise ValueError(f"--set {key}: {'.'.join(parts[: depth + 1])} has no sub-keys")
+    name = parts[-1]
+    schema = type(parent)
+    text = text.strip()
+    if _is_list(_field_types(schema)[name]) and not isinstance(parse(text, f"--set {key}"), list):
+        text = f"[{text}]"
+    document = f"{name}: {text}"
+    check_shape(parse(document, f"--set {key}"), schema, ".".join(parts[:-1]))
+    try:
+        updated = yaml_load_typed(schema=schema, data=document, defaults=parent)
+    except Exception as error:
+        first = str(error).strip().splitlines()[0]
+        raise ValueError(f"--set {key}: {first}") from None
+    setattr(parent, name, getattr(updated, name))
+    return result
+
+
+# --- resolve -----------------------------------------------------------------------
+
+#: Which scenario section owns a name that a frozen config's error message starts with.
+_SECTIONS = {
+    "sample_time": "timing",
+    "duration": "timing",
+    "divergence_bound": "timing",
+    "accuracy": "timing.simulator",
+    "integration_scheme": "timing.simulator",
+    "max_step_size": "timing.simulator",
+    "target_realtime_rate": "timing.simulator",
+    "start_time": "timing.simulator",
+    "encoder_counts": "sensor",
+    "zero_offset": "sensor",
+    "noise_std": "sensor",
+    "noise_seed": "sensor",
+    "delay_samples": "sensor",
+    "voltage_limit": "actuator",
+    "controller": "controller.kind",
+    "payload_mass": "plant",
+    "friction_velocity": "plant",
+}
+
+
+def _with_key(error: ValueError, default: str) -> ValueError:
+    """``error`` with the scenario section of the name its message starts with."""
+    message = str(error)
+    head = message.split(" ", 1)[0].split("[", 1)[0].split("=", 1)[0]
+    section = _SECTIONS.get(head, default)
+    if section.endswith(f".{head}") or section == head:
+        return ValueError(f"{section}{message[len(head):]}")
+    return ValueError(f"{section}.{message}")
+
+
+def resolve_path(text: str, base_dir: Path) -> Path:
+    """A scenario path: the shipped arm, absolute, or relative to ``base_dir``."""
+    if text == SHIPPED_URDF:
+        return DEFAULT_URDF
+    path = Path(text).expanduser()
+    return path if path.is_absolute() else base_dir / path
+
+
+def read_csv_trajectory(path: Path) -> SplineTrajectory:
+    """Columns time (s), q1, q2 (rad) of a CSV file, header row optional."""
+    source = f"trajectory.path {path}"
+    if path.is_dir():
+        raise ValueError(f"{source} is a directory; a CSV file is required")
+    if not path.is_file():
+        raise ValueError(f"{source} does not exist")
+    try:
+        table = pd.read_csv(path, header=None, dtype=str, skip_blank_lines=True)
+    except (OSError, UnicodeDecodeError, pd.errors.ParserError, pd.errors.EmptyDataError) as err:
+        raise ValueError(f"{source} cannot be read as CSV: {str(err).splitlines()[0]}") from None
+    numbers = table.apply(pd.to_numeric, errors="coerce")
+    if len(numbers) and numbers.iloc[0].isna().all():
+        numbers = numbers.iloc[1:]  # a header row
+    if numbers.shape[1] != 1 + JOINTS:
+        raise ValueError(
+            f"{source} has {numbers.shape[1]} columns; {1 + JOINTS} (time, q1, q2) are required"
+        )
+    if numbers.isna().to_numpy().any():
+        row = int(np.argmax(numbers.isna().to_numpy().any(axis=1)))
+        raise ValueError(f"{source}: data row {row + 1} has a non-numeric entry")
+    data = numbers.to_numpy(dtype=float)
+    return SplineTrajectory.from_samples(data[:, 0], data[:, 1:], source)
+
+
+def make_trajectory(settings: TrajectorySettings, base_dir: Path) -> Trajectory:
+    """The desired trajectory of a scenario."""
+    if isinstance(settings, Wave):
+        try:
+            waves = tuple(JointWave(**dataclasses.asdict(joint)) for joint in settings.joints)
+            return WaveTrajectory(waves)
+        except ValueError as error:
+            raise ValueError(f"trajectory.joints: {error}") from None
+    if isinstance(settings, Waypoints):
+        return SplineTrajectory.from_waypoints(settings.times, settings.positions)
+    if not settings.path:
+        raise ValueError("trajectory.path is empty; the CSV file's path is required")
+    return read_csv_trajectory(resolve_path(settings.path, base_dir))
+
+
+def identify_urdf(urdf: Path, payload_mass: float) -> LumpedParameters:
+    """theta of the URDF arm with ``payload_mass`` kg at the link-2 tip."""
+    _, arm, context = build_arm_diagram(PlantConfig(urdf=str(urdf)))
+    apply_parameters(arm, context, arm.default_parameters.with_payload(payload_mass))
+    return identify(arm, context)
+
+
+def make_nominal(settings: NominalModel, base_dir: Path) -> LumpedParameters:
+    """The model the controllers are designed from."""
+    if isinstance(settings, Table1):
+        return TABLE1
+    if isinstance(settings, Theta):
+        return LumpedParameters(**dataclasses.asdict(settings))
+    return identify_urdf(resolve_path(settings.urdf, base_dir), settings.payload_mass)
+
+
+def make_design(settings: ControllerSettings, nominal: LumpedParameters, sample_time: float):
+    """The frozen ``ControllerConfig`` of the controller settings."""
+    bounds = dataclasses.asdict(settings.bounds)
+    return ControllerConfig(
+        nominal=nominal,
+        sample_time=sample_time,
+        lqr=LqrWeights(Q1=settings.Q1, Q2=settings.Q2, R=settings.R, lambdas=settings.lambdas),
+        nonlinear=NonlinearTorqueConfig(
+            alpha_star=settings.alpha_star,
+            K_alpha=settings.K_alpha,
+            alpha0=settings.alpha0,
+            A_zeta=settings.A_zeta,
+            B_zeta=settings.B_zeta,
+            C_zeta=settings.C_zeta,
+            filter_a=settings.filter_a,
+        ),
+        bounds=UncertaintyBounds(**bounds),
+        pid=PidGains(Kp=settings.Kp, Kv=settings.Kv, KI=settings.KI),
+        discretisation=settings.discretisation,
+    )
+
+
+@dataclass(frozen=True, eq=False)
+class ResolvedScenario:
+    """A validated scenario: the closed-loop config and the true plant's overrides."""
+
+    config: ClosedLoopConfig
+    payload_mass: float
+    overrides: dict[str, tuple[float, ...]]
+
+    def true_parameters(self, defaults: ArmParameters) -> ArmParameters:
+        """The true arm: the URDF's ``defaults`` with the scenario's overrides."""
+        try:
+            return replace(defaults, **self.overrides, payload_mass=self.payload_mass)
+        except ValueError as error:
+            raise _with_key(error, "plant.parameters") from None
+
+
+def _overrides(settings: ParameterOverrides) -> dict[str, tuple[float, ...]]:
+    overrides = {}
+    for name in PARAMETER_NAMES:
+        values = getattr(settings, name)
+        if values is None:
+            continue
+        if len(values) == 1:
+            values = values * JOINTS
+        if len(values) != JOINTS:
+            raise ValueError(
+                f"plant.parameters.{name} has {len(values)} entries; 1 (both joints) or "
+                f"{JOINTS} are required"
+            )
+        overrides[name] = tuple(float(v) for v in values)
+    return overrides
+
+
+def resolve(loaded: LoadedScenario) -> ResolvedScenario:
+    """Validate ``loaded`` into a ``ResolvedScenario``; errors name the dotted key."""
+    scenario, base = loaded.scenario, loaded.base_dir
+    settings = scenario.controller
+    if settings.kind not in CONTROLLER_KINDS:
+        raise ValueError(
+            f"controller.kind = {settings.kind!r}; one of {', '.join(CONTROLLER_KINDS)} "
+            "is required"
+        )
+    try:
+        nominal = make_nominal(scenario.nominal_model, base)
+    except (ValueError, FileNotFoundError) as error:
+        raise ValueError(f"nominal_model: {error}") from None
+    try:
+        design = make_design(settings, nominal, scenario.timing.sample_time)
+    except ValueError as error:
+        raise _with_key(error, "controller") from None
+    trajectory = make_trajectory(scenario.trajectory, base)
+    plant = scenario.plant
+    urdf = resolve_path(plant.urdf, base)
+    try:
+        plant_config = PlantConfig(urdf=str(urdf), friction_velocity=plant.friction_velocity)
+        config = ClosedLoopConfig(
+            controller=settings.kind,
+            design=design,
+            duration=scenario.timing.duration,
+            trajectory=trajectory,
+            encoder_counts=tuple(scenario.sensor.encoder_counts),
+            zero_offset=tuple(scenario.sensor.zero_offset),
+            noise_std=tuple(scenario.sensor.noise_std),
+            noise_seed=scenario.sensor.noise_seed,
+            delay_samples=scenario.sensor.delay_samples,
+            voltage_limit=tuple(scenario.actuator.voltage_limit),
+            plant=plant_config,
+            divergence_bound=scenario.timing.divergence_bound,
+            simulator=scenario.timing.simulator,
+        )
+        # The payload and overrides are checked against ArmParameters' own rules.
+        overrides = _overrides(plant.parameters)
+        probe = ArmParameters(**{n: (1.0, 1.0) for n in PARAMETER_NAMES})
+        replace(probe, **overrides, payload_mass=plant.payload_mass)
+    except ValueError as error:
+        raise _with_key(error, "plant.parameters") from None
+    if not urdf.is_file():
+        kind = "is a directory" if urdf.is_dir() else "does not exist"
+        raise ValueError(f"plant.urdf = {plant.urdf!r}: {urdf} {kind}; a URDF file is required")
+    return ResolvedScenario(config, float(plant.payload_mass), overrides)
+
+
+def run_scenario(loaded: LoadedScenario) -> ClosedLoopResult:
+    """Build the scenario's closed loop and run it on its true arm."""
+    resolved = resolve(loaded)
+    runner = ClosedLoopRunner(resolved.config)
+    return runner.run(resolved.true_parameters(runner.arm.default_parameters))

@@ -1,0 +1,132 @@
+"""Checks a YAML document against a dataclass schema before Drake loads it.
+
+Drake's ``yaml_load_typed`` refuses unknown keys, but its messages do not say
+where, and it pours a scalar into a dataclass's first field. ``load_typed``
+first parses the document on its own (YAML 1.2 numbers, ``!Tag`` unions), checks
+its structure against the schema naming the dotted key of any misfit, and only
+then lets Drake fill the dataclasses. Every problem is one ``ValueError`` line.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import re
+import types
+import typing
+from dataclasses import fields
+
+import yaml
+from pydrake.common.yaml import yaml_load_typed
+
+
+def _require(condition: bool, message: str) -> None:
+    if not condition:
+        raise ValueError(message)
+
+
+class _TaggedLoader(yaml.SafeLoader):
+    """Reads ``!Tag {map}`` as the map with ``"_tag": "Tag"`` (for ``check_shape``), and
+    numbers as YAML 1.2 does (``1e-3`` and ``2e1`` are floats, as Drake reads them)."""
+
+
+_TaggedLoader.add_multi_constructor(
+    "!",
+    lambda loader, tag, node: {
+        **(loader.construct_mapping(node, deep=True) if isinstance(node, yaml.MappingNode) else {}),
+        "_tag": tag.lstrip("!"),
+    },
+)
+
+
+def _field_types(schema: type) -> dict[str, object]:
+    """The fields of a dataclass or of a Drake config (``__fields__``) and their types."""
+    if dataclasses.is_dataclass(schema):
+        hints = typing.get_type_hints(schema)
+        return {f.name: hints[f.name] for f in fields(schema)}
+    return {f.name: f.type for f in schema.__fields__}
+
+
+#: How a scalar type is named in messages.
+_KINDS = {bool: "true or false", int: "an integer", float: "a number", str: "a string"}
+
+
+def _scalar_ok(value: object, schema: type) -> bool:
+    if isinstance(value, bool):
+        return schema is bool
+    if schema is float:
+        return isinstance(value, int | float)
+    return isinstance(value, schema)
+
+
+def check_shape(value: object, schema: object, key: str) -> None:
+    """Refuse YAML whose structure does not fit ``schema``, naming the key.
+
+    ``yaml_load_typed`` refuses unknown keys but neither says where nor refuses
+    every misfit (it pours a scalar into a dataclass's first field), so the raw
+    document is checked against the dataclasses first."""
+    where = key or "the document"
+    origin, args = typing.get_origin(schema), typing.get_args(schema)
+    if dataclasses.is_dataclass(schema) or hasattr(schema, "__fields__"):
+        _require(isinstance(value, dict), f"{where} = {value!r}; a map of keys is required")
+        allowed = _field_types(schema)
+        for name, item in value.items():
+            if name == "_tag":
+                continue
+            path = f"{key}.{name}" if key else str(name)
+            _require(name in allowed, f"{path}: unknown key; known keys: {', '.join(allowed)}")
+            check_shape(item, allowed[name], path)
+    elif origin in (typing.Union, types.UnionType):
+        if value is None and types.NoneType in args:
+            return
+        options = [a for a in args if a is not types.NoneType]
+        if not dataclasses.is_dataclass(options[0]):
+            check_shape(value, options[0], key)
+            return
+        tags = {option.__name__: option for option in options}
+        _require(
+            isinstance(value, dict),
+            f"{where} = {value!r}; a distribution (!{' {...}, !'.join(tags)} {{...}}) is required",
+        )
+        tag = value.get("_tag", options[0].__name__)
+        _require(tag in tags, f"{where}: unknown tag !{tag}; one of !{', !'.join(tags)}")
+        check_shape(value, tags[tag], key)
+    elif origin is list:
+        _require(isinstance(value, list), f"{where} = {value!r}; a list [...] is required")
+        for i, item in enumerate(value):
+            check_shape(item, args[0], f"{key}[{i}]")
+    elif origin is dict:
+        _require(isinstance(value, dict), f"{where} = {value!r}; a map is required")
+        for name, item in value.items():
+            check_shape(item, args[1], f"{key}.{name}")
+    else:
+        _require(_scalar_ok(value, schema), f"{where} = {value!r}; {_KINDS[schema]} is required")
+
+
+#: YAML 1.2 floats that YAML 1.1 (PyYAML) would read as strings: ``1e-3``, ``2E5``.
+_FLOAT = re.compile(r"^[-+]?(\.[0-9]+|[0-9]+(\.[0-9]*)?)([eE][-+]?[0-9]+)?$")
+_TaggedLoader.add_implicit_resolver("tag:yaml.org,2002:float", _FLOAT, list("-+0123456789."))
+
+
+def parse(text: str, source: str) -> object:
+    """The raw YAML document (``None`` if empty); a syntax error is one line."""
+    try:
+        return yaml.load(text, Loader=_TaggedLoader)
+    except yaml.MarkedYAMLError as error:
+        mark = error.problem_mark
+        at = f" at line {mark.line + 1}, column {mark.column + 1}" if mark else ""
+        raise ValueError(f"{source}: YAML syntax error{at}: {error.problem}") from None
+    except yaml.YAMLError as error:
+        raise ValueError(f"{source}: not a YAML document ({type(error).__name__})") from None
+
+
+def load_typed(schema: type, text: str, source: str, defaults: object | None = None) -> object:
+    """``text`` loaded into ``schema`` (over ``defaults`` where given) after ``check_shape``."""
+    raw = parse(text, source)
+    try:
+        check_shape({} if raw is None else raw, schema, "")
+        if defaults is None:
+            return yaml_load_typed(schema=schema, data=text)
+        return yaml_load_typed(schema=schema, data=text, defaults=defaults)
+    except Exception as error:  # shape, and yaml_load_typed's own errors
+        first = str(error).strip().splitlines()[0] if str(error).strip() else type(error).__name__
+        raise ValueError(f"{source}: {first}") from None

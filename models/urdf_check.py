@@ -1,0 +1,586 @@
+"""An arm URDF checked where it enters posfb, before Drake parses it.
+
+``check_arm_urdf`` runs inside ``models.plant.add_arm``, so every way a URDF
+enters (``posfb identify --urdf``, a scenario's ``plant.urdf``, a
+``PlantConfig``) gets it. Each failure is one line, ``URDF <path>: <element> =
+<value>; <what is allowed>``, raised as ``ValueError`` (``FileNotFoundError``
+for a file that does not exist).
+
+What is checked is what the planar two-link model of Sec. 4.1
+(``models.lumped``, identified by ``models.identify``) and posfb's plant
+(``models.plant``) can represent:
+
+* the file: it exists, is a file (a directory is named as such), can be read,
+  is well-formed XML and its root is ``<robot>``;
+* the tree: unique link and joint names, joints between links of the file,
+  one parent joint per link, one root (the base, welded to the world), no
+  loops, no ``<drake:joint>``;
+* the arm: exactly two revolute or continuous joints, every other joint
+  ``fixed`` (a welded body such as the tip payload); joint 1 hangs from the
+  base (or a body welded to it), joint 2 from joint 1's child link;
+* what ``models.plant`` reads besides Drake: each arm joint carries
+  ``posfb:coulomb_friction`` >= 0 and has a transmission whose actuator
+  carries ``posfb:motor_constant`` > 0; ``<dynamics damping>`` >= 0,
+  ``drake:rotor_inertia`` >= 0 and ``drake:gear_ratio`` > 0 where given;
+* masses and inertias: finite masses, > 0 for the two arm links and >= 0 for
+  other bodies; rotational inertias physically valid (principal moments >= 0,
+  each at most the sum of the other two);
+* the axes, in the world at ``q = 0``: nonzero, perpendicular to gravity
+  (``-z``; an axis along gravity leaves the arm horizontal, gravity gives no
+  torque and theta4 = 0), joint 2's parallel to joint 1's with the same sense
+  (otherwise q2 turns the other way and gravity becomes ``cos(q1 - q2)``); in
+  its own link frame each axis is ``(0, +-1, 0)``, because ``models.plant``
+  reads a link's inertia about that frame's y axis;
+* the geometry at ``q = 0``: joint 2 sits on link 1's x axis at ``(+-l1, 0,
+  0)`` with ``l1 > 0`` (``models.plant`` takes l1 as that distance and a link's
+  centre of mass along x); link 1 is horizontal (the model's ``theta4 cos
+  q1``); positive q1 raises it (theta4 > 0, and gravity on joint 2 is ``+cos(q1
+  + q2)``); link 2's x axis continues link 1's line (the model's ``cos q2``);
+  the centre of mass of every body with mass, and the payload link's origin,
+  lie on their link's line (no in-plane offset, ``z = 0`` in the link frame);
+  link 2 has a moment of inertia about joint 2 (theta7 > 0).
+
+Allowed on purpose, because the model represents them: an arm in any
+vertical plane (a yaw of joint 1's origin), either sign of ``(+-l1, 0, 0)``
+and of the axes as long as positive q1 raises link 1, offsets along the joint
+axes for centres of mass, point-mass and thin-rod links (singular but valid
+inertias, as ``models.plant.apply_parameters`` itself writes), bodies welded
+anywhere, and any link and joint names (``models.plant`` checks the names it
+needs after Drake parses the file).
+"""
+
+from __future__ import annotations
+
+import math
+import xml.etree.ElementTree as ET
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+#: XML namespace of posfb's own URDF elements (motor constants, Coulomb levels).
+POSFB_NS = "https://posfb.example/urdf"
+
+#: XML namespace of Drake's URDF extensions.
+DRAKE_NS = "http://drake.mit.edu"
+
+#: Relative tolerance of the geometry checks, for unit directions and for
+#: offsets relative to l1: angles written with five decimals of pi (3.14159 is
+#: 2.7e-6 off) pass, and what it lets through changes the model by < 1e-5.
+TOLERANCE = 1e-5
+
+#: Relative slack of the inertia checks (round-off in thin-plate inertias).
+INERTIA_TOLERANCE = 1e-9
+
+ARM_JOINT_TYPES = ("revolute", "continuous")
+JOINT_TYPES = (*ARM_JOINT_TYPES, "fixed")
+
+UP = np.array([0.0, 0.0, 1.0])
+X_AXIS = np.array([1.0, 0.0, 0.0])
+Y_AXIS = np.array([0.0, 1.0, 0.0])
+
+
+@dataclass(frozen=True)
+class _Joint:
+    """One URDF ``<joint>``; ``axis`` is in the joint (= child link) frame."""
+
+    name: str
+    kind: str
+    parent: str
+    child: str
+    xyz: np.ndarray
+    rpy: np.ndarray
+    axis: np.ndarray
+    element: ET.Element
+
+    @property
+    def rotation(self) -> np.ndarray:
+        return _rotation(self.rpy)
+
+
+@dataclass(frozen=True)
+class _Body:
+    """A body with mass, expressed in the frame of the link that carries it."""
+
+    link: str
+    mass: float
+    com: np.ndarray
+    inertia: np.ndarray
+
+
+@dataclass(frozen=True)
+class _Arm:
+    """The parsed tree: world poses at ``q = 0`` and the two arm joints."""
+
+    links: dict[str, ET.Element]
+    parent_joint: dict[str, _Joint]
+    poses: dict[str, tuple[np.ndarray, np.ndarray]]
+    shoulder: _Joint
+    elbow: _Joint
+
+
+def check_arm_urdf(path: str | Path, payload_link: str | None = None) -> None:
+    """Refuse a URDF that the model of Sec. 4.1 and ``models.plant`` cannot represent.
+
+    ``payload_link``: the link at whose origin ``models.plant`` puts the tip
+    payload; where the file has it, it must be welded to link 2 on its line.
+    Raises ``FileNotFoundError`` if ``path`` does not exist and ``ValueError``
+    (one line naming the element, its value and what is allowed) otherwise."""
+    path = Path(path)
+    robot = _read_robot(path)
+    try:
+        arm = _parse_arm(robot)
+        for joint in (arm.shoulder, arm.elbow):
+            _check_drive(robot, joint)
+        bodies = _bodies(arm)
+        _check_axes(arm)
+        _check_geometry(arm, bodies)
+        if payload_link in arm.links:
+            _check_payload(arm, payload_link)
+    except ValueError as error:
+        raise ValueError(f"URDF {path}: {error}") from None
+
+
+def _read_robot(path: Path) -> ET.Element:
+    if path.is_dir():
+        raise ValueError(f"URDF {path} is a directory; a URDF file is required")
+    if not path.exists():
+        raise FileNotFoundError(f"URDF {path} does not exist")
+    if not path.is_file():
+        raise ValueError(f"URDF {path} is not a regular file; a URDF file is required")
+    try:
+        text = path.read_bytes()
+    except OSError as error:
+        raise ValueError(
+            f"URDF {path} cannot be read ({error.strerror}); a readable file is required"
+        ) from None
+    try:
+        robot = ET.fromstring(text)
+    except ET.ParseError as error:
+        raise ValueError(f"URDF {path} is not well-formed XML: {error}") from None
+    if robot.tag != "robot":
+        raise ValueError(f"URDF {path}: root element = <{robot.tag}>; <robot> is required")
+    return robot
+
+
+# --- numbers --------------------------------------------------------------
+
+
+def _shown(value: str | None) -> str:
+    return "(missing)" if value is None else value
+
+
+def _vector(values: np.ndarray) -> str:
+    return "(" + ", ".join(f"{v + 0.0:.6g}" for v in values) + ")"
+
+
+def _attribute(element: ET.Element | None, name: str) -> str | None:
+    return None if element is None else element.get(name)
+
+
+def _value(element: ET.Element | None) -> str | None:
+    return _attribute(element, "value")
+
+
+def _scalar(value: str | None, name: str, positive: bool, unit: str) -> float:
+    """``value`` as a finite number, > 0 if ``positive`` else >= 0."""
+    try:
+        number = float(value)
+    except (TypeError, ValueError):
+        number = math.nan
+    if not math.isfinite(number) or number < 0.0 or (positive and number == 0.0):
+        bound = "> 0" if positive else ">= 0"
+        raise ValueError(f"{name} = {_shown(value)}; a finite value {bound} ({unit}) is required")
+    return number
+
+
+def _triple(element: ET.Element | None, attribute: str, default: str, name: str) -> np.ndarray:
+    """Three finite numbers from ``attribute`` of ``element`` (``default`` if absent)."""
+    text = default if element is None else element.get(attribute, default)
+    try:
+        values = np.array([float(v) for v in text.split()])
+    except ValueError:
+        values = np.array([])
+    if values.shape != (3,) or not np.all(np.isfinite(values)):
+        raise ValueError(f"{name} = {text}; three finite numbers are required")
+    return values
+
+
+def _rotation(rpy: np.ndarray) -> np.ndarray:
+    """URDF's fixed-axis roll-pitch-yaw: ``Rz(yaw) Ry(pitch) Rx(roll)``."""
+    (cr, cp, cy), (sr, sp, sy) = np.cos(rpy), np.sin(rpy)
+    return np.array(
+        [
+            [cy * cp, cy * sp * sr - sy * cr, cy * sp * cr + sy * sr],
+            [sy * cp, sy * sp * sr + cy * cr, sy * sp * cr - cy * sr],
+            [-sp, cp * sr, cp * cr],
+        ]
+    )
+
+
+# --- the tree ---------------------------------------------------------------
+
+
+def _parse_arm(robot: ET.Element) -> _Arm:
+    drake_joint = robot.find(f"{{{DRAKE_NS}}}joint")
+    if drake_joint is not None:
+        raise ValueError(
+            f"drake:joint {drake_joint.get('name')!r} type = {_shown(drake_joint.get('type'))}; "
+            "only URDF <joint> elements (two revolute or continuous, the others fixed) are "
+            "supported"
+        )
+    links = _links(robot)
+    joints = [_joint(element, links) for element in robot.findall("joint")]
+    names = [joint.name for joint in joints]
+    for name in names:
+        if names.count(name) > 1:
+            raise ValueError(f"joint name = {name!r} appears twice; unique names are required")
+    root, parent_joint = _tree(links, joints)
+    poses = _world_poses(root, links, parent_joint)
+    shoulder, elbow = _arm_joints(root, joints, parent_joint)
+    return _Arm(links, parent_joint, poses, shoulder, elbow)
+
+
+def _links(robot: ET.Element) -> dict[str, ET.Element]:
+    links: dict[str, ET.Element] = {}
+    for element in robot.findall("link"):
+        name = element.get("name")
+        if not name:
+            raise ValueError("link name = (missing); every <link> needs a unique name")
+        if name in links:
+            raise ValueError(f"link name = {name!r} appears twice; unique names are required")
+        links[name] = element
+    return links
+
+
+def _joint(element: ET.Element, links: dict[str, ET.Element]) -> _Joint:
+    name = element.get("name")
+    if not name:
+        raise ValueError("joint name = (missing); every <joint> needs a unique name")
+    label = f"joint {name!r}"
+    kind = element.get("type")
+    if kind not in JOINT_TYPES:
+        raise ValueError(
+            f"{label} type = {_shown(kind)}; revolute or continuous is required for the two "
+            "arm joints of Sec. 4.1 and fixed for any other joint (a welded body)"
+        )
+    ends = {}
+    for end in ("parent", "child"):
+        link = _shown(_attribute(element.find(end), "link"))
+        if link not in links:
+            raise ValueError(f"{label} {end} link = {link}; a <link> of this URDF is required")
+        ends[end] = link
+    origin = element.find("origin")
+    return _Joint(
+        name=name,
+        kind=kind,
+        parent=ends["parent"],
+        child=ends["child"],
+        xyz=_triple(origin, "xyz", "0 0 0", f"{label} origin xyz"),
+        rpy=_triple(origin, "rpy", "0 0 0", f"{label} origin rpy"),
+        axis=_triple(element.find("axis"), "xyz", "1 0 0", f"{label} axis xyz"),
+        element=element,
+    )
+
+
+def _tree(links: dict[str, ET.Element], joints: list[_Joint]) -> tuple[str, dict[str, _Joint]]:
+    """The root link and, for every other link, the joint it hangs from."""
+    parent_joint: dict[str, _Joint] = {}
+    for joint in joints:
+        if joint.child in parent_joint:
+            raise ValueError(
+                f"link {joint.child!r} parent joints = {parent_joint[joint.child].name}, "
+                f"{joint.name}; one parent joint per link is required (a tree)"
+            )
+        parent_joint[joint.child] = joint
+    roots = [name for name in links if name not in parent_joint]
+    if len(roots) != 1:
+        raise ValueError(
+            f"root links = {', '.join(roots) or '(none)'}; exactly one (the base) is required, "
+            "every other link hangs from a joint"
+        )
+    return roots[0], parent_joint
+
+
+def _world_poses(
+    root: str, links: dict[str, ET.Element], parent_joint: dict[str, _Joint]
+) -> dict[str, tuple[np.ndarray, np.ndarray]]:
+    """(rotation, position) of every link frame in the world at ``q = 0``; the
+    root is welded to the world at the identity (``models.plant``)."""
+    poses = {root: (np.eye(3), np.zeros(3))}
+    for name in links:
+        chain: list[str] = []
+        while name not in poses:
+            if name in chain:
+                raise ValueError(
+                    f"link {name!r} is in a loop of joints; a tree from the base {root!r} is "
+                    "required"
+                )
+            chain.append(name)
+            name = parent_joint[name].parent
+        for child in reversed(chain):
+            joint = parent_joint[child]
+            rotation, position = poses[joint.parent]
+            poses[child] = (rotation @ joint.rotation, position + rotation @ joint.xyz)
+    return poses
+
+
+def _carrier(link: str, parent_joint: dict[str, _Joint]) -> str:
+    """The link that moves ``link``: itself, or what it is welded to."""
+    while link in parent_joint and parent_joint[link].kind == "fixed":
+        link = parent_joint[link].parent
+    return link
+
+
+def _arm_joints(
+    root: str, joints: list[_Joint], parent_joint: dict[str, _Joint]
+) -> tuple[_Joint, _Joint]:
+    arm = [joint for joint in joints if joint.kind != "fixed"]
+    if len(arm) != 2:
+        listed = ", ".join(joint.name for joint in arm) or "none"
+        raise ValueError(
+            f"revolute/continuous joints = {len(arm)} ({listed}); exactly two are required "
+            "(joint 1 on the base, joint 2 on joint 1's child link), each with "
+            "posfb:coulomb_friction and a transmission actuator with posfb:motor_constant"
+        )
+    on_base = [joint for joint in arm if _carrier(joint.parent, parent_joint) == root]
+    if len(on_base) != 1:
+        raise ValueError(
+            f"joints on the base {root!r} = {', '.join(j.name for j in on_base)}; one is "
+            "required: the arm is a serial chain base -> link 1 -> link 2"
+        )
+    shoulder = on_base[0]
+    elbow = arm[1] if arm[0] is shoulder else arm[0]
+    if elbow.parent != shoulder.child:
+        raise ValueError(
+            f"joint {elbow.name!r} parent link = {elbow.parent}; {shoulder.child} (the child of "
+            f"joint {shoulder.name!r}) is required: the arm is a serial chain base -> link 1 -> "
+            "link 2"
+        )
+    return shoulder, elbow
+
+
+# --- what models.plant reads --------------------------------------------------
+
+
+def _actuator(robot: ET.Element, joint: str) -> ET.Element | None:
+    for transmission in robot.findall("transmission"):
+        driven = transmission.find("joint")
+        if driven is not None and driven.get("name") == joint:
+            return transmission.find("actuator")
+    return None
+
+
+def _check_drive(robot: ET.Element, joint: _Joint) -> None:
+    """Coulomb level, damping and the actuator's motor constant, rotor inertia
+    and gear ratio of one arm joint."""
+    label = f"joint {joint.name!r}"
+    coulomb = joint.element.find(f"{{{POSFB_NS}}}coulomb_friction")
+    _scalar(_value(coulomb), f"{label} posfb:coulomb_friction value", False, "N m")
+    dynamics = joint.element.find("dynamics")
+    if dynamics is not None and "damping" in dynamics.attrib:
+        _scalar(dynamics.get("damping"), f"{label} dynamics damping", False, "N m s/rad")
+    actuator = _actuator(robot, joint.name)
+    if actuator is None:
+        raise ValueError(
+            f"{label} transmission actuator = (missing); a <transmission> of this joint whose "
+            "<actuator> carries posfb:motor_constant is required"
+        )
+    name = f"actuator {actuator.get('name')!r}"
+    motor = actuator.find(f"{{{POSFB_NS}}}motor_constant")
+    _scalar(_value(motor), f"{name} posfb:motor_constant value", True, "N m/V")
+    for tag, positive, unit in (
+        ("rotor_inertia", False, "kg m^2"),
+        ("gear_ratio", True, "dimensionless"),
+    ):
+        element = actuator.find(f"{{{DRAKE_NS}}}{tag}")
+        if element is not None:
+            _scalar(_value(element), f"{name} drake:{tag} value", positive, unit)
+
+
+# --- masses and inertias ------------------------------------------------------
+
+
+def _bodies(arm: _Arm) -> list[_Body]:
+    """Every link with an ``<inertial>``, in the frame of the link that moves it;
+    the two arm links must have one with mass > 0."""
+    moving = (arm.shoulder.child, arm.elbow.child)
+    bodies = []
+    for name, element in arm.links.items():
+        inertial = element.find("inertial")
+        if inertial is None:
+            if name in moving:
+                raise ValueError(
+                    f"link {name!r} mass = (missing: no <inertial>); a finite value > 0 (kg) is "
+                    "required for an arm link"
+                )
+            continue
+        label = f"link {name!r}"
+        mass = _scalar(_value(inertial.find("mass")), f"{label} mass", name in moving, "kg")
+        origin = inertial.find("origin")
+        com = _triple(origin, "xyz", "0 0 0", f"{label} inertial origin xyz")
+        rotation = _rotation(_triple(origin, "rpy", "0 0 0", f"{label} inertial origin rpy"))
+        inertia = rotation @ _inertia(label, inertial.find("inertia")) @ rotation.T
+        carrier = _carrier(name, arm.parent_joint)
+        to_carrier, offset = _relative_pose(arm, carrier, name)
+        bodies.append(
+            _Body(
+                link=name,
+                mass=mass,
+                com=offset + to_carrier @ com,
+                inertia=to_carrier @ inertia @ to_carrier.T,
+            )
+        )
+    return bodies
+
+
+def _inertia(label: str, element: ET.Element | None) -> np.ndarray:
+    """The rotational inertia about the centre of mass; physically valid."""
+    names = ("ixx", "iyy", "izz", "ixy", "ixz", "iyz")
+    text = " ".join("0" if element is None else element.get(n, "0") for n in names)
+    try:
+        values = [float(v) for v in text.split()]
+    except ValueError:
+        values = []
+    if len(values) != len(names) or not all(math.isfinite(v) for v in values):
+        raise ValueError(f"{label} inertia {' '.join(names)} = {text}; finite numbers are required")
+    xx, yy, zz, xy, xz, yz = values
+    matrix = np.array([[xx, xy, xz], [xy, yy, yz], [xz, yz, zz]])
+    moments = np.linalg.eigvalsh(matrix)
+    slack = INERTIA_TOLERANCE * float(np.abs(moments).max())
+    if moments[0] < -slack or moments[2] > moments[0] + moments[1] + slack:
+        raise ValueError(
+            f"{label} inertia {' '.join(names)} = {text} (principal moments "
+            f"{_vector(moments)}); a physically valid inertia is required: principal moments "
+            ">= 0, each at most the sum of the other two"
+        )
+    return matrix
+
+
+def _relative_pose(arm: _Arm, frame: str, link: str) -> tuple[np.ndarray, np.ndarray]:
+    """Rotation and origin of ``link``'s frame expressed in ``frame``'s, at ``q = 0``."""
+    frame_rotation, frame_position = arm.poses[frame]
+    rotation, position = arm.poses[link]
+    return frame_rotation.T @ rotation, frame_rotation.T @ (position - frame_position)
+
+
+# --- axes and geometry ----------------------------------------------------------
+
+
+def _unit_axis(joint: _Joint) -> np.ndarray:
+    norm = float(np.linalg.norm(joint.axis))
+    if norm == 0.0:
+        raise ValueError(
+            f"joint {joint.name!r} axis xyz = {_vector(joint.axis)}; a nonzero direction is "
+            "required"
+        )
+    return joint.axis / norm
+
+
+def _world_axis(arm: _Arm, joint: _Joint) -> np.ndarray:
+    return arm.poses[joint.child][0] @ _unit_axis(joint)
+
+
+def _check_axes(arm: _Arm) -> None:
+    """Both axes horizontal, parallel with the same sense, and (0, +-1, 0) locally."""
+    shoulder, elbow = arm.shoulder, arm.elbow
+    axis = _world_axis(arm, shoulder)
+    if abs(axis @ UP) > TOLERANCE:
+        raise ValueError(
+            f"joint {shoulder.name!r} axis in the world at q = 0 = {_vector(axis)}; an axis "
+            "perpendicular to gravity (-z) is required: the model of Sec. 4.1 is an arm in a "
+            "vertical plane, and with the axes along gravity it gets no gravity torque "
+            "(theta4 = 0)"
+        )
+    elbow_axis = _world_axis(arm, elbow)
+    if np.linalg.norm(elbow_axis - axis) > TOLERANCE:
+        raise ValueError(
+            f"joint {elbow.name!r} axis in the world at q = 0 = {_vector(elbow_axis)}; "
+            f"{_vector(axis)} as for joint {shoulder.name!r} is required (parallel, same "
+            "sense): the model of Sec. 4.1 is a planar arm whose q2 turns the way q1 does"
+        )
+    for joint in (shoulder, elbow):
+        local = _unit_axis(joint)
+        if abs(abs(local @ Y_AXIS) - 1.0) > TOLERANCE:
+            raise ValueError(
+                f"joint {joint.name!r} axis xyz = {_vector(joint.axis)}; (0, 1, 0) or "
+                "(0, -1, 0) is required: posfb reads a link's inertia about its frame's y "
+                "axis (turn the link frame with the joint's origin rpy instead)"
+            )
+
+
+def _check_geometry(arm: _Arm, bodies: list[_Body]) -> None:
+    """Link 1 horizontal along x, raised by q1, continued by link 2; masses on the line."""
+    shoulder, elbow = arm.shoulder, arm.elbow
+    l1 = float(np.linalg.norm(elbow.xyz))
+    if l1 == 0.0 or np.linalg.norm(elbow.xyz[1:]) > TOLERANCE * l1:
+        raise ValueError(
+            f"joint {elbow.name!r} origin xyz = {_vector(elbow.xyz)}; (l1, 0, 0) or (-l1, 0, 0) "
+            f"with l1 > 0 is required: link 1 runs along the x axis of link {shoulder.child!r}, "
+            "where posfb reads l1 and the centre of mass"
+        )
+    rotation = arm.poses[shoulder.child][0]
+    along = rotation @ (elbow.xyz / l1)
+    if abs(along @ UP) > TOLERANCE:
+        raise ValueError(
+            f"joint {shoulder.name!r} origin rpy = {_vector(shoulder.rpy)} (link 1 points "
+            f"{_vector(along)} at q = 0); link 1 horizontal at q = 0 is required (the model's "
+            "theta4 cos q1)"
+        )
+    if np.cross(_world_axis(arm, shoulder), along) @ UP <= 0.0:
+        raise ValueError(
+            f"joint {shoulder.name!r} axis xyz = {_vector(shoulder.axis)} (link 1 along "
+            f"{_vector(along)}); an axis about which positive q1 raises link 1 is required "
+            "(theta4 > 0, gravity on joint 2 as +cos(q1 + q2)): reverse both joint axes"
+        )
+    link2 = arm.poses[elbow.child][0] @ X_AXIS
+    if np.linalg.norm(np.cross(link2, along)) > TOLERANCE:
+        raise ValueError(
+            f"joint {elbow.name!r} origin rpy = {_vector(elbow.rpy)} (link 2's x axis points "
+            f"{_vector(link2)} at q = 0); link 2's x axis along link 1's line {_vector(along)} "
+            "is required (the model's cos q2)"
+        )
+    for body in bodies:
+        carrier = _carrier(body.link, arm.parent_joint)
+        if body.mass > 0.0 and carrier in (shoulder.child, elbow.child):
+            _check_on_line(f"link {body.link!r} centre of mass", body.com, carrier, l1)
+    _check_link2_inertia(arm, bodies)
+
+
+def _check_on_line(label: str, point: np.ndarray, link: str, l1: float) -> None:
+    """``point`` (in ``link``'s frame) on the link's line: no in-plane offset."""
+    if abs(point[2]) > TOLERANCE * l1:
+        raise ValueError(
+            f"{label} in the frame of link {link!r} = {_vector(point)}; z = 0 is required: the "
+            "model of Sec. 4.1 has every mass on the line through its link's joint axes"
+        )
+
+
+def _check_payload(arm: _Arm, payload: str) -> None:
+    """The tip payload (a point mass at the link's origin) rides on link 2's line."""
+    link2 = arm.elbow.child
+    carrier = _carrier(payload, arm.parent_joint)
+    if carrier != link2:
+        raise ValueError(
+            f"link {payload!r} moves with {carrier!r}; welded to {link2!r} is required: the "
+            "tip payload rides on link 2"
+        )
+    _, origin = _relative_pose(arm, link2, payload)
+    _check_on_line(f"link {payload!r} origin", origin, link2, float(np.linalg.norm(arm.elbow.xyz)))
+
+
+def _check_link2_inertia(arm: _Arm, bodies: list[_Body]) -> None:
+    """theta7 > 0: link 2 (with what is welded to it) has inertia about joint 2."""
+    elbow = arm.elbow
+    axis = _unit_axis(elbow)
+    moment = 0.0
+    for body in bodies:
+        if _carrier(body.link, arm.parent_joint) == elbow.child:
+            radial = body.com - (body.com @ axis) * axis
+            moment += float(axis @ body.inertia @ axis) + body.mass * float(radial @ radial)
+    if moment <= 0.0:
+        raise ValueError(
+            f"link {elbow.child!r} moment of inertia about the axis of joint {elbow.name!r} = "
+            f"{moment:g} kg m^2; > 0 is required (theta7 > 0): link 2 cannot be a point mass "
+            "on joint 2's axis"
+        )

@@ -1,0 +1,200 @@
+"""``diagrams.scenario``: the settings tree, ``--set``, the shipped paper scenarios,
+any trajectory, the sensor options, and one-line errors for bad scenarios."""
+
+from __future__ import annotations
+
+import json
+import math
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from posfb.analysis.cli import main
+from posfb.analysis.experiment import CASE_FILES, case_scenario
+from posfb.analysis.metrics import rms
+from posfb.diagrams.closed_loop import ClosedLoopConfig, ClosedLoopRunner
+from posfb.diagrams.encoder import quantise
+from posfb.diagrams.scenario import (
+    Scenario,
+    dump_scenario,
+    load_scenario,
+    resolve,
+    run_scenario,
+)
+from posfb.diagrams.yaml_schema import load_typed
+from posfb.models.controllers import CONTROLLER_KINDS
+from posfb.models.trajectory import desired
+
+#: Sec. 4.3's payload, kg at the link-2 tip (the paper's number, not read from code).
+PAPER_PAYLOAD = 0.288
+
+WAYPOINTS = (
+    "trajectory: !Waypoints\n"
+    "  times: [0.0, 1.5, 3.0]\n"
+    "  positions: [[-1.5707963, 0.0], [-1.2, 0.6], [-1.4, 0.3]]\n"
+)
+
+
+def _write(tmp_path, text, name="scenario.yaml"):
+    path = tmp_path / name
+    path.write_text(text)
+    return path
+
+
+def test_a_dumped_scenario_loads_and_dumps_back_byte_for_byte(tmp_path):
+    for text in (dump_scenario(Scenario()), WAYPOINTS + "nominal_model: !Theta {theta6: 0}\n"):
+        first = dump_scenario(load_scenario(_write(tmp_path, text)).scenario)
+        again = dump_scenario(load_typed(Scenario, first, "dump"))
+        assert again == first
+    assert "nominal_model: !Table1 {}" in dump_scenario(Scenario())
+
+
+@pytest.mark.parametrize("case", ["nominal", "payload"])
+@pytest.mark.parametrize("kind", CONTROLLER_KINDS)
+def test_shipped_paper_scenarios_equal_the_hand_built_paper_runs(case, kind):
+    loaded = case_scenario(case, (f"controller.kind={kind}", "timing.duration=2"))
+    from_file = run_scenario(loaded)
+    runner = ClosedLoopRunner(ClosedLoopConfig(controller=kind, duration=2.0))
+    payload = PAPER_PAYLOAD if case == "payload" else 0.0
+    by_hand = runner.run(runner.arm.default_parameters.with_payload(payload))
+    for name in ("q_true", "q_measured", "u_commanded", "u_applied", "internals"):
+        np.testing.assert_array_equal(getattr(from_file, name), getattr(by_hand, name))
+
+
+def _tracks(result, bound):
+    q_d0 = result.config.trajectory.evaluate(0.0)[0]
+    np.testing.assert_allclose(result.q_true[0], q_d0, atol=1e-12)
+    assert result.status == "ok", result.message
+    assert np.max(np.abs(result.q_error)) < bound
+
+
+@pytest.mark.parametrize("kind", CONTROLLER_KINDS)
+def test_waypoints_are_tracked_from_the_right_initial_state(tmp_path, kind):
+    path = _write(tmp_path, WAYPOINTS + "timing: {duration: 4.0}\n")
+    result = run_scenario(load_scenario(path, [f"controller.kind={kind}"]))
+    _tracks(result, bound=0.05)
+    np.testing.assert_allclose(result.q_desired[-1], [-1.4, 0.3], atol=1e-12)  # held at rest
+
+
+@pytest.mark.parametrize("kind", CONTROLLER_KINDS)
+def test_a_csv_trajectory_is_tracked_and_follows_the_samples(tmp_path, kind):
+    times = np.arange(0.0, 3.0 + 1e-9, 0.02)
+    table = pd.DataFrame({"time_s": times})
+    for j in range(2):
+        table[f"q{j + 1}_rad"] = [desired(t)[0][j] for t in times]
+    table.to_csv(tmp_path / "path.csv", index=False)
+    path = _write(tmp_path, "trajectory: !CsvFile {path: path.csv}\ntiming: {duration: 3.0}\n")
+    result = run_scenario(load_scenario(path, [f"controller.kind={kind}"]))
+    _tracks(result, bound=0.1)
+    # The spline interpolates the samples and its derivative is close to the true velocity.
+    trajectory = result.config.trajectory
+    for t in (0.5, 1.37, 2.9):
+        np.testing.assert_allclose(trajectory.evaluate(t)[0], desired(t)[0], atol=2e-5)
+        np.testing.assert_allclose(trajectory.evaluate(t)[1], desired(t)[1], atol=2e-3)
+
+
+def test_each_documented_set_changes_the_run(tmp_path, capsys):
+    base = ["--duration", "1", "--controller", "lin_lc"]
+    out = tmp_path / "run.parquet"
+    assert main(["simulate", *base, "--set", "timing.sample_time=0.005", "--out", str(out)]) == 0
+    assert np.allclose(np.diff(pd.read_parquet(out)["time_s"]), 0.005)
+    loaded = load_scenario(None, ["sensor.encoder_counts=4096"])
+    assert resolve(loaded).config.encoder_counts == (4096, 4096)
+    result = run_scenario(load_scenario(None, ["sensor.encoder_counts=4096", "timing.duration=1"]))
+    np.testing.assert_allclose(result.q_measured, quantise(result.q_true, 4096), atol=1e-12)
+    mixed = resolve(load_scenario(None, ["sensor.encoder_counts=[4096, 2048]"])).config
+    assert mixed.encoder_counts == (4096, 2048)
+    resolved = resolve(load_scenario(None, ["plant.payload_mass=0.5"]))
+    runner = ClosedLoopRunner(ClosedLoopConfig(duration=0.1))
+    assert resolved.true_parameters(runner.arm.default_parameters).payload_mass == 0.5
+    assert resolve(load_scenario(None, ["controller.alpha_star=2.75"])).config.design.nonlinear.alpha_star == 2.75  # noqa: E501
+    assert resolve(load_scenario(None, ["controller.kind=lin_lc"])).config.controller == "lin_lc"
+    short = run_scenario(load_scenario(None, ["timing.duration=5", "controller.kind=lin_lc"]))
+    assert short.times[-1] == pytest.approx(5.0)
+    capsys.readouterr()
+    assert main(["design", "--set", "timing.sample_time=0.005", "--set", "controller.filter_a=200"]) == 0  # noqa: E501
+    assert "T_s = 0.005 s" in capsys.readouterr().out
+
+
+def test_exported_file_gives_the_json_rms(tmp_path, capsys):
+    out = tmp_path / "run.csv"
+    args = ["simulate", "--duration", "1", "--controller", "pid", "--out", str(out), "--json"]
+    assert main(args) == 0
+    reported = json.loads(capsys.readouterr().out)
+    table = pd.read_csv(out)
+    error = table[["q1_rad", "q2_rad"]].to_numpy() - table[
+        ["q1_desired_rad", "q2_desired_rad"]
+    ].to_numpy()
+    np.testing.assert_allclose(rms(error[1:]), reported["rms_q"], rtol=1e-12)
+    np.testing.assert_allclose(
+        rms(table[["u1_applied_V", "u2_applied_V"]].to_numpy()[1:]), reported["rms_u"], rtol=1e-12
+    )
+
+
+def test_sensor_delay_offset_and_noise():
+    delayed = run_scenario(load_scenario(None, ["timing.duration=1", "sensor.delay_samples=3"]))
+    quantised = quantise(delayed.q_true, 20000)
+    np.testing.assert_allclose(delayed.q_measured[3:], quantised[:-3], atol=1e-12)
+    np.testing.assert_allclose(delayed.q_measured[:3], np.tile(quantised[0], (3, 1)), atol=1e-12)
+    offset = run_scenario(load_scenario(None, ["timing.duration=0.5", "sensor.zero_offset=[0.01, 0]"]))  # noqa: E501
+    np.testing.assert_allclose(offset.q_measured[0], quantise(offset.q_true[0] + [0.01, 0], 20000))
+    noisy = ["timing.duration=2", "sensor.encoder_counts=0", "sensor.noise_std=[1e-3, 2e-3]"]
+    first = run_scenario(load_scenario(None, noisy))
+    again = run_scenario(load_scenario(None, noisy))
+    np.testing.assert_array_equal(first.q_measured, again.q_measured)
+    std = np.std(first.q_measured - first.q_true, axis=0)
+    np.testing.assert_allclose(std, [1e-3, 2e-3], rtol=0.15)
+    other = run_scenario(load_scenario(None, [*noisy, "sensor.noise_seed=7"]))
+    assert not np.array_equal(other.q_measured, first.q_measured)
+
+
+def test_discretisation_is_a_choice_the_design_names(capsys):
+    assert main(["design", "--set", "controller.discretisation=tustin"]) == 0
+    assert "Tustin" in capsys.readouterr().out
+    foh = resolve(load_scenario(None)).config.design
+    zoh = resolve(load_scenario(None, ["controller.discretisation=zoh"])).config.design
+    assert foh.discretisation == "foh" and zoh.discretisation == "zoh"
+
+
+@pytest.mark.parametrize(
+    ("text", "needle"),
+    [
+        ("timing: {sampel_time: 0.01}\n", "timing.sampel_time"),
+        ("timing: {sample_time: fast}\n", "timing.sample_time"),
+        ("timing: {sample_time: 0}\n", "timing.sample_time"),
+        ("timing: {sample_time: -0.01}\n", "timing.sample_time"),
+        ("timing: {duration: 1.005}\n", "timing.duration"),
+        ("trajectory: !CsvFile {path: missing.csv}\n", "trajectory.path"),
+        ("trajectory: !CsvFile {path: bad.csv}\n", "non-numeric"),
+        ("trajectory: !Waypoints {times: [0, 2, 1], positions: [[0, 0], [1, 1], [0, 0]]}\n",
+         "strictly increasing"),
+        ("trajectory: !Waypoints {times: [0], positions: [[0, 0]]}\n", "at least 2"),
+        ("plant: {payload_mass: -1}\n", "plant.payload_mass"),
+        ("actuator: {voltage_limit: [0, 24]}\n", "actuator.voltage_limit"),
+        ("controller: {kind: lqr}\n", "controller.kind"),
+        ("sensor: {delay_samples: -1}\n", "sensor.delay_samples"),
+    ],
+)
+def test_bad_scenarios_get_one_line_naming_the_key(tmp_path, capsys, text, needle):
+    (tmp_path / "bad.csv").write_text("time,q1,q2\n0,0,0\n1,x,0\n2,0,0\n3,0,0\n")
+    path = _write(tmp_path, text)
+    assert main(["simulate", "--scenario", str(path)]) == 2
+    lines = capsys.readouterr().err.strip().splitlines()
+    assert len(lines) == 1 and needle in lines[0], lines
+
+
+def test_a_trajectory_beyond_the_voltage_limit_runs_with_a_warning(tmp_path, capsys):
+    fast = "trajectory: !Waypoints {times: [0, 0.3], positions: [[-1.5707963, 0], [0, 1.5]]}\n"
+    path = _write(tmp_path, fast + "controller: {kind: lin_lc}\ntiming: {duration: 0.5}\n")
+    assert main(["simulate", "--scenario", str(path)]) == 0
+    err = capsys.readouterr().err
+    assert "warning" in err and "voltage limit" in err
+
+
+def test_shipped_case_files_exist_and_differ_only_in_the_payload():
+    nominal, payload = (load_scenario(CASE_FILES[c]).scenario for c in ("nominal", "payload"))
+    assert nominal.plant.payload_mass == 0.0 and payload.plant.payload_mass == PAPER_PAYLOAD
+    payload.plant.payload_mass = 0.0
+    assert dump_scenario(payload) == dump_scenario(nominal)
+    assert math.isclose(resolve(load_scenario(CASE_FILES["nominal"])).config.sample_time, 0.01)
