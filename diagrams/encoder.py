@@ -5,7 +5,7 @@
 It has no state and no sample period of its own: the controller's periodic
 update (period ``T_s``, offset 0) reads it at ``t_k``, which *is* the sampling.
 A ``ZeroOrderHold(T_s)`` in front of the controller would add one extra sample
-of delay (``../shared/DRAKE-NOTES.md``, "Timing of discrete systems").
+of delay (``docs/drake-notes.md``, "Timing of discrete systems").
 
 Round to nearest, not floor: an incremental encoder zeroed at a count boundary
 reports ``floor``, whose error lies in ``[0, Delta)`` with mean ``Delta/2``; the

@@ -67,7 +67,7 @@ class PlantConfig:
 
     ``time_step = 0`` gives a continuous plant (the default: Coulomb friction
     is then evaluated at every integrator stage); ``time_step > 0`` gives a
-    discrete one (keep it <= 1 ms where friction matters, DRAKE-NOTES).
+    discrete one (keep it <= 1 ms where friction matters, docs/drake-notes.md).
     """
 
     urdf: str = str(DEFAULT_URDF)

@@ -7,7 +7,8 @@ The code lives in three layers, imported one way only::
     posfb.analysis  metrics, studies, reports, the CLI          <- imports both
 
 The folders ``models/``, ``diagrams/`` and ``analysis/`` of the repository are
-installed as these subpackages (``pyproject.toml``, ``[tool.setuptools]``).
+installed as these subpackages (``pyproject.toml``, ``[tool.setuptools]``). Docstrings
+that cite "reading note N" refer to ``docs/reading-notes.md``.
 """
 
 __version__ = "0.1.0"

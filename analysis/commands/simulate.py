@@ -8,6 +8,7 @@ import json
 import sys
 from pathlib import Path
 
+from posfb.analysis import plots
 from posfb.analysis.commands.scenario_args import add_scenario_arguments, scenario_from_args
 from posfb.analysis.errors import UsageError
 from posfb.analysis.experiment import CONTROLLER_LABELS, result_entry
@@ -29,8 +30,16 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser.add_argument(
         "--out", help=f"write the time series ({', '.join(EXPORT_FORMATS)} by suffix)"
     )
+    parser.add_argument(
+        "--figure", metavar="DIR", help="write positions/voltages and errors (PNG, SVG) into DIR"
+    )
     parser.add_argument("--json", action="store_true", help="print one JSON object")
     parser.set_defaults(handler=run)
+
+
+def summary_name(args: argparse.Namespace) -> str:
+    """The scenario's name in reports: its file, or the shipped case."""
+    return str(args.scenario or args.case or "nominal")
 
 
 def run(args: argparse.Namespace) -> int:
@@ -44,9 +53,14 @@ def run(args: argparse.Namespace) -> int:
         sys.stderr.write(f"posfb simulate: warning: {warning}\n")
     result = run_scenario(loaded)
     written = export_run(result, Path(args.out)) if args.out else None
+    if args.figure:
+        runs, title = {config.controller: result}, f"scenario {summary_name(args)}"
+        Path(args.figure).mkdir(parents=True, exist_ok=True)
+        plots.save(plots.positions_and_voltages(runs, title), Path(args.figure), "positions")
+        plots.save(plots.tracking_errors(runs, title), Path(args.figure), "errors")
     summary = {
         "controller": config.controller,
-        "scenario": str(args.scenario or args.case or "nominal"),
+        "scenario": summary_name(args),
         "duration": config.duration,
         "sample_time": config.sample_time,
         "encoder_counts": list(config.encoder_counts),
