@@ -121,6 +121,19 @@ def _per_joint(name: str, value: float | Sequence[float]) -> tuple[float, ...]:
     return tuple(require_finite(f"{name}[{j}]", v) for j, v in enumerate(values))
 
 
+@dataclass(frozen=True)
+class SensorState:
+    """The sensor settings of one run that live in the Context, not in the diagram:
+    counts per revolution, zero offset (rad) and noise standard deviation (rad) per
+    joint, and the noise seed. (Whether there is noise at all, and the delay, are
+    part of the diagram.)"""
+
+    encoder_counts: tuple[int, ...]
+    zero_offset: tuple[float, ...]
+    noise_std: tuple[float, ...]
+    noise_seed: int
+
+
 @dataclass(frozen=True, eq=False)
 class ClosedLoopConfig:
     """One closed-loop run, resolved and validated (``diagrams.scenario`` builds it
@@ -216,6 +229,11 @@ class ClosedLoopConfig:
     def samples(self) -> int:
         """``N0 = duration / T_s``, the number of samples ``k = 1..N0`` the metrics use."""
         return round(self.duration / self.sample_time)
+
+    @property
+    def sensor(self) -> SensorState:
+        """The sensor settings a Context holds (they change per run without rebuilding)."""
+        return SensorState(self.encoder_counts, self.zero_offset, self.noise_std, self.noise_seed)
 
     @property
     def noisy(self) -> bool:
@@ -372,25 +390,28 @@ class ClosedLoopRunner:
         return self.loop.arm
 
     def new_context(
-        self,
-        parameters: ArmParameters | None = None,
-        encoder_counts: int | tuple[int, ...] | None = None,
+        self, parameters: ArmParameters | None = None, sensor: SensorState | None = None
     ) -> Context:
-        """A fresh Context: true ``parameters`` (default: the URDF's), the sensor of the
-        config (``encoder_counts`` may override the resolution), the arm at rest at
-        ``q_d(0)``; a sensor delay line is filled with the first measurement."""
+        """A fresh Context: true ``parameters`` (default: the URDF's), the ``sensor``
+        settings (default: the config's), the arm at rest at ``q_d(0)``; a sensor delay
+        line is filled with the first measurement."""
         loop, config = self.loop, self.config
+        sensor = config.sensor if sensor is None else sensor
+        if any(std > 0.0 for std in sensor.noise_std) and loop.noise_source is None:
+            raise ValueError(
+                f"noise_std = {list(sensor.noise_std)} needs a diagram built with sensor "
+                "noise (a config with noise_std > 0)"
+            )
         context = loop.diagram.CreateDefaultContext()
         apply_parameters(loop.arm, context, parameters or loop.arm.default_parameters)
         encoder_context = loop.encoder.GetMyMutableContextFromRoot(context)
-        counts = config.encoder_counts if encoder_counts is None else encoder_counts
-        loop.encoder.set_counts(encoder_context, counts)
-        loop.encoder.set_zero_offset(encoder_context, config.zero_offset)
+        loop.encoder.set_counts(encoder_context, sensor.encoder_counts)
+        loop.encoder.set_zero_offset(encoder_context, sensor.zero_offset)
         if loop.noise_source is not None:
-            loop.encoder.set_noise_std(encoder_context, config.noise_std)
+            loop.encoder.set_noise_std(encoder_context, sensor.noise_std)
             loop.noise_source.SetRandomContext(
                 loop.noise_source.GetMyMutableContextFromRoot(context),
-                RandomGenerator(config.noise_seed),
+                RandomGenerator(sensor.noise_seed),
             )
         plant = loop.arm.plant
         plant_context = plant.GetMyMutableContextFromRoot(context)
@@ -404,12 +425,12 @@ class ClosedLoopRunner:
         return context
 
     def run(
-        self,
-        parameters: ArmParameters | None = None,
-        encoder_counts: int | tuple[int, ...] | None = None,
+        self, parameters: ArmParameters | None = None, sensor: SensorState | None = None
     ) -> ClosedLoopResult:
-        """Simulate ``duration`` seconds; never raises for a diverging run."""
-        context = self.new_context(parameters, encoder_counts)
+        """Simulate ``duration`` seconds on the true ``parameters`` with the ``sensor``
+        settings (defaults: the URDF's and the config's); never raises for a diverging
+        run."""
+        context = self.new_context(parameters, sensor)
         simulator = Simulator(self.loop.diagram, context)
         T_s = self.config.sample_time
         ApplySimulatorConfig(self._simulator_config(), simulator)

@@ -34,6 +34,7 @@ from pathlib import Path
 
 import numpy as np
 import pandas as pd
+import yaml
 from pydrake.common.yaml import yaml_dump_typed, yaml_load_typed
 from pydrake.systems.analysis import SimulatorConfig
 
@@ -227,6 +228,17 @@ class Timing:
     divergence_bound: float = DIVERGENCE_BOUND
     simulator: SimulatorConfig = field(default_factory=default_simulator)
 
+    def __eq__(self, other: object) -> bool:
+        """By value (Drake's ``SimulatorConfig`` itself compares by identity)."""
+        if not isinstance(other, Timing):
+            return NotImplemented
+
+        def values(timing: Timing) -> tuple:
+            simulator = tuple(getattr(timing.simulator, f.name) for f in SimulatorConfig.__fields__)
+            return timing.sample_time, timing.duration, timing.divergence_bound, simulator
+
+        return values(self) == values(other)
+
 
 @dataclass
 class Sensor:
@@ -373,35 +385,73 @@ def _is_section(value: object) -> bool:
     return dataclasses.is_dataclass(value) or hasattr(type(value), "__fields__")
 
 
+#: One part of a dotted key: a name, optionally indexed (``joints[0]``).
+_PART = re.compile(r"^([A-Za-z_][A-Za-z0-9_]*)(?:\[(\d+)\])?$")
+
+
+def _walk(scenario: Scenario, key: str) -> tuple[object, str, int | None]:
+    """The object holding the last part of dotted ``key``, that part's name and index."""
+    parts = key.split(".")
+    parent: object = scenario
+    for depth, part in enumerate(parts):
+        where = ".".join(parts[: depth + 1])
+        match = _PART.match(part)
+        if not match:
+            raise ValueError(f"--set {where}: not a key; names and [index] are allowed")
+        name, index = match.group(1), match.group(2)
+        known = list(_field_types(type(parent)))
+        if name not in known:
+            raise ValueError(f"--set {where}: unknown key; known keys: {', '.join(known)}")
+        index = None if index is None else int(index)
+        value = getattr(parent, name)
+        if index is not None and (not isinstance(value, list) or index >= max(len(value), 2)):
+            size = len(value) if isinstance(value, list) else 0
+            raise ValueError(f"--set {where}: index {index} out of range (a list of {size})")
+        if depth == len(parts) - 1:
+            return parent, name, index
+        parent = value if index is None else value[index]
+        if not _is_section(parent):
+            raise ValueError(f"--set {key}: {where} has no sub-keys")
+    raise AssertionError("unreachable")
+
+
+def get_setting(scenario: Scenario, key: str) -> object:
+    """The value of dotted ``key`` (``sensor.encoder_counts[1]``: a per-joint list of one
+    value reads that value for every joint)."""
+    parent, name, index = _walk(scenario, key)
+    value = getattr(parent, name)
+    if index is None:
+        return value
+    return value[index] if index < len(value) else value[0]
+
+
 def apply_setting(scenario: Scenario, setting: str) -> Scenario:
     """A copy of ``scenario`` with ``KEY=VALUE`` applied: ``KEY`` is a dotted path
-    (``timing.sample_time``), ``VALUE`` YAML (``0.005``, ``[4096, 2048]``, ``lin_lc``,
-    or a whole section such as ``!Theta {theta6: 0}`` for ``nominal_model``). A single
-    number given to a per-joint list applies to both joints."""
+    (``timing.sample_time``, ``sensor.encoder_counts[1]``, ``trajectory.joints[0].frequency``),
+    ``VALUE`` YAML (``0.005``, ``[4096, 2048]``, ``lin_lc``, or a whole section such as
+    ``!Theta {theta6: 0}`` for ``nominal_model``). A single number given to a per-joint
+    list applies to both joints."""
     key, equals, text = setting.partition("=")
-    key = key.strip()
+    key, text = key.strip(), text.strip()
     if not equals or not key:
         raise ValueError(f"--set {setting!r}; KEY=VALUE is required (e.g. timing.duration=5)")
     result = copy.deepcopy(scenario)
-    parts = key.split(".")
-    parent: object = result
-    for depth, name in enumerate(parts):
-        known = list(_field_types(type(parent)))
-        if name not in known:
-            where = ".".join(parts[: depth + 1])
-            raise ValueError(f"--set {where}: unknown key; known keys: {', '.join(known)}")
-        if depth == len(parts) - 1:
-            break
-        parent = getattr(parent, name)
-        if not _is_section(parent):
-            raise ValueError(f"--set {key}: {'.'.join(parts[: depth + 1])} has no sub-keys")
-    name = parts[-1]
+    parent, name, index = _walk(result, key)
     schema = type(parent)
-    text = text.strip()
-    if _is_list(_field_types(schema)[name]) and not isinstance(parse(text, f"--set {key}"), list):
+    if index is not None:
+        items = list(getattr(parent, name))
+        items = items * JOINTS if len(items) == 1 else items
+        rendered = [yaml.safe_dump(item, default_flow_style=True).strip() for item in items]
+        rendered = [r.removesuffix("\n...").strip() for r in rendered]
+        rendered[index] = text
+        text = f"[{', '.join(rendered)}]"
+    elif _is_list(_field_types(schema)[name]) and not isinstance(
+        parse(text, f"--set {key}"), list
+    ):
         text = f"[{text}]"
     document = f"{name}: {text}"
-    check_shape(parse(document, f"--set {key}"), schema, ".".join(parts[:-1]))
+    prefix = key.rpartition(".")[0]
+    check_shape(parse(document, f"--set {key}"), schema, prefix)
     try:
         updated = yaml_load_typed(schema=schema, data=document, defaults=parent)
     except Exception as error:
@@ -451,6 +501,23 @@ def resolve_path(text: str, base_dir: Path) -> Path:
         return DEFAULT_URDF
     path = Path(text).expanduser()
     return path if path.is_absolute() else base_dir / path
+
+
+def with_absolute_paths(loaded: LoadedScenario) -> Scenario:
+    """A copy of the scenario whose file paths no longer depend on its folder."""
+    scenario = copy.deepcopy(loaded.scenario)
+
+    def absolute(text: str) -> str:
+        if not text or text == SHIPPED_URDF:
+            return text
+        return str(resolve_path(text, loaded.base_dir))
+
+    scenario.plant.urdf = absolute(scenario.plant.urdf)
+    if isinstance(scenario.nominal_model, IdentifiedFromUrdf):
+        scenario.nominal_model.urdf = absolute(scenario.nominal_model.urdf)
+    if isinstance(scenario.trajectory, CsvFile):
+        scenario.trajectory.path = absolute(scenario.trajectory.path)
+    return scenario
 
 
 def read_csv_trajectory(path: Path) -> SplineTrajectory:

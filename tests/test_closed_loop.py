@@ -76,7 +76,9 @@ def test_voltage_computed_at_t_k_uses_the_measurement_at_t_k(runners):
 def test_measured_position_is_the_true_one_quantised(runners):
     runner = runners["lin_lc"]
     for counts in (2000, 0):
-        result = runner.run(encoder_counts=counts)
+        result = runner.run(
+            sensor=dataclasses.replace(runner.config.sensor, encoder_counts=(counts, counts))
+        )
         error = np.abs(result.q_measured - result.q_true)
         if counts:
             step = 2 * math.pi / counts
@@ -147,7 +149,6 @@ def test_payload_proposed_beats_lin_lc_on_joint_2(payload_runs):
     ("change", "name"),
     [
         ({"controller": "lqr"}, "controller"),
-
         ({"duration": 1.005}, "duration"),
         ({"encoder_counts": -5}, "encoder_counts"),
         ({"voltage_limit": -24.0}, "voltage_limit"),

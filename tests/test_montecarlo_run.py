@@ -181,7 +181,7 @@ def test_an_exception_in_a_run_is_recorded_as_error():
     def explode(*args):
         raise ArithmeticError("controller state became complex\nsecond line")
 
-    evaluator.runners["pid"].run = explode
+    evaluator.runner(evaluator.study.base_scenario(), "pid").run = explode
     result = evaluator(0)
     runs = {run.controller: run for run in result.runs}
     assert runs["pid"].status == "error"
@@ -202,5 +202,6 @@ def test_a_study_alpha_star_reaches_every_runner():
         "seed: 1\nsamples: 1\nduration: 0.5\ncontrollers: [proposed, lin_lc]\nalpha_star: 2.75\n"
     )
     evaluator = ClosedLoopEvaluator(study)
-    for runner in evaluator.runners.values():
+    for controller in study.controllers:
+        runner = evaluator.runner(study.base_scenario(), controller)
         assert runner.config.design.nonlinear.alpha_star == 2.75

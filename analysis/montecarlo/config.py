@@ -26,6 +26,25 @@ Distributions (YAML tags; an untagged map is a ``Uniform``):
 The per-joint parameters take a list of one distribution (used for both joints,
 each joint drawing its own value) or two (joint 1, joint 2).
 
+The closed loop each sample runs is a scenario (``diagrams.scenario``): ``base``,
+built when the file is loaded from ``scenario`` (a scenario file, relative to the
+study file; default: the paper's nominal scenario) and ``settings`` (``KEY=VALUE``
+as for ``--set``). ``draws`` gives any other numeric scenario key a distribution::
+
+    scenario: ../scenarios/paper_nominal.yaml
+    settings: [controller.filter_a=200]
+    draws:
+      timing.sample_time: !UniformDiscrete {values: [0.005, 0.01]}
+      sensor.encoder_counts: !UniformDiscrete {values: [4096, 20000]}
+      sensor.noise_std[1]: !Uniform {low: 0.0, high: 1e-4}
+      trajectory.joints[0].frequency: !Uniform {low: -0.1, high: 0.1, relative: true}
+
+``!UniformDiscrete {values}`` draws one of the values (integer keys need it or
+``!Fixed``); ``relative`` reads a draw as a fraction of the base value; a per-joint
+key without ``[j]`` gives both joints the same value. The physical plant stays
+under ``parameters`` (one place for it). Every drawn value is recorded with the
+sample (its ``parameters``, under the dotted key).
+
 ``overrides`` pins parameters of chosen samples to absolute values after the
 draw (the other draws are unchanged): to reproduce one plant of a study or to
 see how a pathological plant is recorded (the divergence test uses it).
@@ -44,10 +63,18 @@ from pathlib import Path
 import scipy.stats
 from pydrake.common.yaml import yaml_dump_typed
 
-from posfb.diagrams.closed_loop import DIVERGENCE_BOUND, ClosedLoopConfig
-from posfb.diagrams.encoder import DEFAULT_ENCODER_COUNTS
+from posfb.diagrams.scenario import (
+    LoadedScenario,
+    Scenario,
+    apply_setting,
+    get_setting,
+    load_scenario,
+    resolve,
+    resolve_path,
+    with_absolute_paths,
+)
 from posfb.diagrams.yaml_schema import load_typed
-from posfb.models.controllers import CONTROLLER_KINDS
+from posfb.models.controllers import CONTROLLER_KINDS, require_design
 from posfb.models.design import ControllerConfig
 
 #: Per-joint physical parameters of ``ArmParameters`` (two values each), in draw order.
@@ -95,7 +122,14 @@ class Fixed:
     value: float | None = None
 
 
-Distribution = Uniform | Normal | Fixed
+@dataclass
+class UniformDiscrete:
+    """One of ``values``, each equally likely (Drake's name for this distribution)."""
+
+    values: list[float] = field(default_factory=list)
+
+
+Distribution = Uniform | Normal | Fixed | UniformDiscrete
 
 
 def _nominal() -> list[Distribution]:
@@ -133,27 +167,50 @@ class SampleOverride:
 
 @dataclass
 class Study:
-    """A Monte-Carlo study (module docstring). ``duration`` (s) is a whole number of
-    control periods (0.01 s); ``divergence_bound`` (rad) on ``|q~|`` ends a run as
-    diverged (``diagrams.closed_loop``); ``encoder_counts`` lists the resolutions a
-    sample draws from (uniformly; one entry fixes it; 0 is an ideal sensor);
-    ``alpha_star`` overrides the paper's alpha* = 4 for a labelled study."""
+    """A Monte-Carlo study (module docstring).
+
+    The base scenario is ``scenario`` (a file, relative to the study file; empty: the
+    paper's nominal scenario) with ``settings`` (``KEY=VALUE``) applied; loading folds
+    both into ``base``, the complete scenario every sample starts from, so that the
+    canonical study text is self-contained. ``duration`` (s, a whole number of
+    periods), ``divergence_bound`` (rad) and ``alpha_star`` set ``timing.duration``,
+    ``timing.divergence_bound`` and ``controller.alpha_star`` of the base where given;
+    ``encoder_counts`` lists the resolutions a sample draws from (uniformly; one entry
+    fixes it; 0 is an ideal sensor; empty: the scenario's). ``draws`` gives any other
+    numeric scenario key a distribution (``relative: true`` reads it as a fraction of
+    the base value; a per-joint key without ``[j]`` gives both joints the same draw).
+    """
 
     seed: int = 0
     samples: int = 100
-    duration: float = 20.0
-    divergence_bound: float = DIVERGENCE_BOUND
+    scenario: str = ""
+    settings: list[str] = field(default_factory=list)
+    base: Scenario = field(default_factory=Scenario)
+    duration: float | None = None
+    divergence_bound: float | None = None
     controllers: list[str] = field(default_factory=lambda: list(CONTROLLER_KINDS))
-    encoder_counts: list[int] = field(default_factory=lambda: [DEFAULT_ENCODER_COUNTS])
+    encoder_counts: list[int] = field(default_factory=list)
     parameters: ParameterDistributions = field(default_factory=ParameterDistributions)
+    draws: dict[str, Distribution] = field(default_factory=dict)
     overrides: list[SampleOverride] = field(default_factory=list)
     alpha_star: float | None = None
 
+    def base_scenario(self) -> Scenario:
+        """``base`` with the study's ``duration``, ``divergence_bound`` and ``alpha_star``."""
+        scenario = self.base
+        for key, value in (
+            ("timing.duration", self.duration),
+            ("timing.divergence_bound", self.divergence_bound),
+            ("controller.alpha_star", self.alpha_star),
+        ):
+            if value is not None:
+                scenario = apply_setting(scenario, f"{key}={value!r}")
+        return scenario
+
     def controller_config(self) -> ControllerConfig:
-        """The controllers' design: the paper's, with ``alpha_star`` (the proposed
-        controller's steady-state gain, Eq. 21) when the study sets it."""
-        config = ControllerConfig()
-        return config if self.alpha_star is None else config.with_alpha_star(self.alpha_star)
+        """The controllers' design in the base scenario (the paper's, with the study's
+        ``alpha_star`` where it sets one)."""
+        return resolve(LoadedScenario(self.base_scenario(), Path.cwd())).config.design
 
 
 def _require(condition: bool, message: str) -> None:
@@ -170,6 +227,11 @@ def _finite(key: str, value: float) -> None:
 
 def _support(key: str, distribution: Distribution) -> tuple[float, float]:
     """The interval the draws ``x`` of ``distribution`` can take (validated)."""
+    if isinstance(distribution, UniformDiscrete):
+        _require(len(distribution.values) > 0, f"{key}.values is empty; give at least one")
+        for i, value in enumerate(distribution.values):
+            _finite(f"{key}.values[{i}]", value)
+        return min(distribution.values), max(distribution.values)
     if isinstance(distribution, Uniform):
         _finite(f"{key}.low", distribution.low)
         _finite(f"{key}.high", distribution.high)
@@ -269,6 +331,59 @@ def _check_override(position: int, override: SampleOverride) -> None:
                 _require(value >= 0, f"{key}.values.{name}[{j}] = {value!r}; >= 0 is required")
 
 
+def _extremes(distribution: Distribution, base: float) -> list[float]:
+    """The values at the ends of what ``distribution`` can draw around ``base``."""
+    if isinstance(distribution, UniformDiscrete):
+        return [float(v) for v in distribution.values]
+    if isinstance(distribution, Fixed):
+        return [base if distribution.value is None else float(distribution.value)]
+    low, high = _support("", distribution)
+    ends = [v for v in (low, high) if math.isfinite(v)] or [distribution.mean]
+    return [base * (1.0 + v) if distribution.relative else v for v in ends]
+
+
+def _check_draws(study: Study, base: Scenario) -> None:
+    """Every key of ``draws`` names a numeric scenario key, and the extremes of its
+    distribution give a valid scenario."""
+    for key, distribution in study.draws.items():
+        where = f"draws.{key}"
+        _require(
+            not key.startswith("plant."),
+            f"{where}: the physical plant is drawn under parameters: (payload_mass and the "
+            "ArmParameters names); draws: takes the other scenario keys",
+        )
+        current = get_setting(base, key)
+        values = current if isinstance(current, list) else [current]
+        numeric = all(isinstance(v, int | float) and not isinstance(v, bool) for v in values)
+        _require(
+            bool(values) and numeric,
+            f"{where}: {key} = {current!r} is not a number; draws need a numeric key",
+        )
+        integer = all(isinstance(v, int) for v in values)
+        _support(where, distribution)
+        if integer:
+            _require(
+                isinstance(distribution, UniformDiscrete | Fixed),
+                f"{where}: {key} is an integer; use !UniformDiscrete {{values: [...]}} or !Fixed",
+            )
+        for value in _extremes(distribution, float(values[0])):
+            if integer:
+                _require(float(value).is_integer(), f"{where}: {value!r} is not an integer")
+                value = int(value)
+            try:
+                scenario = apply_setting(base, f"{key}={value!r}")
+                _check_controllers(study, scenario)
+            except ValueError as error:
+                raise ValueError(f"{where} can draw {value!r}: {error}") from None
+
+
+def _check_controllers(study: Study, scenario: Scenario) -> None:
+    """``scenario`` is valid and every controller of the study accepts its design."""
+    config = resolve(LoadedScenario(scenario, Path.cwd())).config
+    for controller in study.controllers:
+        require_design(controller, config.design)
+
+
 def validate_study(study: Study) -> Study:
     """Return ``study`` if every value is allowed; otherwise raise ``ValueError``
     naming the key, the value and what is allowed."""
@@ -277,8 +392,11 @@ def validate_study(study: Study) -> Study:
         f"seed = {study.seed!r}; an integer >= 0 is required",
     )
     _require(study.samples > 0, f"samples = {study.samples!r}; at least 1 sample is required")
-    # The closed loop checks these itself (its messages name the key).
-    ClosedLoopConfig(duration=study.duration, divergence_bound=study.divergence_bound)
+    _require(
+        not study.scenario and not study.settings,
+        "scenario/settings are folded into base when a study file is loaded",
+    )
+    base = study.base_scenario()  # the scenario checks its own keys, naming them
     _require(len(study.controllers) > 0, "controllers is empty; name at least one controller")
     for name in study.controllers:
         _require(
@@ -289,13 +407,11 @@ def validate_study(study: Study) -> Study:
         len(set(study.controllers)) == len(study.controllers),
         f"controllers = {study.controllers!r} repeats a controller",
     )
-    _require(len(study.encoder_counts) > 0, "encoder_counts is empty; give at least one")
     for counts in study.encoder_counts:
         _require(counts >= 0, f"encoder_counts has {counts!r}; integers >= 0 are required")
-    if study.alpha_star is not None:
-        _finite("alpha_star", study.alpha_star)
-    study.controller_config()  # NonlinearTorqueConfig refuses alpha_star <= 0, naming it
+    _check_controllers(study, base)
     _check_parameters(study.parameters)
+    _check_draws(study, base)
     for position, override in enumerate(study.overrides):
         _check_override(position, override)
     samples = [override.sample for override in study.overrides]
@@ -304,20 +420,43 @@ def validate_study(study: Study) -> Study:
 
 
 def load_study(path: str | Path) -> Study:
-    """Load and validate a study file; every problem is one ``ValueError`` line."""
+    """Load and validate a study file; every problem is one ``ValueError`` line. Its
+    ``scenario`` (relative to the study's folder) and ``settings`` are folded into
+    ``base``, with the scenario's own relative paths made absolute."""
     path = Path(path)
     if not path.is_file():
         raise FileNotFoundError(f"study {path} does not exist")
-    return study_from_text(path.read_text(), source=f"study {path}")
+    return study_from_text(path.read_text(), source=f"study {path}", folder=path.parent)
 
 
-def study_from_text(text: str, source: str = "study") -> Study:
-    """Parse and validate a study from YAML text."""
+def study_from_text(text: str, source: str = "study", folder: Path | None = None) -> Study:
+    """Parse and validate a study from YAML text (relative scenario paths are read from
+    ``folder``, default the working directory)."""
     study = load_typed(Study, text, source)
     try:
+        if study.scenario or study.settings:
+            study = _fold_scenario(study, Path.cwd() if folder is None else folder)
         return validate_study(study)
     except ValueError as error:
         raise ValueError(f"{source}: {error}") from None
+
+
+def _fold_scenario(study: Study, folder: Path) -> Study:
+    """``study`` with its ``scenario`` file and ``settings`` folded into ``base``."""
+    if study.scenario:
+        _require(
+            study.base == Scenario(),
+            "scenario and base both given; name a scenario file or write base, not both",
+        )
+        try:
+            loaded = load_scenario(resolve_path(study.scenario, folder), study.settings)
+        except ValueError as error:
+            raise ValueError(f"scenario: {error}") from None
+    else:
+        loaded = LoadedScenario(study.base, folder)
+        for setting in study.settings:
+            loaded.scenario = apply_setting(loaded.scenario, setting)
+    return replace(study, scenario="", settings=[], base=with_absolute_paths(loaded))
 
 
 def with_overrides(study: Study, samples: int | None = None, seed: int | None = None) -> Study:

@@ -246,11 +246,15 @@ def markdown(data: StudyData, title: str = "Monte-Carlo robustness study") -> st
         if study.alpha_star is None
         else f" and the paper's design except **alpha* = {study.alpha_star:g}** (the paper: 4)"
     )
+    base = study.base_scenario()
+    counts = study.encoder_counts or base.sensor.encoder_counts
+    drawn = "".join(f", {key} drawn" for key in study.draws)
     lines = [
         f"# {title}",
         "",
-        f"{n} sampled plants (seed {study.seed}, {study.duration:g} s of the Sec. 4.2 "
-        f"trajectory each, encoder counts {study.encoder_counts}), every plant run under "
+        f"{n} sampled plants (seed {study.seed}, {base.timing.duration:g} s of the "
+        f"{type(base.trajectory).__name__} trajectory at T_s = {base.timing.sample_time:g} s "
+        f"each, encoder counts {counts}{drawn}), every plant run under "
         f"{', '.join(data.controllers)}; controllers keep the nominal Table 1 model"
         f"{design}. Code: {', '.join(data.code_versions) or data.meta.get('code_version', '?')}.",
         "",

@@ -1,10 +1,11 @@
 """One sampled plant per sample index, reproducible from ``(seed, index)`` alone.
 
 Every scalar of a sample (each parameter of each joint, the payload, the encoder
-resolution) has its own random stream, seeded with
-``SeedSequence(seed, spawn_key=(index, slot))`` where ``slot`` is the scalar's
-fixed position in ``SLOTS``. A sample's draw therefore does not depend on which
-worker draws it, in which order, or on how many samples the study has; and
+resolution, then each ``draws`` key in file order) has its own random stream,
+seeded with ``SeedSequence(seed, spawn_key=(index, slot))`` where ``slot`` is the
+scalar's fixed position in ``SLOTS`` (``draws`` keys follow them). A sample's
+draw therefore does not depend on which worker draws it, in which order, or on
+how many samples the study has; and
 changing one parameter's distribution leaves every other draw unchanged.
 """
 
@@ -21,7 +22,9 @@ from posfb.analysis.montecarlo.config import (
     Normal,
     Study,
     Uniform,
+    UniformDiscrete,
 )
+from posfb.diagrams.scenario import Scenario, apply_setting, get_setting
 from posfb.models.plant import ArmParameters
 
 #: The scalars of one sample, in stream order: (name, joint). Append only: a slot's
@@ -38,11 +41,12 @@ _BATCH = 64
 
 @dataclass(frozen=True)
 class SampledPlant:
-    """The plant and encoder of sample ``index``."""
+    """The plant and encoder of sample ``index`` (``encoder_counts`` ``None``: the
+    scenario's)."""
 
     index: int
     parameters: ArmParameters
-    encoder_counts: int
+    encoder_counts: int | None
 
 
 def stream(seed: int, index: int, slot: int) -> np.random.Generator:
@@ -65,6 +69,8 @@ def draw(distribution: Distribution, nominal: float, rng: np.random.Generator) -
     """One value of a parameter whose URDF value is ``nominal``."""
     if isinstance(distribution, Fixed):
         return nominal if distribution.value is None else float(distribution.value)
+    if isinstance(distribution, UniformDiscrete):
+        return float(distribution.values[int(rng.integers(len(distribution.values)))])
     if isinstance(distribution, Uniform):
         x = float(rng.uniform(distribution.low, distribution.high))
     else:
@@ -81,7 +87,8 @@ def sample_plant(study: Study, nominal: ArmParameters, index: int) -> SampledPla
         if name == "payload_mass":
             payload = draw(study.parameters.payload_mass, nominal.payload_mass, rng)
         elif name == "encoder_counts":
-            counts = study.encoder_counts[int(rng.integers(len(study.encoder_counts)))]
+            choices = study.encoder_counts
+            counts = choices[int(rng.integers(len(choices)))] if choices else None
         else:
             distribution = study.parameters.for_joint(name, joint)
             values[name][joint] = draw(distribution, getattr(nominal, name)[joint], rng)
@@ -98,4 +105,22 @@ def sample_plant(study: Study, nominal: ArmParameters, index: int) -> SampledPla
     parameters = ArmParameters(
         **{name: (v[0], v[1]) for name, v in values.items()}, payload_mass=payload
     )
-    return SampledPlant(index=index, parameters=parameters, encoder_counts=int(counts))
+    return SampledPlant(
+        index=index, parameters=parameters, encoder_counts=None if counts is None else int(counts)
+    )
+
+
+def sample_scenario(study: Study, index: int) -> tuple[Scenario, dict[str, float]]:
+    """The scenario of sample ``index``: the study's base with every ``draws`` key drawn
+    (relative draws around the base value), and the drawn values by key."""
+    base = study.base_scenario()
+    scenario, drawn = base, {}
+    for position, (key, distribution) in enumerate(study.draws.items()):
+        current = get_setting(base, key)
+        nominal = float(current[0] if isinstance(current, list) else current)
+        value = draw(distribution, nominal, stream(study.seed, index, len(SLOTS) + position))
+        integer = isinstance(current[0] if isinstance(current, list) else current, int)
+        text = repr(int(value)) if integer else repr(value)
+        scenario = apply_setting(scenario, f"{key}={text}")
+        drawn[key] = int(value) if integer else value
+    return scenario, drawn

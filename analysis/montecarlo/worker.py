@@ -10,18 +10,30 @@ runner between threads).
 
 from __future__ import annotations
 
+import copy
+import dataclasses
 import math
 import threading
+from collections import OrderedDict
 from dataclasses import asdict
+from pathlib import Path
 
 from posfb.analysis.metrics import RunMetrics, run_metrics
 from posfb.analysis.montecarlo.config import Study, study_from_text
 from posfb.analysis.montecarlo.coverage import coverage
 from posfb.analysis.montecarlo.records import METRIC_COLUMNS, ControllerRun, SampleResult
-from posfb.analysis.montecarlo.sampling import SampledPlant, sample_plant
-from posfb.diagrams.closed_loop import ClosedLoopConfig, ClosedLoopRunner
+from posfb.analysis.montecarlo.sampling import SampledPlant, sample_plant, sample_scenario
+from posfb.diagrams.closed_loop import ClosedLoopRunner, SensorState
+from posfb.diagrams.scenario import (
+    LoadedScenario,
+    ParameterOverrides,
+    Scenario,
+    dump_scenario,
+    resolve,
+)
 from posfb.models.design.bounds import resolve_bounds
 from posfb.models.identify import identify
+from posfb.models.trajectory import JOINTS
 
 
 def _metrics_dict(metrics: RunMetrics) -> dict[str, float | None]:
@@ -38,53 +50,85 @@ def _one_line(error: BaseException) -> str:
     return f"{type(error).__name__}: {text.splitlines()[0] if text else ''}".rstrip(": ")
 
 
+#: Diagrams a worker keeps, one per distinct structure (sample time, delay, noise,
+#: voltage limit, design, trajectory, controller). Draws that only change Context
+#: values (plant parameters, encoder counts, offsets, noise levels) reuse one.
+RUNNER_CACHE_SIZE = 16
+
+
+def structure_key(scenario: Scenario, controller: str) -> str:
+    """What a diagram is built from: the scenario without the values a Context holds."""
+    shape = copy.deepcopy(scenario)
+    shape.controller.kind = controller
+    shape.plant.payload_mass = 0.0
+    shape.plant.parameters = ParameterOverrides()
+    noisy = any(std > 0.0 for std in shape.sensor.noise_std)
+    shape.sensor.encoder_counts, shape.sensor.zero_offset = [0], [0.0]
+    shape.sensor.noise_std, shape.sensor.noise_seed = [1.0 if noisy else 0.0], 0
+    return dump_scenario(shape)
+
+
 class ClosedLoopEvaluator:
-    """Evaluates samples of one study: sample the plant, identify its theta, place it
-    against the Assumption-1 bounds, run every controller on it."""
+    """Evaluates samples of one study: sample the scenario and the plant, identify its
+    theta, place it against the Assumption-1 bounds, run every controller on it."""
 
     def __init__(self, study: Study) -> None:
         self.study = study
-        self.runners = {
-            controller: ClosedLoopRunner(
-                ClosedLoopConfig(
-                    controller=controller,
-                    design=study.controller_config(),
-                    duration=study.duration,
-                    divergence_bound=study.divergence_bound,
-                )
-            )
-            for controller in study.controllers
-        }
-        reference = self.runners[study.controllers[0]]
-        self._reference = reference
-        self.nominal_plant = reference.arm.default_parameters
-        design = reference.config.design
-        self.nominal_model = design.nominal
-        self.bounds = resolve_bounds(design.bounds, design.nominal)
+        self._runners: OrderedDict[str, ClosedLoopRunner] = OrderedDict()
+        base = self._loaded(study.base_scenario())
+        self._reference = self.runner(base.scenario, study.controllers[0])
+        self.nominal_plant = resolve(base).true_parameters(self._reference.arm.default_parameters)
+
+    @staticmethod
+    def _loaded(scenario: Scenario) -> LoadedScenario:
+        return LoadedScenario(scenario, Path.cwd())  # study paths are absolute
+
+    def runner(self, scenario: Scenario, controller: str) -> ClosedLoopRunner:
+        """The (cached) closed loop of ``controller`` for the structure of ``scenario``."""
+        key = structure_key(scenario, controller)
+        if key not in self._runners:
+            config = resolve(self._loaded(scenario)).config
+            config = dataclasses.replace(config, controller=controller)
+            self._runners[key] = ClosedLoopRunner(config)
+            while len(self._runners) > RUNNER_CACHE_SIZE:
+                self._runners.popitem(last=False)
+        self._runners.move_to_end(key)
+        return self._runners[key]
 
     def __call__(self, index: int) -> SampleResult:
+        scenario, drawn = sample_scenario(self.study, index)
+        config = resolve(self._loaded(scenario)).config
         plant = sample_plant(self.study, self.nominal_plant, index)
-        context = self._reference.new_context(plant.parameters, plant.encoder_counts)
+        sensor = config.sensor
+        if plant.encoder_counts is not None:
+            sensor = dataclasses.replace(sensor, encoder_counts=(plant.encoder_counts,) * JOINTS)
+        context = self._reference.new_context(plant.parameters)
         theta = identify(self._reference.arm, context)
-        where = coverage(theta, self.nominal_model, self.bounds)
+        design = config.design
+        where = coverage(theta, design.nominal, resolve_bounds(design.bounds, design.nominal))
         parameters = {
             key: list(value) if isinstance(value, tuple) else value
             for key, value in asdict(plant.parameters).items()
         }
         return SampleResult(
             index=index,
-            parameters=parameters,
-            encoder_counts=plant.encoder_counts,
+            parameters={**parameters, **drawn},
+            encoder_counts=sensor.encoder_counts[0],
             theta={key: float(value) for key, value in theta.as_dict().items()},
             bound_ratios=where.ratios,
             inside_bounds=where.inside,
-            runs=tuple(self._run(controller, plant) for controller in self.study.controllers),
+            runs=tuple(
+                self._run(scenario, controller, plant, sensor)
+                for controller in self.study.controllers
+            ),
         )
 
-    def _run(self, controller: str, plant: SampledPlant) -> ControllerRun:
+    def _run(
+        self, scenario: Scenario, controller: str, plant: SampledPlant, sensor: SensorState
+    ) -> ControllerRun:
         """One controller on ``plant``; an exception is recorded as ``error``."""
         try:
-            result = self.runners[controller].run(plant.parameters, plant.encoder_counts)
+            result = self.runner(scenario, controller).run(plant.parameters, sensor)
         except Exception as error:  # recorded, never stops the study
             return ControllerRun(controller, "error", _one_line(error), {})
         return ControllerRun(

@@ -25,6 +25,15 @@ INTERNALS = {"pid": PID_INTERNALS, "lin_lc": LIN_LC_INTERNALS, "proposed": PROPO
 cached_design = lru_cache(maxsize=32)(compute_design)
 
 
+def require_design(kind: str, config: ControllerConfig) -> None:
+    """Raise ``ValueError`` (one line) if controller ``kind`` refuses ``config``'s design
+    (``make_controller`` would refuse it the same way)."""
+    if kind == "lin_lc":
+        cached_design(config).require_linear_torque()
+    elif kind == "proposed":
+        cached_design(config).require_nonlinear_torque()
+
+
 def make_controller(kind: str, config: ControllerConfig | None = None) -> SampledController:
     """The controller ``kind`` (one of ``CONTROLLER_KINDS``) for ``config`` (default: the
     paper's Sec. 4.2 settings)."""
@@ -52,4 +61,5 @@ __all__ = [
     "SampledController",
     "cached_design",
     "make_controller",
+    "require_design",
 ]
