@@ -2,11 +2,11 @@
 
     .venv/bin/python bench/bench_closed_loop.py [--duration 20] [--repeat 5]
 
-Paper settings (``diagrams.closed_loop.ClosedLoopConfig`` defaults: T_s = 0.01 s,
+The shipped paper scenarios (``analysis/scenarios/paper_*.yaml``: T_s = 0.01 s,
 RK3 at accuracy 3e-3, 20000-count encoder) on the nominal and the payload arm,
 plus the proposed controller with the second study's alpha* = 2.75. The
-diagram is built once per controller (build time printed separately); each
-figure is the best of ``--repeat`` runs on fresh Contexts (the run's own
+diagram is built once per controller and case (build time printed separately);
+each figure is the best of ``--repeat`` runs on fresh Contexts (the run's own
 ``wall_time_s``: Initialize + AdvanceTo, logging included).
 """
 
@@ -16,17 +16,15 @@ import argparse
 import statistics
 import time
 
-from posfb.analysis.experiment import case_parameters
-from posfb.diagrams.closed_loop import ClosedLoopConfig, ClosedLoopRunner
+from posfb.analysis.experiment import case_scenario
+from posfb.diagrams.closed_loop import ClosedLoopRunner
+from posfb.diagrams.scenario import resolve
 from posfb.models.controllers import CONTROLLER_KINDS
-from posfb.models.design import ControllerConfig
 
-
-def _variants() -> list[tuple[str, str, ControllerConfig | None]]:
-    fixed = ControllerConfig().with_alpha_star(2.75)
-    return [(kind, kind, None) for kind in CONTROLLER_KINDS] + [
-        ("proposed, alpha*=2.75", "proposed", fixed)
-    ]
+#: (label, scenario settings) of every benchmarked variant.
+VARIANTS = [(kind, (f"controller.kind={kind}",)) for kind in CONTROLLER_KINDS] + [
+    ("proposed, alpha*=2.75", ("controller.kind=proposed", "controller.alpha_star=2.75"))
+]
 
 
 def main() -> None:
@@ -37,16 +35,15 @@ def main() -> None:
     print(f"{args.duration:g} s runs, best and median of {args.repeat}")
     print("| controller | case | build s | wall s (best) | wall s (median) | sim s / wall s |")
     print("|---|---|---:|---:|---:|---:|")
-    for label, kind, controller_config in _variants():
-        start = time.perf_counter()
-        runner = ClosedLoopRunner(
-            ClosedLoopConfig(controller=kind, duration=args.duration),
-            controller_config=controller_config,
-        )
-        build = time.perf_counter() - start
+    for label, settings in VARIANTS:
         for case in ("nominal", "payload"):
-            parameters = case_parameters(runner.arm, case)
-            walls = [runner.run(parameters).metrics.wall_time_s for _ in range(args.repeat)]
+            loaded = case_scenario(case, (*settings, f"timing.duration={args.duration}"))
+            resolved = resolve(loaded)
+            start = time.perf_counter()
+            runner = ClosedLoopRunner(resolved.config)
+            build = time.perf_counter() - start
+            parameters = resolved.true_parameters(runner.arm.default_parameters)
+            walls = [runner.run(parameters).wall_time_s for _ in range(args.repeat)]
             best = min(walls)
             print(
                 f"| {label} | {case} | {build:.2f} | {best:.3f} | "

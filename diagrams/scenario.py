@@ -56,14 +56,13 @@ from posfb.models.design.config import (
     PidGains,
     UncertaintyBounds,
 )
-from posfb.models.identify import identify
+from posfb.models.identify import identify_urdf
 from posfb.models.lumped import TABLE1, LumpedParameters
 from posfb.models.plant import (
     DEFAULT_URDF,
+    PAYLOAD_BODY,
     ArmParameters,
     PlantConfig,
-    apply_parameters,
-    build_arm_diagram,
 )
 from posfb.models.trajectory import (
     JOINTS,
@@ -73,6 +72,7 @@ from posfb.models.trajectory import (
     Trajectory,
     WaveTrajectory,
 )
+from posfb.models.urdf_check import check_arm_urdf
 
 #: How a scenario names the arm shipped with posfb.
 SHIPPED_URDF = "package://posfb/two_link_arm.urdf"
@@ -343,7 +343,7 @@ def load_scenario(path: str | Path | None = None, settings: Iterable[str] = ()) 
             text = file.read_text()
         except (OSError, UnicodeDecodeError) as error:
             raise ValueError(f"scenario {file} cannot be read: {error}") from None
-        scenario = load_typed(Scenario, text, f"scenario {file}")
+        scenario = load_typed(Scenario, text, f"scenario {file}", empty_ok=True)
         loaded = LoadedScenario(scenario, file.resolve().parent)
     for setting in settings:
         loaded.scenario = apply_setting(loaded.scenario, setting)
@@ -560,23 +560,18 @@ def make_trajectory(settings: TrajectorySettings, base_dir: Path) -> Trajectory:
     return read_csv_trajectory(resolve_path(settings.path, base_dir))
 
 
-def identify_urdf(urdf: Path, payload_mass: float) -> LumpedParameters:
-    """theta of the URDF arm with ``payload_mass`` kg at the link-2 tip."""
-    _, arm, context = build_arm_diagram(PlantConfig(urdf=str(urdf)))
-    apply_parameters(arm, context, arm.default_parameters.with_payload(payload_mass))
-    return identify(arm, context)
-
-
 def make_nominal(settings: NominalModel, base_dir: Path) -> LumpedParameters:
     """The model the controllers are designed from."""
     if isinstance(settings, Table1):
         return TABLE1
     if isinstance(settings, Theta):
         return LumpedParameters(**dataclasses.asdict(settings))
-    return identify_urdf(resolve_path(settings.urdf, base_dir), settings.payload_mass)
+    return identify_urdf(str(resolve_path(settings.urdf, base_dir)), settings.payload_mass)
 
 
-def make_design(settings: ControllerSettings, nominal: LumpedParameters, sample_time: float):
+def make_design(
+    settings: ControllerSettings, nominal: LumpedParameters, sample_time: float
+) -> ControllerConfig:
     """The frozen ``ControllerConfig`` of the controller settings."""
     bounds = dataclasses.asdict(settings.bounds)
     return ControllerConfig(
@@ -674,9 +669,10 @@ def resolve(loaded: LoadedScenario) -> ResolvedScenario:
         replace(probe, **overrides, payload_mass=plant.payload_mass)
     except ValueError as error:
         raise _with_key(error, "plant.parameters") from None
-    if not urdf.is_file():
-        kind = "is a directory" if urdf.is_dir() else "does not exist"
-        raise ValueError(f"plant.urdf = {plant.urdf!r}: {urdf} {kind}; a URDF file is required")
+    try:
+        check_arm_urdf(urdf, payload_link=PAYLOAD_BODY)
+    except (ValueError, FileNotFoundError) as error:
+        raise ValueError(f"plant.urdf = {plant.urdf!r}: {error}") from None
     return ResolvedScenario(config, float(plant.payload_mass), overrides)
 
 

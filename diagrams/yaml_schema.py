@@ -25,8 +25,22 @@ def _require(condition: bool, message: str) -> None:
 
 
 class _TaggedLoader(yaml.SafeLoader):
-    """Reads ``!Tag {map}`` as the map with ``"_tag": "Tag"`` (for ``check_shape``), and
-    numbers as YAML 1.2 does (``1e-3`` and ``2e1`` are floats, as Drake reads them)."""
+    """Reads ``!Tag {map}`` as the map with ``"_tag": "Tag"`` (for ``check_shape``),
+    numbers as YAML 1.2 does (``1e-3`` and ``2e1`` are floats, as Drake reads them),
+    and refuses a key given twice in one map (PyYAML would keep the last silently)."""
+
+    def construct_mapping(self, node: yaml.MappingNode, deep: bool = False) -> dict:
+        seen: dict[object, int] = {}
+        for key_node, _ in node.value:
+            key = self.construct_object(key_node, deep=True)
+            line = key_node.start_mark.line + 1
+            if key in seen:
+                raise yaml.constructor.ConstructorError(
+                    None, None, f"key {key!r} is given twice (lines {seen[key]} and {line})",
+                    key_node.start_mark,
+                )  # fmt: skip
+            seen[key] = line
+        return super().construct_mapping(node, deep=deep)
 
 
 _TaggedLoader.add_multi_constructor(
@@ -119,9 +133,17 @@ def parse(text: str, source: str) -> object:
         raise ValueError(f"{source}: not a YAML document ({type(error).__name__})") from None
 
 
-def load_typed(schema: type, text: str, source: str, defaults: object | None = None) -> object:
-    """``text`` loaded into ``schema`` (over ``defaults`` where given) after ``check_shape``."""
+def load_typed(
+    schema: type, text: str, source: str, defaults: object | None = None, empty_ok: bool = False
+) -> object:
+    """``text`` loaded into ``schema`` (over ``defaults`` where given) after ``check_shape``.
+    A document with no content (empty or comments only) is ``schema()`` where
+    ``empty_ok``, and an error otherwise."""
     raw = parse(text, source)
+    if raw is None:
+        if empty_ok:
+            return schema() if defaults is None else defaults
+        raise ValueError(f"{source} is empty (no keys); a YAML map of keys is required")
     try:
         check_shape({} if raw is None else raw, schema, "")
         if defaults is None:

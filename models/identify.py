@@ -17,11 +17,22 @@ model reproduces the plant's dynamics exactly (up to round-off).
 
 from __future__ import annotations
 
+import functools
+from pathlib import Path
+
 import numpy as np
 from pydrake.systems.framework import Context
 
 from posfb.models.lumped import LumpedParameters
-from posfb.models.plant import JOINTS, Arm, read_parameters
+from posfb.models.plant import (
+    JOINTS,
+    Arm,
+    PlantConfig,
+    apply_parameters,
+    build_arm_diagram,
+    read_parameters,
+    require_payload_mass,
+)
 
 
 def identify(arm: Arm, root_context: Context) -> LumpedParameters:
@@ -63,3 +74,13 @@ def identify(arm: Arm, root_context: Context) -> LumpedParameters:
         l1=arm.link1_length,
         g=g,
     )
+
+
+@functools.lru_cache(maxsize=16)
+def identify_urdf(urdf: str | Path, payload_mass: float = 0.0) -> LumpedParameters:
+    """theta of the URDF arm with ``payload_mass`` kg at the link-2 tip (refused, naming
+    ``payload_mass``, outside its allowed range; cached per file and payload)."""
+    require_payload_mass(payload_mass)
+    _, arm, context = build_arm_diagram(PlantConfig(urdf=str(urdf)))
+    apply_parameters(arm, context, arm.default_parameters.with_payload(payload_mass))
+    return identify(arm, context)

@@ -7,15 +7,8 @@ import argparse
 import json
 
 from posfb.analysis.tables import theta_table
-from posfb.models.identify import identify
-from posfb.models.lumped import LumpedParameters
-from posfb.models.plant import (
-    DEFAULT_URDF,
-    PlantConfig,
-    apply_parameters,
-    build_arm_diagram,
-    require_payload_mass,
-)
+from posfb.models.identify import identify_urdf
+from posfb.models.plant import DEFAULT_URDF
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -26,15 +19,6 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser.add_argument("--payload", type=float, default=0.0, help="tip payload mass in kg")
     parser.add_argument("--json", action="store_true", help="print one JSON object")
     parser.set_defaults(handler=run)
-
-
-def identify_urdf(urdf: str, payload: float) -> LumpedParameters:
-    """theta of the URDF plant with ``payload`` kg at the link-2 tip (refused,
-    naming ``payload_mass``, outside 0..``MAX_PAYLOAD_MASS`` kg)."""
-    require_payload_mass(payload)
-    _, arm, context = build_arm_diagram(PlantConfig(urdf=urdf))
-    apply_parameters(arm, context, arm.default_parameters.with_payload(payload))
-    return identify(arm, context)
 
 
 def run(args: argparse.Namespace) -> int:

@@ -7,24 +7,30 @@ import argparse
 import sys
 
 from posfb.analysis.commands.design import format_report
-from posfb.analysis.commands.scenario_args import SHORTCUTS, scenario_from_args
-from posfb.analysis.experiment import CASES
+from posfb.analysis.commands.scenario_args import add_scenario_arguments, scenario_from_args
 from posfb.analysis.feasibility import trajectory_warnings
 from posfb.diagrams.scenario import dump_scenario, load_scenario, resolve
-from posfb.models.controllers import CONTROLLER_KINDS, cached_design
+from posfb.models.controllers import cached_design
 
-#: Exit code of a scenario whose design fails a check.
+#: Exit code of a scenario whose design fails a check of its controller.
 EXIT_FAILED_CHECK = 1
+
+#: The design checks that concern each controller (PID has no Sec. 3 design).
+RELEVANT_CHECKS = {
+    "pid": (),
+    "lin_lc": ("riccati", "lc_filter", "sampled_data_lin_lc"),
+    "proposed": (
+        "riccati", "lc_filter", "spr", "bound_filter", "continuous_with_nc", "sampled_data",
+    ),
+}  # fmt: skip
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
     parser = subparsers.add_parser("scenario", help="print or check a scenario file")
     actions = parser.add_subparsers(dest="action", required=True, parser_class=type(parser))
     dump = actions.add_parser("dump", help="print a complete scenario, every default written")
-    dump.add_argument("--case", choices=CASES, default="nominal", help="shipped paper case")
-    dump.add_argument("--controller", choices=CONTROLLER_KINDS, help="controller kind")
-    dump.add_argument("--set", action="append", default=[], metavar="KEY=VALUE", dest="settings")
-    dump.set_defaults(handler=run_dump, scenario=None)
+    add_scenario_arguments(dump, ("controller",))
+    dump.set_defaults(handler=run_dump)
     check = actions.add_parser("check", help="validate a scenario and print its design verdict")
     check.add_argument("file", help="scenario YAML")
     check.add_argument("--set", action="append", default=[], metavar="KEY=VALUE", dest="settings")
@@ -32,10 +38,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
 
 def run_dump(args: argparse.Namespace) -> int:
-    loaded = scenario_from_args(
-        argparse.Namespace(**{**vars(args), **{n: None for n in SHORTCUTS if n != "controller"}})
-    )
-    sys.stdout.write(dump_scenario(loaded.scenario))
+    sys.stdout.write(dump_scenario(scenario_from_args(args).scenario))
     return 0
 
 
@@ -48,6 +51,13 @@ def run_check(args: argparse.Namespace) -> int:
         print(f"warning: {warning}")
     design = cached_design(config.design)
     print(format_report(design))
-    if config.controller != "pid" and design.warnings:
+    failed = [
+        check.name
+        for check in design.checks
+        if check.name in RELEVANT_CHECKS[config.controller] and not check.passed
+    ]
+    if failed:
+        print(f"verdict: the {config.controller} controller fails {', '.join(failed)}")
         return EXIT_FAILED_CHECK
+    print(f"verdict: every check of the {config.controller} controller passed")
     return 0
