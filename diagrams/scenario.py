@@ -277,11 +277,53 @@ class Bounds:
     k_C1: float | None = None
 
 
+def _paper_h_gamma() -> list[float]:
+    """``gamma_i`` of the paper's ``H(s) = diag(gamma_i / (s + gamma_i))`` (the default
+    ``NonlinearTorqueConfig.B_zeta``'s diagonal)."""
+    return [float(v) for v in np.diag(_default(NonlinearTorqueConfig, "B_zeta")())]
+
+
+@dataclass
+class DiagonalH:
+    """``H(s) = diag(gamma_i / (s + gamma_i))``, the paper's choice (Sec. 3.4, remark 1):
+    ``gamma_i > 0`` above the bandwidth of ``q_id``; SPR with relative degree 1."""
+
+    gamma: list[float] = field(default_factory=_paper_h_gamma)
+
+
+@dataclass
+class StateSpaceH:
+    """``H(s) = C_zeta (sI - A_zeta)^-1 B_zeta`` (n x n each), checked for SPR."""
+
+    A_zeta: list[list[float]] = field(default_factory=_default(NonlinearTorqueConfig, "A_zeta"))
+    B_zeta: list[list[float]] = field(default_factory=_default(NonlinearTorqueConfig, "B_zeta"))
+    C_zeta: list[list[float]] = field(default_factory=_default(NonlinearTorqueConfig, "C_zeta"))
+
+
+FilterH = DiagonalH | StateSpaceH
+
+
+def h_matrices(settings: FilterH) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``(A_zeta, B_zeta, C_zeta)`` of either form of ``H(s)``."""
+    if isinstance(settings, StateSpaceH):
+        return tuple(np.asarray(m, dtype=float) for m in (settings.A_zeta, settings.B_zeta,
+                                                          settings.C_zeta))  # fmt: skip
+    gamma = np.asarray(settings.gamma, dtype=float)
+    if gamma.shape != (JOINTS,):
+        raise ValueError(
+            f"H.gamma = {settings.gamma!r}; {JOINTS} values (one per joint) are required"
+        )
+    if not np.all(np.isfinite(gamma)) or np.any(gamma <= 0.0):
+        raise ValueError(f"H.gamma = {settings.gamma!r}; finite values > 0 are required")
+    return -np.diag(gamma), np.diag(gamma), np.eye(JOINTS)
+
+
 @dataclass
 class ControllerSettings:
     """The controller ``kind`` and its design inputs (Sec. 3, 4.2): LQR weights ``Q1``,
     ``Q2``, ``R`` and ``lambdas`` of ``Lambda(s)``; ``alpha_star``, ``K_alpha``, ``alpha0``
-    of Eq. 21; ``H(s) = C_zeta (sI - A_zeta)^-1 B_zeta``; the pole ``filter_a`` of
+    of Eq. 21; the SPR filter ``H`` (``!DiagonalH {gamma}`` or ``!StateSpaceH {A_zeta,
+    B_zeta, C_zeta}``); the pole ``filter_a`` of
     ``G(s)``; the Assumption-1 ``bounds``; the PID gains ``Kp``, ``Kv``, ``KI``
     (Eq. 26); how the filters are sampled (``discretisation``: foh, zoh, tustin)."""
 
@@ -294,9 +336,7 @@ class ControllerSettings:
     alpha_star: float = field(default_factory=_default(NonlinearTorqueConfig, "alpha_star"))
     K_alpha: float = field(default_factory=_default(NonlinearTorqueConfig, "K_alpha"))
     alpha0: float = field(default_factory=_default(NonlinearTorqueConfig, "alpha0"))
-    A_zeta: list[list[float]] = field(default_factory=_default(NonlinearTorqueConfig, "A_zeta"))
-    B_zeta: list[list[float]] = field(default_factory=_default(NonlinearTorqueConfig, "B_zeta"))
-    C_zeta: list[list[float]] = field(default_factory=_default(NonlinearTorqueConfig, "C_zeta"))
+    H: FilterH = field(default_factory=DiagonalH)
     filter_a: float = field(default_factory=_default(NonlinearTorqueConfig, "filter_a"))
     bounds: Bounds = field(default_factory=Bounds)
     Kp: list[float] = field(default_factory=_default(PidGains, "Kp"))
@@ -351,19 +391,41 @@ def load_scenario(path: str | Path | None = None, settings: Iterable[str] = ()) 
     return loaded
 
 
+def _untagged_unions(value: object, path: str = "") -> set[str]:
+    """Dotted paths of the union-typed fields whose value is the union's first member
+    (Drake writes those without their tag)."""
+    found: set[str] = set()
+    if not dataclasses.is_dataclass(value):
+        return found
+    hints = typing.get_type_hints(type(value))
+    for entry in fields(value):
+        key, member = f"{path}{entry.name}", getattr(value, entry.name)
+        options = [a for a in typing.get_args(hints[entry.name]) if dataclasses.is_dataclass(a)]
+        if options and type(member) is options[0]:
+            found.add(key)
+        found |= _untagged_unions(member, f"{key}.")
+    return found
+
+
 def dump_scenario(scenario: Scenario) -> str:
     """The complete scenario as YAML, every default written out. Drake writes the first
     member of a union without its tag; it is added back so that the file names the
     form it holds (``nominal_model: !Table1 {}``, ``trajectory: !Wave``)."""
-    text = yaml_dump_typed(scenario)
-    hints = typing.get_type_hints(Scenario)
-    for entry in fields(Scenario):
-        options = typing.get_args(hints[entry.name])
-        value = getattr(scenario, entry.name)
-        if options and type(value) is options[0]:
-            tag = f"!{options[0].__name__}"
-            text = re.sub(rf"^{entry.name}:", rf"\g<0> {tag}", text, count=1, flags=re.MULTILINE)
-    return text
+    tagged = {
+        path: f"!{type(get_setting(scenario, path)).__name__}"
+        for path in _untagged_unions(scenario)
+    }
+    lines, keys = [], []
+    for line in yaml_dump_typed(scenario).splitlines():
+        match = re.match(r"^( *)([A-Za-z_][A-Za-z0-9_]*):", line)
+        if match:
+            depth = len(match.group(1)) // 2
+            keys[depth:] = [match.group(2)]
+            tag = tagged.get(".".join(keys))
+            if tag:
+                line = f"{match.group(0)} {tag}{line[match.end():]}"
+        lines.append(line)
+    return "\n".join(lines) + "\n"
 
 
 def _field_types(schema: type) -> dict[str, object]:
@@ -445,9 +507,7 @@ def apply_setting(scenario: Scenario, setting: str) -> Scenario:
         rendered = [r.removesuffix("\n...").strip() for r in rendered]
         rendered[index] = text
         text = f"[{', '.join(rendered)}]"
-    elif _is_list(_field_types(schema)[name]) and not isinstance(
-        parse(text, f"--set {key}"), list
-    ):
+    elif _is_list(_field_types(schema)[name]) and not isinstance(parse(text, f"--set {key}"), list):
         text = f"[{text}]"
     document = f"{name}: {text}"
     prefix = key.rpartition(".")[0]
@@ -491,7 +551,7 @@ def _with_key(error: ValueError, default: str) -> ValueError:
     head = message.split(" ", 1)[0].split("[", 1)[0].split("=", 1)[0]
     section = _SECTIONS.get(head, default)
     if section.endswith(f".{head}") or section == head:
-        return ValueError(f"{section}{message[len(head):]}")
+        return ValueError(f"{section}{message[len(head) :]}")
     return ValueError(f"{section}.{message}")
 
 
@@ -574,6 +634,7 @@ def make_design(
 ) -> ControllerConfig:
     """The frozen ``ControllerConfig`` of the controller settings."""
     bounds = dataclasses.asdict(settings.bounds)
+    A_zeta, B_zeta, C_zeta = h_matrices(settings.H)
     return ControllerConfig(
         nominal=nominal,
         sample_time=sample_time,
@@ -582,9 +643,9 @@ def make_design(
             alpha_star=settings.alpha_star,
             K_alpha=settings.K_alpha,
             alpha0=settings.alpha0,
-            A_zeta=settings.A_zeta,
-            B_zeta=settings.B_zeta,
-            C_zeta=settings.C_zeta,
+            A_zeta=A_zeta,
+            B_zeta=B_zeta,
+            C_zeta=C_zeta,
             filter_a=settings.filter_a,
         ),
         bounds=UncertaintyBounds(**bounds),
@@ -632,8 +693,7 @@ def resolve(loaded: LoadedScenario) -> ResolvedScenario:
     settings = scenario.controller
     if settings.kind not in CONTROLLER_KINDS:
         raise ValueError(
-            f"controller.kind = {settings.kind!r}; one of {', '.join(CONTROLLER_KINDS)} "
-            "is required"
+            f"controller.kind = {settings.kind!r}; one of {', '.join(CONTROLLER_KINDS)} is required"
         )
     try:
         nominal = make_nominal(scenario.nominal_model, base)

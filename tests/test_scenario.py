@@ -248,3 +248,17 @@ def test_nominal_model_forms():
     explicit = resolve(load_scenario(None, ["nominal_model=!Theta {theta4: 2.0}"]))
     assert explicit.config.design.nominal.theta4 == 2.0
     assert explicit.config.design.nominal.theta1 == 0.3339
+
+
+def test_the_default_h_is_the_papers_and_both_forms_agree():
+    from posfb.models.design.config import NonlinearTorqueConfig
+
+    default = resolve(load_scenario(None)).config.design.nonlinear
+    paper = NonlinearTorqueConfig()
+    assert (default.A_zeta, default.B_zeta, default.C_zeta) == (
+        paper.A_zeta, paper.B_zeta, paper.C_zeta,
+    )  # fmt: skip
+    same = "controller.H=!StateSpaceH {A_zeta: [[-7, 0], [0, -9]], B_zeta: [[7, 0], [0, 9]]}"
+    diagonal = resolve(load_scenario(None, ["controller.H.gamma=[7, 9]"])).config.design
+    state_space = resolve(load_scenario(None, [same])).config.design
+    assert diagonal.nonlinear == state_space.nonlinear

@@ -26,6 +26,7 @@ from posfb.analysis.montecarlo.coverage import BOUND_NAMES
 from posfb.analysis.montecarlo.records import STATUSES
 from posfb.analysis.montecarlo.store import ResultStore
 from posfb.analysis.plots import save
+from posfb.diagrams.scenario import Wave
 
 #: A run "saturates often" when more than this share of its control samples
 #: command a voltage beyond the limit.
@@ -249,12 +250,14 @@ def markdown(data: StudyData, title: str = "Monte-Carlo robustness study") -> st
     base = study.base_scenario()
     counts = study.encoder_counts or base.sensor.encoder_counts
     drawn = "".join(f", {key} drawn" for key in study.draws)
+    paper = base.trajectory == Wave()
+    trajectory = "the Sec. 4.2 trajectory" if paper else f"a {type(base.trajectory).__name__} path"
     lines = [
         f"# {title}",
         "",
-        f"{n} sampled plants (seed {study.seed}, {base.timing.duration:g} s of the "
-        f"{type(base.trajectory).__name__} trajectory at T_s = {base.timing.sample_time:g} s "
-        f"each, encoder counts {counts}{drawn}), every plant run under "
+        f"{n} sampled plants (seed {study.seed}, {base.timing.duration:g} s of "
+        f"{trajectory} at T_s = {base.timing.sample_time:g} s each, encoder counts "
+        f"{counts}{drawn}), every plant run under "
         f"{', '.join(data.controllers)}; controllers keep the nominal Table 1 model"
         f"{design}. Code: {', '.join(data.code_versions) or data.meta.get('code_version', '?')}.",
         "",
