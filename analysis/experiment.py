@@ -22,7 +22,7 @@ from pathlib import Path
 
 from posfb.analysis.metrics import run_metrics
 from posfb.diagrams.closed_loop import ClosedLoopResult
-from posfb.diagrams.scenario import LoadedScenario, load_scenario, resolve, run_scenario
+from posfb.diagrams.resolve import LoadedScenario, load_scenario, resolve, run_scenario
 from posfb.models.controllers import CONTROLLER_KINDS
 from posfb.models.plant import Arm, ArmParameters
 

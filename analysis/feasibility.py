@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from posfb.diagrams.scenario import LoadedScenario, resolve
+from posfb.diagrams.resolve import LoadedScenario, resolve
 from posfb.models.lumped import LumpedModel
 from posfb.models.plant import build_arm_diagram
 

@@ -40,7 +40,7 @@ from posfb.analysis.report import write_report
 from posfb.analysis.tables import PAPER_TABLES, side_by_side, theta_table
 from posfb.diagrams.closed_loop import ClosedLoopResult, ClosedLoopRunner
 from posfb.diagrams.graph import graphviz_source, render
-from posfb.diagrams.scenario import resolve
+from posfb.diagrams.resolve import resolve
 from posfb.models.controllers import cached_design
 from posfb.models.design import ControllerConfig
 from posfb.models.identify import identify

@@ -18,7 +18,7 @@ import time
 
 from posfb.analysis.experiment import case_scenario
 from posfb.diagrams.closed_loop import ClosedLoopRunner
-from posfb.diagrams.scenario import resolve
+from posfb.diagrams.resolve import resolve
 from posfb.models.controllers import CONTROLLER_KINDS
 
 #: (label, scenario settings) of every benchmarked variant.

@@ -16,7 +16,7 @@ import numpy as np
 import pytest
 
 import posfb.diagrams.animate as animate
-from posfb.diagrams.scenario import load_scenario
+from posfb.diagrams.resolve import load_scenario
 from posfb.models.plant import PlantConfig, build_arm_diagram
 
 COMMAND = re.compile(r"data:application/octet-binary;base64,([A-Za-z0-9+/=]+)")

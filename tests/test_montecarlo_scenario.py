@@ -9,7 +9,7 @@ from posfb.analysis.metrics import run_metrics
 from posfb.analysis.montecarlo.config import canonical_text, load_study, study_from_text
 from posfb.analysis.montecarlo.worker import ClosedLoopEvaluator
 from posfb.diagrams.closed_loop import ClosedLoopRunner
-from posfb.diagrams.scenario import load_scenario, resolve
+from posfb.diagrams.resolve import load_scenario, resolve
 from posfb.models.plant import ArmParameters
 
 TIMING_AND_SENSOR = """

@@ -15,13 +15,8 @@ from posfb.analysis.experiment import CASE_FILES, case_scenario
 from posfb.analysis.metrics import rms
 from posfb.diagrams.closed_loop import ClosedLoopConfig, ClosedLoopRunner
 from posfb.diagrams.encoder import quantise
-from posfb.diagrams.scenario import (
-    Scenario,
-    dump_scenario,
-    load_scenario,
-    resolve,
-    run_scenario,
-)
+from posfb.diagrams.resolve import load_scenario, resolve, run_scenario
+from posfb.diagrams.scenario import Scenario, dump_scenario
 from posfb.diagrams.yaml_schema import load_typed
 from posfb.models.controllers import CONTROLLER_KINDS
 from posfb.models.plant import DEFAULT_URDF

@@ -16,7 +16,7 @@ from dataclasses import asdict
 import numpy as np
 
 from posfb.analysis.commands.scenario_args import add_scenario_arguments, scenario_from_args
-from posfb.diagrams.scenario import resolve
+from posfb.diagrams.resolve import resolve
 from posfb.models.design import ControllerConfig, Design, compute_design
 from posfb.models.design.discretise import DISCRETISATION_NAMES
 

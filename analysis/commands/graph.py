@@ -9,7 +9,7 @@ from pathlib import Path
 from posfb.analysis.commands.scenario_args import add_scenario_arguments, scenario_from_args
 from posfb.diagrams.closed_loop import ClosedLoopRunner
 from posfb.diagrams.graph import graphviz_source, render
-from posfb.diagrams.scenario import resolve
+from posfb.diagrams.resolve import resolve
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:

@@ -9,7 +9,8 @@ import sys
 from posfb.analysis.commands.design import format_report
 from posfb.analysis.commands.scenario_args import add_scenario_arguments, scenario_from_args
 from posfb.analysis.feasibility import trajectory_warnings
-from posfb.diagrams.scenario import dump_scenario, load_scenario, resolve
+from posfb.diagrams.resolve import load_scenario, resolve
+from posfb.diagrams.scenario import dump_scenario
 from posfb.models.controllers import cached_design
 
 #: Exit code of a scenario whose design fails a check of its controller.

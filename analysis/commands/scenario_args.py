@@ -8,7 +8,7 @@ import argparse
 
 from posfb.analysis.errors import UsageError
 from posfb.analysis.experiment import CASE_FILES, CASES
-from posfb.diagrams.scenario import LoadedScenario, load_scenario
+from posfb.diagrams.resolve import LoadedScenario, load_scenario
 from posfb.models.controllers import CONTROLLER_KINDS
 
 #: Shortcut flag -> (scenario key, argparse type, help).

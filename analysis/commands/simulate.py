@@ -15,7 +15,7 @@ from posfb.analysis.experiment import CONTROLLER_LABELS, result_entry
 from posfb.analysis.export import EXPORT_FORMATS, export_run
 from posfb.analysis.feasibility import trajectory_warnings
 from posfb.analysis.metrics import run_metrics
-from posfb.diagrams.scenario import resolve, run_scenario
+from posfb.diagrams.resolve import resolve, run_scenario
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:

@@ -63,16 +63,14 @@ from pathlib import Path
 import scipy.stats
 from pydrake.common.yaml import yaml_dump_typed
 
-from posfb.diagrams.scenario import (
+from posfb.diagrams.resolve import (
     LoadedScenario,
-    Scenario,
-    apply_setting,
-    get_setting,
     load_scenario,
     resolve,
     resolve_path,
     with_absolute_paths,
 )
+from posfb.diagrams.scenario import Scenario, apply_setting, get_setting
 from posfb.diagrams.yaml_schema import load_typed
 from posfb.models.controllers import CONTROLLER_KINDS, require_design
 from posfb.models.design import ControllerConfig

@@ -24,13 +24,8 @@ from posfb.analysis.montecarlo.coverage import coverage
 from posfb.analysis.montecarlo.records import METRIC_COLUMNS, ControllerRun, SampleResult
 from posfb.analysis.montecarlo.sampling import SampledPlant, sample_plant, sample_scenario
 from posfb.diagrams.closed_loop import ClosedLoopRunner, SensorState
-from posfb.diagrams.scenario import (
-    LoadedScenario,
-    ParameterOverrides,
-    Scenario,
-    dump_scenario,
-    resolve,
-)
+from posfb.diagrams.resolve import LoadedScenario, resolve
+from posfb.diagrams.scenario import ParameterOverrides, Scenario, dump_scenario
 from posfb.models.design.bounds import resolve_bounds
 from posfb.models.identify import identify
 from posfb.models.trajectory import JOINTS
