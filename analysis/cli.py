@@ -18,13 +18,16 @@ from posfb.analysis.commands import (
     scenario,
     simulate,
 )
-from posfb.analysis.errors import UsageError
+from posfb.analysis.errors import InterruptedRunError, UsageError
 
 #: Subcommand modules, in the order ``posfb --help`` lists them.
 COMMANDS = [identify, design, scenario, simulate, reproduce, graph, animate, montecarlo]
 
 #: Exit code for bad input (argparse uses the same).
 EXIT_BAD_INPUT = 2
+
+#: Exit code after Ctrl-C (128 + SIGINT, as shells report it).
+EXIT_INTERRUPTED = 130
 
 
 class _Parser(argparse.ArgumentParser):
@@ -52,9 +55,12 @@ def main(argv: Sequence[str] | None = None) -> int:
         message = str(error).strip().splitlines()[0] if str(error).strip() else repr(error)
         sys.stderr.write(f"posfb {args.command}: error: {message}\n")
         return EXIT_BAD_INPUT
+    except InterruptedRunError as interrupt:
+        sys.stderr.write(f"posfb {args.command}: interrupted: {interrupt}\n")
+        return EXIT_INTERRUPTED
     except KeyboardInterrupt:
         sys.stderr.write(f"posfb {args.command}: interrupted\n")
-        return 130
+        return EXIT_INTERRUPTED
     except BrokenPipeError:
         # The reader of stdout left early (``posfb design | head``): not an error.
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())

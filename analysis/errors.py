@@ -3,3 +3,8 @@
 
 class UsageError(Exception):
     """Bad input detected after parsing; reported as one line and a non-zero exit."""
+
+
+class InterruptedRunError(Exception):
+    """The user stopped a command (Ctrl-C); the message says what was kept and how to go
+    on. Reported as one line with exit code 130."""

@@ -41,7 +41,7 @@ from posfb.analysis.tables import PAPER_TABLES, side_by_side, theta_table
 from posfb.diagrams.closed_loop import ClosedLoopResult, ClosedLoopRunner
 from posfb.diagrams.graph import graphviz_source, render
 from posfb.diagrams.resolve import resolve
-from posfb.models.controllers import cached_design
+from posfb.models.controllers import cached_design, failed_checks
 from posfb.models.design import ControllerConfig
 from posfb.models.identify import identify
 from posfb.models.lumped import TABLE1
@@ -186,6 +186,10 @@ class Reproduction:
             self.results.set((*keys, "title"), study.title)
             self.results.set((*keys, "description"), study.description)
         runs: dict[str, dict[str, ClosedLoopResult]] = {case: {} for case in study.cases}
+        for kind in study.controllers:
+            design = resolve(case_scenario(study.cases[0], study.settings)).config.design
+            for detail in failed_checks(kind, design):
+                self.progress(f"     warning: {label}: the {kind} design fails a check: {detail}")
         for case, kind, run in study.runs(self.duration):
             result = run()
             runs[case][kind] = result

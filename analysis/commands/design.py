@@ -4,7 +4,8 @@ settings (``K``, ``P``, ``E``, ``Gamma``, poles, bounds) and its checks.
 The sampled-data spectral radius is that of the nominal linear plant
 ``M0* q'' + B* q' = u`` held over ``T_s`` with the discretised ``tau_LC + tau_NC``
 filters at ``alpha = alpha*``. A failed check is reported (``warnings`` in JSON,
-``FAILED`` in the text) and the command still exits 0: the report is the result.
+``FAILED`` in the text) and the command exits 0 (the report is the result), or 1
+with ``--strict``.
 """
 
 from __future__ import annotations
@@ -20,6 +21,9 @@ from posfb.diagrams.resolve import resolve
 from posfb.models.design import ControllerConfig, Design, compute_design
 from posfb.models.design.discretise import DISCRETISATION_NAMES
 
+#: Exit code of ``--strict`` when a check fails.
+EXIT_FAILED_CHECK = 1
+
 
 def register(subparsers: argparse._SubParsersAction) -> None:
     parser = subparsers.add_parser(
@@ -27,6 +31,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     )
     add_scenario_arguments(parser, ("sample_time", "alpha_star"))
     parser.add_argument("--json", action="store_true", help="print one JSON object")
+    parser.add_argument(
+        "--strict", action="store_true", help="exit 1 when any design check fails (for scripts)"
+    )
     parser.set_defaults(handler=run)
 
 
@@ -116,4 +123,4 @@ def format_report(design: Design) -> str:
 def run(args: argparse.Namespace) -> int:
     design = compute_design(design_config(args))
     print(json.dumps(design_to_dict(design)) if args.json else format_report(design))
-    return 0
+    return EXIT_FAILED_CHECK if args.strict and design.warnings else 0

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import argparse
 
-from posfb.analysis.errors import UsageError
+from posfb.analysis.errors import InterruptedRunError, UsageError
 from posfb.analysis.montecarlo.config import load_study, with_overrides
 from posfb.analysis.montecarlo.provenance import code_version
 from posfb.analysis.montecarlo.report import write_report
@@ -67,14 +67,21 @@ def run_command(args: argparse.Namespace) -> int:
         raise UsageError("--workers applies to local runs; a Dask cluster brings its own workers")
     version = code_version()
     with ResultStore.create_or_resume(args.db, study, version) as store:
-        summary = run_study(
-            study,
-            store,
-            version,
-            workers=args.workers,
-            dask_scheduler=args.dask_scheduler,
-            progress=not args.no_progress,
-        )
+        try:
+            summary = run_study(
+                study,
+                store,
+                version,
+                workers=args.workers,
+                dask_scheduler=args.dask_scheduler,
+                progress=not args.no_progress,
+            )
+        except KeyboardInterrupt:
+            saved = len(store.finished() & set(range(study.samples)))
+            raise InterruptedRunError(
+                f"{saved} of {study.samples} samples are saved in {args.db}; run the same "
+                "command again to resume"
+            ) from None
     statuses = ", ".join(f"{k} {v}" for k, v in sorted(summary.statuses.items())) or "none"
     print(
         f"{args.db}: {summary.already_done + summary.written} of {summary.requested} samples "

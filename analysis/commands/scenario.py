@@ -6,24 +6,12 @@ from __future__ import annotations
 import argparse
 import sys
 
-from posfb.analysis.commands.design import format_report
+from posfb.analysis.commands.design import EXIT_FAILED_CHECK, format_report
 from posfb.analysis.commands.scenario_args import add_scenario_arguments, scenario_from_args
 from posfb.analysis.feasibility import trajectory_warnings
 from posfb.diagrams.resolve import load_scenario, resolve
 from posfb.diagrams.scenario import dump_scenario
-from posfb.models.controllers import cached_design
-
-#: Exit code of a scenario whose design fails a check of its controller.
-EXIT_FAILED_CHECK = 1
-
-#: The design checks that concern each controller (PID has no Sec. 3 design).
-RELEVANT_CHECKS = {
-    "pid": (),
-    "lin_lc": ("riccati", "lc_filter", "sampled_data_lin_lc"),
-    "proposed": (
-        "riccati", "lc_filter", "spr", "bound_filter", "continuous_with_nc", "sampled_data",
-    ),
-}  # fmt: skip
+from posfb.models.controllers import RELEVANT_CHECKS, cached_design
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -35,6 +23,10 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     check = actions.add_parser("check", help="validate a scenario and print its design verdict")
     check.add_argument("file", help="scenario YAML")
     check.add_argument("--set", action="append", default=[], metavar="KEY=VALUE", dest="settings")
+    check.add_argument(
+        "--strict", action="store_true", help="exit 1 when any design check fails, not only "
+        "those of the scenario's controller",
+    )  # fmt: skip
     check.set_defaults(handler=run_check)
 
 
@@ -52,13 +44,12 @@ def run_check(args: argparse.Namespace) -> int:
         print(f"warning: {warning}")
     design = cached_design(config.design)
     print(format_report(design))
-    failed = [
-        check.name
-        for check in design.checks
-        if check.name in RELEVANT_CHECKS[config.controller] and not check.passed
-    ]
+    every = {check.name for check in design.checks}
+    relevant = every if args.strict else RELEVANT_CHECKS[config.controller]
+    failed = [c.name for c in design.checks if c.name in relevant and not c.passed]
+    whose = "the design" if args.strict else f"the {config.controller} controller"
     if failed:
-        print(f"verdict: the {config.controller} controller fails {', '.join(failed)}")
+        print(f"verdict: {whose} fails {', '.join(failed)}")
         return EXIT_FAILED_CHECK
-    print(f"verdict: every check of the {config.controller} controller passed")
+    print(f"verdict: every check of {whose} passed")
     return 0

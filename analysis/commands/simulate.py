@@ -16,6 +16,7 @@ from posfb.analysis.export import EXPORT_FORMATS, export_run
 from posfb.analysis.feasibility import trajectory_warnings
 from posfb.analysis.metrics import run_metrics
 from posfb.diagrams.resolve import resolve, run_scenario
+from posfb.models.controllers import failed_checks
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -49,7 +50,12 @@ def run(args: argparse.Namespace) -> int:
         )
     loaded = scenario_from_args(args)
     config = resolve(loaded).config
-    for warning in trajectory_warnings(loaded):
+    warnings = trajectory_warnings(loaded)
+    warnings += [
+        f"the {config.controller} design fails a check: {detail}"
+        for detail in failed_checks(config.controller, config.design)
+    ]
+    for warning in warnings:
         sys.stderr.write(f"posfb simulate: warning: {warning}\n")
     result = run_scenario(loaded)
     written = export_run(result, Path(args.out)) if args.out else None

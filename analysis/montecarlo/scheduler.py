@@ -3,7 +3,9 @@ cluster, writing each result as it arrives.
 
 Only the parent process writes to the store (one transaction per sample, in
 completion order). At most ``2 x workers`` samples are in flight at a time, so
-an interrupted or killed run loses at most those; the rest were never started.
+a killed run loses at most those; the rest were never started. On Ctrl-C (the
+workers ignore it) the queued samples are dropped and the running ones are
+finished and stored before the run stops.
 Local workers come from a ``forkserver`` context (fresh processes, never a fork
 of a parent with Drake threads) whose server preloads the worker module, so
 each worker starts without importing Drake again. With a Dask scheduler
@@ -33,6 +35,9 @@ from posfb.analysis.montecarlo.store import ResultStore
 #: Samples in flight per worker (one running, one queued so no worker idles).
 IN_FLIGHT_PER_WORKER = 2
 
+#: The module the workers' forkserver imports first (workers ignore Ctrl-C).
+FORKSERVER_INIT = "posfb.analysis.montecarlo.forkserver_init"
+
 #: Seconds to wait for a Dask scheduler to answer.
 DASK_CONNECT_TIMEOUT = "10s"
 
@@ -60,10 +65,11 @@ def _local_results(
     if not pending:
         return
     context = multiprocessing.get_context("forkserver")
-    context.set_forkserver_preload([worker.__name__])
-    pool = ProcessPoolExecutor(max_workers=workers, mp_context=context)
+    # By name: importing it here would make this (the parent) process ignore Ctrl-C.
+    context.set_forkserver_preload([FORKSERVER_INIT, worker.__name__])
     queue = iter(pending)
     in_flight: set[Future] = set()
+    pool = ProcessPoolExecutor(max_workers=workers, mp_context=context)
     try:
         while True:
             for index in queue:
@@ -72,11 +78,30 @@ def _local_results(
                     break
             if not in_flight:
                 return
-            done, in_flight = wait(in_flight, return_when=FIRST_COMPLETED)
+            try:
+                done, in_flight = wait(in_flight, return_when=FIRST_COMPLETED)
+            except KeyboardInterrupt:
+                yield from _drain(in_flight)
+                raise
             for future in done:
                 yield future.result()
     finally:
         pool.shutdown(wait=False, cancel_futures=True)
+
+
+def _drain(in_flight: set[Future]) -> Generator[SampleResult, None, None]:
+    """After Ctrl-C: drop the queued samples, finish (and so keep) the running ones; a
+    second Ctrl-C drops those too. The workers ignore Ctrl-C themselves."""
+    running = {future for future in in_flight if not future.cancel()}
+    if running:
+        sys.stderr.write(
+            f"stopping: finishing {len(running)} sample(s) in flight (Ctrl-C again to drop them)\n"
+        )
+    for future in running:
+        try:
+            yield future.result()
+        except Exception:  # a failed sample is simply not kept
+            continue
 
 
 def _dask_results(

@@ -25,6 +25,23 @@ INTERNALS = {"pid": PID_INTERNALS, "lin_lc": LIN_LC_INTERNALS, "proposed": PROPO
 cached_design = lru_cache(maxsize=32)(compute_design)
 
 
+#: The design checks (``models.design.synthesis``) that concern each controller: PID has
+#: no Sec. 3 design; Lin+LC uses the linear torque only.
+RELEVANT_CHECKS = {
+    "pid": (),
+    "lin_lc": ("riccati", "lc_filter", "sampled_data_lin_lc"),
+    "proposed": (
+        "riccati", "lc_filter", "spr", "bound_filter", "continuous_with_nc", "sampled_data",
+    ),
+}  # fmt: skip
+
+
+def failed_checks(kind: str, config: ControllerConfig) -> list[str]:
+    """The details of the failed design checks that concern controller ``kind``."""
+    relevant = RELEVANT_CHECKS[kind]
+    return [c.detail for c in cached_design(config).checks if c.name in relevant and not c.passed]
+
+
 def require_design(kind: str, config: ControllerConfig) -> None:
     """Raise ``ValueError`` (one line) if controller ``kind`` refuses ``config``'s design
     (``make_controller`` would refuse it the same way)."""
@@ -59,7 +76,9 @@ __all__ = [
     "PidController",
     "ProposedController",
     "SampledController",
+    "RELEVANT_CHECKS",
     "cached_design",
+    "failed_checks",
     "make_controller",
     "require_design",
 ]

@@ -1,0 +1,101 @@
+"""Verdicts usable in scripts (``--strict``, warnings for a failed design), Ctrl-C on a
+Monte-Carlo run, and the set-up's Python check."""
+
+from __future__ import annotations
+
+import os
+import signal
+import sqlite3
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+from posfb.analysis.cli import main
+
+ROOT = Path(__file__).resolve().parent.parent
+CLI = [sys.executable, "-m", "posfb.analysis.cli"]
+
+
+def test_design_strict_exits_1_only_when_a_check_fails(capsys):
+    assert main(["design"]) == 0  # the report is the result
+    assert main(["design", "--strict"]) == 1  # the paper's alpha* = 4 fails at 100 Hz
+    assert main(["design", "--strict", "--alpha-star", "2.75"]) == 0
+    capsys.readouterr()
+
+
+def test_scenario_check_strict_looks_at_every_check(capsys):
+    nominal = str(ROOT / "analysis" / "scenarios" / "paper_nominal.yaml")
+    assert main(["scenario", "check", nominal, "--set", "controller.kind=lin_lc"]) == 0
+    assert main(["scenario", "check", nominal, "--set", "controller.kind=lin_lc", "--strict"]) == 1
+    assert "fails sampled_data" in capsys.readouterr().out
+
+
+def test_simulate_warns_when_its_design_fails_a_check(capsys):
+    assert main(["simulate", "--duration", "0.5"]) == 0
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "warning" in err[0] and "spectral radius 1.0558" in err[0]
+    assert main(["simulate", "--duration", "0.5", "--alpha-star", "2.75"]) == 0
+    assert capsys.readouterr().err == ""
+
+
+STUDY = """\
+seed: 5
+samples: 40
+duration: 2.0
+controllers: [lin_lc]
+parameters:
+  payload_mass: !Uniform {low: 0.0, high: 0.3}
+"""
+
+
+def _stored(db: Path) -> list[tuple]:
+    with sqlite3.connect(db) as connection:
+        return connection.execute(
+            "SELECT sample, controller, status, rms_q1, rms_q2 FROM runs ORDER BY sample"
+        ).fetchall()
+
+
+def test_ctrl_c_keeps_finished_samples_says_so_and_the_same_command_resumes(tmp_path):
+    study, db = tmp_path / "study.yaml", tmp_path / "store.sqlite"
+    study.write_text(STUDY)
+    command = [*CLI, "montecarlo", "run", str(study), "--db", str(db), "--no-progress"]
+    process = subprocess.Popen(
+        [*command, "--workers", "2"], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+        text=True, start_new_session=True,
+    )  # fmt: skip
+    deadline = time.monotonic() + 120
+    while time.monotonic() < deadline and not (db.exists() and _count(db) >= 2):
+        time.sleep(0.2)
+    os.killpg(process.pid, signal.SIGINT)  # Ctrl-C reaches the whole process group
+    _, err = process.communicate(timeout=120)
+    assert process.returncode == 130
+    lines = err.strip().splitlines()
+    assert "samples are saved in" in lines[-1] and "run the same command again" in lines[-1]
+    assert "Traceback" not in err
+    saved = _count(db)
+    assert saved >= 2
+    resumed = subprocess.run(command, capture_output=True, text=True, timeout=300)
+    assert resumed.returncode == 0, resumed.stderr
+    rows = _stored(db)
+    assert [row[0] for row in rows] == list(range(40))  # every sample once
+
+
+def _count(db: Path) -> int:
+    try:
+        with sqlite3.connect(db) as connection:
+            return connection.execute("SELECT COUNT(*) FROM samples").fetchone()[0]
+    except sqlite3.Error:
+        return 0
+
+
+def test_setup_refuses_an_old_python_before_doing_anything(tmp_path):
+    fake = tmp_path / "python3.10"
+    fake.write_text('#!/bin/sh\ncase "$2" in *exit*) exit 1;; *) echo 3.10.14;; esac\n')
+    fake.chmod(0o755)
+    result = subprocess.run(
+        ["bash", str(ROOT / "bin" / "setup")], env={**os.environ, "PYTHON": str(fake)},
+        capture_output=True, text=True, timeout=60,
+    )  # fmt: skip
+    assert result.returncode == 2
+    assert "needs Python >= 3.11" in result.stderr and "found 3.10.14" in result.stderr
