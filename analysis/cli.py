@@ -6,6 +6,7 @@ from __future__ import annotations
 import argparse
 import os
 import sys
+import traceback
 from collections.abc import Sequence
 
 from posfb.analysis.commands import (
@@ -25,6 +26,9 @@ COMMANDS = [identify, design, scenario, simulate, reproduce, graph, animate, mon
 
 #: Exit code for bad input (argparse uses the same).
 EXIT_BAD_INPUT = 2
+
+#: Exit code of a bug in posfb (a traceback is shown).
+EXIT_INTERNAL_ERROR = 3
 
 #: Exit code after Ctrl-C (128 + SIGINT, as shells report it).
 EXIT_INTERRUPTED = 130
@@ -65,6 +69,17 @@ def main(argv: Sequence[str] | None = None) -> int:
         # The reader of stdout left early (``posfb design | head``): not an error.
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
         return 0
+    except OSError as error:  # the machine's answer to a path or resource the user gave
+        where = f": {error.filename}" if error.filename else ""
+        sys.stderr.write(f"posfb {args.command}: error: {error.strerror or error}{where}\n")
+        return EXIT_BAD_INPUT
+    except Exception:  # a bug in posfb, not in the input: show everything
+        traceback.print_exc()
+        sys.stderr.write(
+            f"posfb {args.command}: internal error: this is a bug in posfb, not in your "
+            "input; please report it with the traceback above\n"
+        )
+        return EXIT_INTERNAL_ERROR
 
 
 if __name__ == "__main__":

@@ -13,8 +13,9 @@ paper's. ``posfb reproduce`` does this and everything else.
 from __future__ import annotations
 
 import argparse
-from pathlib import Path
 
+from posfb.analysis.errors import UsageError
+from posfb.analysis.outputs import output_folder
 from posfb.analysis.reproduce import case_experiment
 
 
@@ -25,8 +26,8 @@ def main(case: str, description: str) -> None:
     parser.add_argument("--duration", type=float, default=20.0, help="simulated seconds")
     args = parser.parse_args()
     try:
-        case_experiment(case, Path(args.out), args.duration)
-    except (ValueError, FileNotFoundError) as error:
+        case_experiment(case, output_folder("--out", args.out), args.duration)
+    except (ValueError, FileNotFoundError, UsageError) as error:
         parser.error(str(error).strip().splitlines()[0])
 
 

@@ -67,6 +67,10 @@ def graphviz_source(diagram: Diagram) -> str:
     return diagram.GetGraphvizString(options=GRAPHVIZ_OPTIONS)
 
 
+#: The file types ``render`` writes.
+GRAPH_SUFFIXES = (".svg", ".png", ".pdf", ".dot")
+
+
 def render(source: str, out: Path) -> tuple[Path, str]:
     """Render ``source`` to ``out`` (format from its suffix: ``.svg``, ``.png``, ``.pdf``).
 
@@ -74,7 +78,7 @@ def render(source: str, out: Path) -> tuple[Path, str]:
     written path and a note ("" when rendered)."""
     out = Path(out)
     fmt = out.suffix.lstrip(".").lower()
-    if fmt not in ("svg", "png", "pdf", "dot"):
+    if out.suffix.lower() not in GRAPH_SUFFIXES:
         raise ValueError(f"out = {str(out)!r}; a .svg, .png, .pdf or .dot file name is required")
     out.parent.mkdir(parents=True, exist_ok=True)
     dot = shutil.which("dot")

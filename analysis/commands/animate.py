@@ -3,10 +3,10 @@
 from __future__ import annotations
 
 import argparse
-from pathlib import Path
 
 from posfb.analysis.commands.scenario_args import add_scenario_arguments, scenario_from_args
 from posfb.analysis.errors import UsageError
+from posfb.analysis.outputs import output_file
 from posfb.diagrams.animate import record_animation
 
 
@@ -20,11 +20,10 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    if Path(args.out).suffix.lower() not in (".html", ".htm"):
-        raise UsageError(f"--out {args.out!r}; an .html file name is required")
+    out = output_file("--out", args.out, (".html", ".htm"))
     loaded = scenario_from_args(args)
     try:
-        path, result = record_animation(loaded, Path(args.out))
+        path, result = record_animation(loaded, out)
     except RuntimeError as error:
         raise UsageError(str(error)) from None
     print(f"{path} ({result.status}, {result.times[-1]:g} s)")

@@ -4,11 +4,11 @@ from __future__ import annotations
 
 import argparse
 import sys
-from pathlib import Path
 
 from posfb.analysis.commands.scenario_args import add_scenario_arguments, scenario_from_args
+from posfb.analysis.outputs import output_file
 from posfb.diagrams.closed_loop import ClosedLoopRunner
-from posfb.diagrams.graph import graphviz_source, render
+from posfb.diagrams.graph import GRAPH_SUFFIXES, graphviz_source, render
 from posfb.diagrams.resolve import resolve
 
 
@@ -22,8 +22,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    out = output_file("--out", args.out, GRAPH_SUFFIXES)
     diagram = ClosedLoopRunner(resolve(scenario_from_args(args)).config).diagram
-    path, note = render(graphviz_source(diagram), Path(args.out))
+    path, note = render(graphviz_source(diagram), out)
     if note:
         sys.stderr.write(f"posfb graph: {note}\n")
     print(path)

@@ -16,6 +16,7 @@ from posfb.analysis.montecarlo.provenance import code_version
 from posfb.analysis.montecarlo.report import write_report
 from posfb.analysis.montecarlo.scheduler import run_study
 from posfb.analysis.montecarlo.store import ResultStore
+from posfb.analysis.outputs import output_file, output_folder
 
 
 def _integer_at_least(minimum: int):
@@ -63,6 +64,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
 def run_command(args: argparse.Namespace) -> int:
     study = with_overrides(load_study(args.study), samples=args.samples, seed=args.seed)
+    output_file("--db", args.db)
     if args.dask_scheduler and args.workers != 1:
         raise UsageError("--workers applies to local runs; a Dask cluster brings its own workers")
     version = code_version()
@@ -92,7 +94,8 @@ def run_command(args: argparse.Namespace) -> int:
 
 
 def report_command(args: argparse.Namespace) -> int:
+    out = output_folder("--out", args.out)
     with ResultStore.open_existing(args.db) as store:
-        path = write_report(store, args.out)
+        path = write_report(store, out)
     print(f"report written to {path}")
     return 0

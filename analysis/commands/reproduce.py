@@ -4,8 +4,8 @@
 from __future__ import annotations
 
 import argparse
-from pathlib import Path
 
+from posfb.analysis.outputs import output_folder
 from posfb.analysis.reproduce import reproduce
 
 
@@ -22,8 +22,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    artefacts = reproduce(
-        Path(args.out), args.duration, progress=lambda line: print(line, flush=True)
-    )
+    out = output_folder("--out", args.out)
+    artefacts = reproduce(out, args.duration, progress=lambda line: print(line, flush=True))
     print(f"{len(artefacts)} files in {args.out}/")
     return 0

@@ -6,17 +6,16 @@ from __future__ import annotations
 import argparse
 import json
 import sys
-from pathlib import Path
 
 from posfb.analysis import plots
 from posfb.analysis.commands.scenario_args import add_scenario_arguments, scenario_from_args
-from posfb.analysis.errors import UsageError
 from posfb.analysis.experiment import CONTROLLER_LABELS, result_entry
 from posfb.analysis.export import EXPORT_FORMATS, export_run
 from posfb.analysis.feasibility import trajectory_warnings
 from posfb.analysis.metrics import run_metrics
+from posfb.analysis.outputs import output_file, output_folder
 from posfb.diagrams.resolve import resolve, run_scenario
-from posfb.models.controllers import failed_checks
+from posfb.models.controllers import failed_checks, require_design
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -44,12 +43,11 @@ def summary_name(args: argparse.Namespace) -> str:
 
 
 def run(args: argparse.Namespace) -> int:
-    if args.out and Path(args.out).suffix.lower() not in EXPORT_FORMATS:
-        raise UsageError(
-            f"--out {args.out!r}; a file ending in one of {', '.join(EXPORT_FORMATS)} is required"
-        )
+    out = output_file("--out", args.out, EXPORT_FORMATS) if args.out else None
+    figures = output_folder("--figure", args.figure) if args.figure else None
     loaded = scenario_from_args(args)
     config = resolve(loaded).config
+    require_design(config.controller, config.design)  # a refused design is bad input
     warnings = trajectory_warnings(loaded)
     warnings += [
         f"the {config.controller} design fails a check: {detail}"
@@ -58,12 +56,12 @@ def run(args: argparse.Namespace) -> int:
     for warning in warnings:
         sys.stderr.write(f"posfb simulate: warning: {warning}\n")
     result = run_scenario(loaded)
-    written = export_run(result, Path(args.out)) if args.out else None
-    if args.figure:
+    written = export_run(result, out) if out else None
+    if figures:
         runs, title = {config.controller: result}, f"scenario {summary_name(args)}"
-        Path(args.figure).mkdir(parents=True, exist_ok=True)
-        plots.save(plots.positions_and_voltages(runs, title), Path(args.figure), "positions")
-        plots.save(plots.tracking_errors(runs, title), Path(args.figure), "errors")
+        figures.mkdir(parents=True, exist_ok=True)
+        plots.save(plots.positions_and_voltages(runs, title), figures, "positions")
+        plots.save(plots.tracking_errors(runs, title), figures, "errors")
     summary = {
         "controller": config.controller,
         "scenario": summary_name(args),
