@@ -67,9 +67,9 @@ def test_other_sqlite_files_are_refused(tmp_path, study):
     path = tmp_path / "other.sqlite"
     with sqlite3.connect(path) as connection:
         connection.execute("CREATE TABLE things (x)")
-    with pytest.raises(UsageError, match="not a posfb"):
+    with pytest.raises(UsageError, match="another application"):
         ResultStore.create_or_resume(path, study, "v1")
-    with pytest.raises(UsageError, match="not a posfb"):
+    with pytest.raises(UsageError, match="another application"):
         ResultStore.open_existing(path)
     with pytest.raises(FileNotFoundError):
         ResultStore.open_existing(tmp_path / "missing.sqlite")
@@ -78,3 +78,27 @@ def test_other_sqlite_files_are_refused(tmp_path, study):
 def test_invalid_status_is_refused():
     with pytest.raises(ValueError, match="status"):
         ControllerRun("pid", "exploded", "", {})
+
+
+def test_foreign_files_are_refused_and_left_byte_for_byte(tmp_path, study):
+    text = tmp_path / "notes.sqlite"
+    text.write_bytes(b"not a database\n")
+    foreign = tmp_path / "foreign.sqlite"
+    with sqlite3.connect(foreign) as connection:
+        connection.execute("CREATE TABLE meta (key, value)")  # a look-alike, no posfb id
+        connection.execute("CREATE TABLE other (x)")
+    for path, needle in ((text, "not an SQLite file"), (foreign, "another application")):
+        before = path.read_bytes()
+        with pytest.raises(UsageError, match=needle):
+            ResultStore.create_or_resume(path, study, "v1")
+        assert path.read_bytes() == before
+        assert not path.with_name(path.name + "-wal").exists()
+
+
+def test_a_second_writer_is_refused_naming_the_first(tmp_path, study):
+    path = tmp_path / "store.sqlite"
+    first = ResultStore.create_or_resume(path, study, "v1")
+    with pytest.raises(UsageError, match=r"another posfb run is writing it \(host .*, pid \d+"):
+        ResultStore.create_or_resume(path, study, "v1")
+    first.close()
+    ResultStore.create_or_resume(path, study, "v1").close()  # the lock went with the first

@@ -9,6 +9,7 @@ statistics, figures and a Markdown report.
 from __future__ import annotations
 
 import argparse
+import sys
 
 from posfb.analysis.errors import InterruptedRunError, UsageError
 from posfb.analysis.montecarlo.config import load_study, with_overrides
@@ -97,5 +98,11 @@ def report_command(args: argparse.Namespace) -> int:
     out = output_folder("--out", args.out)
     with ResultStore.open_existing(args.db) as store:
         path = write_report(store, out)
+        expected, finished = store.study().samples, len(store.finished())
+    if finished < expected:
+        sys.stderr.write(
+            f"posfb montecarlo: warning: {expected - finished} of {expected} samples are "
+            f"missing (unfinished run); the report covers the {finished} finished ones\n"
+        )
     print(f"report written to {path}")
     return 0

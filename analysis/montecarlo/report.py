@@ -252,9 +252,16 @@ def markdown(data: StudyData, title: str = "Monte-Carlo robustness study") -> st
     drawn = "".join(f", {key} drawn" for key in study.draws)
     paper = base.trajectory == Wave()
     trajectory = "the Sec. 4.2 trajectory" if paper else f"a {type(base.trajectory).__name__} path"
+    missing = study.samples - n
+    unfinished = (
+        [f"**Unfinished study: {missing} of {study.samples} samples are missing**; "
+         "`posfb montecarlo run` with the same study and store resumes it.", ""]
+        if missing > 0 else []
+    )  # fmt: skip
     lines = [
         f"# {title}",
         "",
+        *unfinished,
         f"{n} sampled plants (seed {study.seed}, {base.timing.duration:g} s of "
         f"{trajectory} at T_s = {base.timing.sample_time:g} s each, encoder counts "
         f"{counts}{drawn}), every plant run under "

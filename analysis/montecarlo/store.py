@@ -11,6 +11,14 @@ Schema (version 1)::
          rms_q1, rms_q2, rms_u1, rms_u2, max_abs_q_err, saturated_fraction,
          wall_time_s, PRIMARY KEY (sample, controller))
 
+The file carries SQLite's ``application_id`` ``APPLICATION_ID`` ("posf"). Before
+anything is written, an existing file is looked at read-only: a file that is not
+SQLite, or an SQLite file of someone else (another application id, or other
+tables), is refused and left byte for byte as it was. One ``run`` at a time
+writes a store: it holds an exclusive lock on ``<file>.lock`` (released by the
+operating system even if the process is killed); a second ``run`` on the same
+file refuses with one line naming the one that holds it.
+
 A sample's ``samples`` row and its ``runs`` rows are written in one
 transaction, so a sample is either wholly present or absent: killing the
 writer loses only samples not yet committed, and a resume reruns exactly
@@ -21,7 +29,10 @@ whose identity (every key but ``samples``) differs from the one it holds.
 
 from __future__ import annotations
 
+import fcntl
 import json
+import os
+import socket
 import sqlite3
 from dataclasses import fields
 from datetime import UTC, datetime
@@ -32,6 +43,15 @@ from posfb.analysis.montecarlo.config import Study, canonical_text, identity, st
 from posfb.analysis.montecarlo.records import METRIC_COLUMNS, STATUSES, SampleResult
 
 SCHEMA_VERSION = "1"
+
+#: SQLite ``PRAGMA application_id`` of a posfb store: "posf" in ASCII.
+APPLICATION_ID = 0x706F7366
+
+#: The first bytes of every SQLite 3 database file.
+SQLITE_HEADER = b"SQLite format 3\x00"
+
+#: The tables of a posfb store.
+TABLES = {"meta", "samples", "runs"}
 
 _SCHEMA = f"""
 CREATE TABLE IF NOT EXISTS meta (key TEXT PRIMARY KEY, value TEXT NOT NULL);
@@ -57,6 +77,35 @@ CREATE TABLE IF NOT EXISTS runs (
 """
 
 
+def _inspect(path: Path) -> None:
+    """Refuse ``path`` unless it is missing, empty, or a posfb store; never writes."""
+    if path.is_dir():
+        raise UsageError(f"--db {path}: is a folder; an SQLite file name is required")
+    if not path.exists() or path.stat().st_size == 0:
+        return
+    with path.open("rb") as file:
+        if file.read(len(SQLITE_HEADER)) != SQLITE_HEADER:
+            raise UsageError(f"--db {path}: not an SQLite file (left unchanged); use another --db")
+    try:
+        connection = sqlite3.connect(f"{path.resolve().as_uri()}?mode=ro", uri=True)
+        try:
+            application = connection.execute("PRAGMA application_id").fetchone()[0]
+            tables = {
+                row[0]
+                for row in connection.execute("SELECT name FROM sqlite_master WHERE type = 'table'")
+            }
+        finally:
+            connection.close()
+    except sqlite3.DatabaseError as error:
+        raise UsageError(f"--db {path}: unreadable SQLite file ({error}; left unchanged)") from None
+    ours = application == APPLICATION_ID or (application == 0 and tables == TABLES)
+    if not ours or not tables <= TABLES:
+        raise UsageError(
+            f"--db {path}: an SQLite file of another application (left unchanged); use "
+            "another --db"
+        )
+
+
 def _connect(path: Path) -> sqlite3.Connection:
     connection = sqlite3.connect(path, isolation_level=None)  # explicit transactions
     connection.row_factory = sqlite3.Row
@@ -77,21 +126,30 @@ def _differing_keys(stored: Study, study: Study) -> list[str]:
 class ResultStore:
     """One results file. Use ``create_or_resume`` to write, ``open_existing`` to read."""
 
-    def __init__(self, path: Path, connection: sqlite3.Connection) -> None:
+    def __init__(
+        self, path: Path, connection: sqlite3.Connection, lock: _WriterLock | None = None
+    ) -> None:
         self.path = path
         self._connection = connection
+        self._lock = lock
 
     @classmethod
     def create_or_resume(cls, path: str | Path, study: Study, code_version: str) -> ResultStore:
-        """Open ``path`` for ``study``, creating it if needed; refuse a file that holds
-        another study or is not a posfb results file."""
+        """Open ``path`` for ``study``, creating it (and its folder) if needed; refuse,
+        untouched, a file that is not a posfb store, holds another study, or is being
+        written by another run."""
         path = Path(path)
-        connection = _connect(path)
-        store = cls(path, connection)
+        _inspect(path)
+        path.parent.mkdir(parents=True, exist_ok=True)
+        lock = _WriterLock(path)
         try:
-            tables = {row[0] for row in connection.execute("SELECT name FROM sqlite_master")}
-            if tables and "meta" not in tables:
-                raise UsageError(f"{path} is an SQLite file but not a posfb Monte-Carlo store")
+            connection = _connect(path)
+        except BaseException:
+            lock.release()
+            raise
+        store = cls(path, connection, lock)
+        try:
+            connection.execute(f"PRAGMA application_id = {APPLICATION_ID}")
             connection.executescript(_SCHEMA)
             meta = store.meta()
             if not meta:
@@ -107,13 +165,13 @@ class ResultStore:
     def open_existing(cls, path: str | Path) -> ResultStore:
         """Open an existing store for reading."""
         path = Path(path)
-        if not path.is_file():
-            raise FileNotFoundError(f"results {path} do not exist")
-        connection = _connect(path)
-        tables = {row[0] for row in connection.execute("SELECT name FROM sqlite_master")}
-        if not {"meta", "samples", "runs"} <= tables:
-            connection.close()
-            raise UsageError(f"{path} is not a posfb Monte-Carlo store")
+        if not path.is_file() and not path.is_dir():
+            raise FileNotFoundError(f"--db {path}: results do not exist")
+        _inspect(path)
+        if path.stat().st_size == 0:
+            raise UsageError(f"--db {path}: an empty file, not a posfb store")
+        connection = sqlite3.connect(f"{path.resolve().as_uri()}?mode=ro", uri=True)
+        connection.row_factory = sqlite3.Row
         return cls(path, connection)
 
     def _write_meta(self, study: Study, code_version: str) -> None:
@@ -205,12 +263,43 @@ class ResultStore:
 
     def close(self) -> None:
         self._connection.close()
+        if self._lock is not None:
+            self._lock.release()
 
     def __enter__(self) -> ResultStore:
         return self
 
     def __exit__(self, *exc: object) -> None:
         self.close()
+
+
+class _WriterLock:
+    """An exclusive ``flock`` on ``<store>.lock`` for as long as one run writes the store;
+    the file names the holder (host, pid, start time) for the refusal message."""
+
+    def __init__(self, store: Path) -> None:
+        self.path = store.with_name(store.name + ".lock")
+        self._file = self.path.open("a+")
+        try:
+            fcntl.flock(self._file, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError:
+            self._file.seek(0)
+            holder = self._file.read().strip() or "another process"
+            self._file.close()
+            raise UsageError(
+                f"--db {store}: another posfb run is writing it ({holder}); wait for it to "
+                "finish or use another --db"
+            ) from None
+        self._file.seek(0)
+        self._file.truncate()
+        started = datetime.now(UTC).isoformat(timespec="seconds")
+        self._file.write(f"host {socket.gethostname()}, pid {os.getpid()}, since {started}")
+        self._file.flush()
+
+    def release(self) -> None:
+        if not self._file.closed:
+            fcntl.flock(self._file, fcntl.LOCK_UN)
+            self._file.close()
 
 
 class _Transaction:

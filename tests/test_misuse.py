@@ -1,0 +1,193 @@
+"""Misuse, end to end: each case runs ``posfb`` as a user would (a subprocess) with a
+mistake in its input, and must end with a non-zero exit, exactly one line on stderr
+naming the problem, no traceback, and no change to files it must not touch.
+
+The cases run concurrently (each is mostly Python start-up) in one module fixture."""
+
+from __future__ import annotations
+
+import hashlib
+import sqlite3
+import subprocess
+import sys
+from concurrent.futures import ThreadPoolExecutor
+from dataclasses import dataclass
+from pathlib import Path
+
+import pytest
+
+from posfb.models.plant import DEFAULT_URDF
+
+CLI = [sys.executable, "-m", "posfb.analysis.cli"]
+
+
+@dataclass(frozen=True)
+class Case:
+    """``args`` with ``{tmp}`` for the case folder; ``needle`` must be in the one line;
+    ``untouched`` files (relative to ``{tmp}``) must keep their bytes."""
+
+    args: tuple[str, ...]
+    needle: str
+    untouched: tuple[str, ...] = ()
+    code: int = 2
+
+
+STUDY = "seed: 1\nsamples: 2\nduration: 0.5\ncontrollers: [lin_lc]\n"
+PRISMATIC = DEFAULT_URDF.read_text().replace(
+    '<joint name="joint2" type="continuous">', '<joint name="joint2" type="prismatic">'
+)
+FILES = {
+    "study.yaml": STUDY,
+    "empty.yaml": "",
+    "comment.yaml": "# nothing here\n",
+    "dup.yaml": "timing: {duration: 1}\ntiming: {duration: 2}\n",
+    "list.yaml": "- 1\n- 2\n",
+    "syntax.yaml": "timing: {duration: 1\n",
+    "dup_study.yaml": "seed: 1\nseed: 2\n",
+    "bad_draw.yaml": STUDY + "draws:\n  timing.sampel_time: !Fixed {value: 0.01}\n",
+    "bad_csv.csv": "time,q1,q2\n0,0,0\n1,x,0\n2,0,0\n3,0,0\n",
+    "two_columns.csv": "0,0\n1,0\n2,0\n3,0\n",
+    "backwards.csv": "0,0,0\n2,0,0\n1,0,0\n3,0,0\n",
+    "csv.yaml": "trajectory: !CsvFile {path: bad_csv.csv}\n",
+    "csv2.yaml": "trajectory: !CsvFile {path: two_columns.csv}\n",
+    "csv3.yaml": "trajectory: !CsvFile {path: backwards.csv}\n",
+    "csv4.yaml": "trajectory: !CsvFile {path: nowhere.csv}\n",
+    "one_waypoint.yaml": "trajectory: !Waypoints {times: [0], positions: [[0, 0]]}\n",
+    "prismatic.urdf": PRISMATIC,
+    "a_file": "I am a file, not a folder\n",
+    "text.sqlite": "not a database\n",
+}
+BINARY = bytes(range(256)) * 4
+
+CASES = {
+    # scenario keys and values (simulate)
+    "unknown key": Case(("simulate", "--set", "timing.sampel_time=1"), "unknown key"),
+    "wrong type": Case(("simulate", "--set", "timing.sample_time=abc"), "a number is required"),
+    "zero sample time": Case(("simulate", "--set", "timing.sample_time=0"), "timing.sample_time"),
+    "negative sample time": Case(("simulate", "--sample-time", "-0.01"), "timing.sample_time"),
+    "duration not whole": Case(("simulate", "--set", "timing.duration=1.005"), "whole number"),
+    "no KEY=VALUE": Case(("simulate", "--set", "timing"), "KEY=VALUE"),
+    "section set to a number": Case(("simulate", "--set", "timing=3"), "a map of keys"),
+    "bad index": Case(("simulate", "--set", "sensor.encoder_counts[7]=1"), "out of range"),
+    "negative payload": Case(("simulate", "--payload", "-1"), "plant.payload_mass"),
+    "absurd payload": Case(("simulate", "--set", "plant.payload_mass=1e6"), "payload_mass"),
+    "zero voltage": Case(("simulate", "--set", "actuator.voltage_limit=0"), "voltage_limit"),
+    "unknown controller": Case(("simulate", "--set", "controller.kind=lqr"), "controller.kind"),
+    "negative delay": Case(("simulate", "--set", "sensor.delay_samples=-1"), "delay_samples"),
+    "fractional counts": Case(("simulate", "--set", "sensor.encoder_counts=2.5"), "encoder_cou"),
+    "negative noise": Case(("simulate", "--set", "sensor.noise_std=-1"), "noise_std"),
+    "indefinite Q2": Case(("simulate", "--set", "controller.Q2=[[1,0],[0,-1]]"), "controller.Q2"),
+    "unknown integrator": Case(
+        ("simulate", "--set", "timing.simulator.integration_scheme=magic"), "integration_scheme"
+    ),
+    "refused design": Case(("simulate", "--sample-time", "0.005"), "filter_a"),
+    "bad discretisation": Case(("design", "--set", "controller.discretisation=euler"), "foh"),
+    "non-positive alpha*": Case(("design", "--alpha-star", "0"), "controller.alpha_star"),
+    "scenario and case": Case(
+        ("simulate", "--scenario", "{tmp}/comment.yaml", "--case", "payload"), "choose one"
+    ),
+    # scenario files
+    "missing scenario": Case(("simulate", "--scenario", "{tmp}/nope.yaml"), "does not exist"),
+    "scenario is a folder": Case(("simulate", "--scenario", "{tmp}"), "is a directory"),
+    "binary scenario": Case(("simulate", "--scenario", "{tmp}/binary.yaml"), "cannot be read"),
+    "duplicated key": Case(("simulate", "--scenario", "{tmp}/dup.yaml"), "given twice"),
+    "scenario not a map": Case(("simulate", "--scenario", "{tmp}/list.yaml"), "a map of keys"),
+    "YAML syntax": Case(("simulate", "--scenario", "{tmp}/syntax.yaml"), "YAML syntax error"),
+    "CSV not numeric": Case(("simulate", "--scenario", "{tmp}/csv.yaml"), "non-numeric"),
+    "CSV two columns": Case(("simulate", "--scenario", "{tmp}/csv2.yaml"), "3 (time, q1, q2)"),
+    "CSV times backwards": Case(("simulate", "--scenario", "{tmp}/csv3.yaml"), "strictly incr"),
+    "CSV missing": Case(("simulate", "--scenario", "{tmp}/csv4.yaml"), "does not exist"),
+    "one waypoint": Case(("simulate", "--scenario", "{tmp}/one_waypoint.yaml"), "at least 2"),
+    "check missing file": Case(("scenario", "check", "{tmp}/nope.yaml"), "does not exist"),
+    # URDFs
+    "plant URDF missing": Case(("simulate", "--set", "plant.urdf={tmp}/no.urdf"), "plant.urdf"),
+    "plant URDF folder": Case(("simulate", "--set", "plant.urdf={tmp}"), "is a directory"),
+    "prismatic joint": Case(("identify", "--urdf", "{tmp}/prismatic.urdf"), "prismatic"),
+    "URDF is a folder": Case(("identify", "--urdf", "{tmp}"), "is a directory"),
+    "huge payload": Case(("identify", "--payload", "1e308"), "payload_mass"),
+    # outputs
+    "export suffix": Case(("simulate", "--out", "{tmp}/run.txt"), ".csv, .parquet, .npz"),
+    "export under a file": Case(("simulate", "--out", "{tmp}/a_file/run.csv"), "is a file"),
+    "graph suffix": Case(("graph", "--out", "{tmp}/g.txt"), ".svg"),
+    "animate suffix": Case(("animate", "--out", "{tmp}/arm.txt"), ".html"),
+    "reproduce into a file": Case(("reproduce", "--out", "{tmp}/a_file"), "is a file"),
+    "report into a file": Case(
+        ("montecarlo", "report", "--db", "{tmp}/text.sqlite", "--out", "{tmp}/a_file"),
+        "is a file", ("text.sqlite",),
+    ),
+    # Monte-Carlo stores and studies
+    "store is a folder": Case(("montecarlo", "run", "{tmp}/study.yaml", "--db", "{tmp}"), "folder"),
+    "store is text": Case(
+        ("montecarlo", "run", "{tmp}/study.yaml", "--db", "{tmp}/text.sqlite"),
+        "not an SQLite file", ("text.sqlite",),
+    ),
+    "foreign store": Case(
+        ("montecarlo", "run", "{tmp}/study.yaml", "--db", "{tmp}/foreign.sqlite"),
+        "another application", ("foreign.sqlite",),
+    ),
+    "report on foreign store": Case(
+        ("montecarlo", "report", "--db", "{tmp}/foreign.sqlite", "--out", "{tmp}/r"),
+        "another application", ("foreign.sqlite",),
+    ),
+    "report on missing store": Case(
+        ("montecarlo", "report", "--db", "{tmp}/none.sqlite", "--out", "{tmp}/r"), "do not exist"
+    ),
+    "empty study": Case(("montecarlo", "run", "{tmp}/empty.yaml", "--db", "{tmp}/s"), "empty"),
+    "study duplicated key": Case(
+        ("montecarlo", "run", "{tmp}/dup_study.yaml", "--db", "{tmp}/s"), "given twice"
+    ),
+    "study bad draw": Case(
+        ("montecarlo", "run", "{tmp}/bad_draw.yaml", "--db", "{tmp}/s"), "sampel_time"
+    ),
+    "zero samples": Case(
+        ("montecarlo", "run", "{tmp}/study.yaml", "--db", "{tmp}/s", "--samples", "0"), "samples"
+    ),
+    "zero workers": Case(
+        ("montecarlo", "run", "{tmp}/study.yaml", "--db", "{tmp}/s", "--workers", "0"), "workers"
+    ),
+}
+
+
+def _digest(path: Path) -> str:
+    return hashlib.sha256(path.read_bytes()).hexdigest()
+
+
+def _run(tmp: Path, case: Case) -> tuple[subprocess.CompletedProcess, dict[str, str]]:
+    args = [arg.replace("{tmp}", str(tmp)) for arg in case.args]
+    before = {name: _digest(tmp / name) for name in case.untouched}
+    result = subprocess.run([*CLI, *args], capture_output=True, text=True, timeout=300, cwd=tmp)
+    after = {name: _digest(tmp / name) for name in case.untouched}
+    return result, {name: "changed" for name in before if before[name] != after[name]}
+
+
+@pytest.fixture(scope="module")
+def outcomes(tmp_path_factory):
+    def prepare(name: str) -> Path:
+        folder = tmp_path_factory.mktemp(name.replace(" ", "_").replace("*", ""))
+        for file, text in FILES.items():
+            (folder / file).write_text(text)
+        (folder / "binary.yaml").write_bytes(BINARY)
+        with sqlite3.connect(folder / "foreign.sqlite") as connection:
+            connection.execute("CREATE TABLE customers (name TEXT)")
+        return folder
+
+    folders = {name: prepare(name) for name in CASES}
+    with ThreadPoolExecutor(max_workers=4) as pool:
+        futures = {name: pool.submit(_run, folders[name], case) for name, case in CASES.items()}
+        return {name: future.result() for name, future in futures.items()}
+
+
+def test_there_are_at_least_forty_cases():
+    assert len(CASES) >= 40
+
+
+@pytest.mark.parametrize("name", list(CASES))
+def test_misuse_gets_one_line_and_a_non_zero_exit(outcomes, name):
+    case = CASES[name]
+    result, changed = outcomes[name]
+    lines = result.stderr.strip().splitlines()
+    assert result.returncode == case.code, result.stderr
+    assert len(lines) == 1, result.stderr
+    assert case.needle in lines[0], lines[0]
+    assert "Traceback" not in result.stderr
+    assert not changed, f"{', '.join(changed)} changed"
