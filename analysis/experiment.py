@@ -17,7 +17,7 @@ import math
 import os
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass
-from functools import cache
+from functools import cache, partial
 from pathlib import Path
 
 from posfb.analysis.metrics import run_metrics
@@ -86,14 +86,15 @@ class Study:
     cases: tuple[str, ...] = CASES
     settings: tuple[str, ...] = ()
 
-    def runs(self, duration: float) -> Iterator[tuple[str, str, Callable[[], ClosedLoopResult]]]:
-        """``(case, controller, run)`` for every run of the study."""
+    def runs(self, duration: float) -> Iterator[tuple[str, str, Callable[..., ClosedLoopResult]]]:
+        """``(case, controller, run)`` for every run of the study; ``run(progress=None)``
+        takes an optional progress callback (``ClosedLoopRunner.run``)."""
         for kind in self.controllers:
             for case in self.cases:
                 loaded = case_scenario(
                     case, (*self.settings, f"controller.kind={kind}", f"timing.duration={duration}")
                 )
-                yield case, kind, lambda loaded=loaded: run_scenario(loaded)
+                yield case, kind, partial(run_scenario, loaded)
 
 
 #: The paper's settings as printed (Sec. 4.2-4.3).

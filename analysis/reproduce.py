@@ -36,6 +36,7 @@ from posfb.analysis.experiment import (
     result_entry,
 )
 from posfb.analysis.metrics import run_metrics
+from posfb.analysis.progress import run_progress
 from posfb.analysis.report import write_report
 from posfb.analysis.tables import PAPER_TABLES, side_by_side, theta_table
 from posfb.diagrams.closed_loop import ClosedLoopResult, ClosedLoopRunner
@@ -111,11 +112,14 @@ EVIDENCE_STUDIES = (
 class Reproduction:
     """One ``posfb reproduce`` into ``out``; ``progress`` receives one line per step."""
 
-    def __init__(self, out: Path, duration: float, progress: Callable[[str], None]) -> None:
+    def __init__(
+        self, out: Path, duration: float, progress: Callable[[str], None], bars: bool = False
+    ) -> None:
         self.out = Path(out)
         self.duration = duration
         self.base = resolve(case_scenario("nominal", (f"timing.duration={duration}",))).config
         self.progress = progress
+        self.bars = bars
         self.out.mkdir(parents=True, exist_ok=True)
         self.results = ResultsFile(
             self.out / "results.json",
@@ -191,7 +195,8 @@ class Reproduction:
             for detail in failed_checks(kind, design):
                 self.progress(f"     warning: {label}: the {kind} design fails a check: {detail}")
         for case, kind, run in study.runs(self.duration):
-            result = run()
+            with run_progress(self.duration, f"{case} {kind}", self.bars) as bar:
+                result = run(progress=bar)
             runs[case][kind] = result
             self.results.set((*keys, case, kind), self._entry(result))
             self._count += 1
@@ -317,10 +322,14 @@ class Reproduction:
 
 
 def reproduce(
-    out: Path, duration: float = 20.0, progress: Callable[[str], None] = print
+    out: Path,
+    duration: float = 20.0,
+    progress: Callable[[str], None] = print,
+    bars: bool = False,
 ) -> list[Path]:
-    """Run everything into ``out``; returns the artefacts written."""
-    return Reproduction(out, duration, progress).run()
+    """Run everything into ``out`` (``bars``: a progress bar per run on stderr); returns
+    the artefacts written."""
+    return Reproduction(out, duration, progress, bars).run()
 
 
 def case_experiment(

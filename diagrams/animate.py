@@ -46,6 +46,7 @@ from __future__ import annotations
 
 import gc
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -188,11 +189,13 @@ def _replay(plant_config: PlantConfig, times: np.ndarray, q: np.ndarray) -> str:
     return meshcat.StaticHtml()
 
 
-def record_animation(loaded: LoadedScenario, out: Path) -> tuple[Path, ClosedLoopResult]:
+def record_animation(
+    loaded: LoadedScenario, out: Path, progress: Callable[[float], None] | None = None
+) -> tuple[Path, ClosedLoopResult]:
     """Run the scenario and write the animation of the true joint positions to ``out``
-    (see :func:`animation_html`). Raises ``RuntimeError`` (one line) if Meshcat cannot
-    start."""
-    result = run_scenario(loaded)
+    (see :func:`animation_html`; ``progress`` as in ``ClosedLoopRunner.run``). Raises
+    ``RuntimeError`` (one line) if Meshcat cannot start."""
+    result = run_scenario(loaded, progress)
     html = animation_html(result.config.plant, result.times, result.q_true)
     out = Path(out)
     out.parent.mkdir(parents=True, exist_ok=True)

@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import copy
 import dataclasses
-from collections.abc import Iterable
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass, replace
 from pathlib import Path
 
@@ -320,8 +320,12 @@ def resolve(loaded: LoadedScenario) -> ResolvedScenario:
     return ResolvedScenario(config, float(plant.payload_mass), overrides)
 
 
-def run_scenario(loaded: LoadedScenario) -> ClosedLoopResult:
-    """Build the scenario's closed loop and run it on its true arm."""
+def run_scenario(
+    loaded: LoadedScenario, progress: Callable[[float], None] | None = None
+) -> ClosedLoopResult:
+    """Build the scenario's closed loop and run it on its true arm (``progress``: see
+    ``ClosedLoopRunner.run``)."""
     resolved = resolve(loaded)
     runner = ClosedLoopRunner(resolved.config)
-    return runner.run(resolved.true_parameters(runner.arm.default_parameters))
+    parameters = resolved.true_parameters(runner.arm.default_parameters)
+    return runner.run(parameters, progress=progress)

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 
+from posfb.analysis import progress
 from posfb.analysis.commands.scenario_args import add_scenario_arguments, scenario_from_args
 from posfb.analysis.errors import UsageError
 from posfb.analysis.outputs import output_file
@@ -16,6 +17,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     )
     parser.add_argument("--out", required=True, help="HTML file to write, e.g. arm.html")
     add_scenario_arguments(parser, ("controller", "duration", "payload", "alpha_star"))
+    parser.add_argument("--no-progress", action="store_true", help="no progress bar on stderr")
     parser.set_defaults(handler=run)
 
 
@@ -23,7 +25,9 @@ def run(args: argparse.Namespace) -> int:
     out = output_file("--out", args.out, (".html", ".htm"))
     loaded = scenario_from_args(args)
     try:
-        path, result = record_animation(loaded, out)
+        duration = loaded.scenario.timing.duration
+        with progress.run_progress(duration, "animate", progress.wanted(args.no_progress)) as bar:
+            path, result = record_animation(loaded, out, bar)
     except RuntimeError as error:
         raise UsageError(str(error)) from None
     print(f"{path} ({result.status}, {result.times[-1]:g} s)")

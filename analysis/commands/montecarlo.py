@@ -9,6 +9,7 @@ statistics, figures and a Markdown report.
 from __future__ import annotations
 
 import argparse
+import os
 import sys
 
 from posfb.analysis.errors import InterruptedRunError, UsageError
@@ -27,12 +28,23 @@ def _integer_at_least(minimum: int):
         try:
             value = int(text)
         except ValueError:
-            raise argparse.ArgumentTypeError(f"{text!r} is not an integer") from None
+            value = _integral_float(text)
         if value < minimum:
             raise argparse.ArgumentTypeError(f"{value} is not >= {minimum}")
         return value
 
     return parse
+
+
+def _integral_float(text: str) -> int:
+    """``1e6`` as 1000000; refuses what is not a whole number."""
+    try:
+        number = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not an integer") from None
+    if not number.is_integer():
+        raise argparse.ArgumentTypeError(f"{text!r} is not an integer")
+    return int(number)
 
 
 _positive_int = _integer_at_least(1)
@@ -49,7 +61,13 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     run.add_argument("study", help="study YAML (e.g. analysis/studies/paper_uncertainty.yaml)")
     run.add_argument("--db", required=True, help="SQLite results file (created or resumed)")
     run.add_argument("--samples", type=_positive_int, help="override the study's sample count")
-    run.add_argument("--workers", type=_positive_int, default=1, help="local worker processes")
+    run.add_argument(
+        "--workers", type=_positive_int, default=1,
+        help="local worker processes (capped at the cores available unless --oversubscribe)",
+    )  # fmt: skip
+    run.add_argument(
+        "--oversubscribe", action="store_true", help="allow more --workers than cores"
+    )
     run.add_argument("--seed", type=_seed, help="override the study's seed")
     run.add_argument(
         "--dask-scheduler", metavar="ADDRESS", help="run on this Dask cluster (tcp://host:port)"
@@ -63,24 +81,47 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     report.set_defaults(handler=report_command)
 
 
+def available_cores() -> int:
+    """The cores this process may run on (its CPU affinity, else the machine's count)."""
+    try:
+        return len(os.sched_getaffinity(0))
+    except AttributeError:  # not on Linux
+        return os.cpu_count() or 1
+
+
 def run_command(args: argparse.Namespace) -> int:
     study = with_overrides(load_study(args.study), samples=args.samples, seed=args.seed)
     output_file("--db", args.db)
     if args.dask_scheduler and args.workers != 1:
         raise UsageError("--workers applies to local runs; a Dask cluster brings its own workers")
+    notes = []
+    if study.samples > 1 and not study.draws_anything():
+        notes.append(
+            "warning: the study draws nothing at random (every distribution is a single "
+            "value): all samples are the same plant"
+        )
+    workers, cores = args.workers, available_cores()
+    if workers > cores and not args.oversubscribe:
+        notes.append(
+            f"--workers {workers} capped at the {cores} cores available (--oversubscribe to "
+            "allow more)"
+        )
+        workers = cores
     version = code_version()
     with ResultStore.create_or_resume(args.db, study, version) as store:
+        for note in notes:  # once the store is known to be usable
+            sys.stderr.write(f"posfb montecarlo: {note}\n")
         try:
             summary = run_study(
                 study,
                 store,
                 version,
-                workers=args.workers,
+                workers=workers,
                 dask_scheduler=args.dask_scheduler,
                 progress=not args.no_progress,
             )
         except KeyboardInterrupt:
-            saved = len(store.finished() & set(range(study.samples)))
+            saved = sum(1 for index in store.finished() if index < study.samples)
             raise InterruptedRunError(
                 f"{saved} of {study.samples} samples are saved in {args.db}; run the same "
                 "command again to resume"

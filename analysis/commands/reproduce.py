@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import argparse
 
+from posfb.analysis import progress
 from posfb.analysis.outputs import output_folder
 from posfb.analysis.reproduce import reproduce
 
@@ -18,11 +19,17 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser.add_argument(
         "--duration", type=float, default=20.0, help="simulated seconds per run (paper: 20)"
     )
+    parser.add_argument("--no-progress", action="store_true", help="no progress bars on stderr")
     parser.set_defaults(handler=run)
 
 
 def run(args: argparse.Namespace) -> int:
     out = output_folder("--out", args.out)
-    artefacts = reproduce(out, args.duration, progress=lambda line: print(line, flush=True))
+    artefacts = reproduce(
+        out,
+        args.duration,
+        progress=lambda line: print(line, flush=True),
+        bars=progress.wanted(args.no_progress),
+    )
     print(f"{len(artefacts)} files in {args.out}/")
     return 0

@@ -7,7 +7,7 @@ import argparse
 import json
 import sys
 
-from posfb.analysis import plots
+from posfb.analysis import plots, progress
 from posfb.analysis.commands.scenario_args import add_scenario_arguments, scenario_from_args
 from posfb.analysis.experiment import CONTROLLER_LABELS, result_entry
 from posfb.analysis.export import EXPORT_FORMATS, export_run
@@ -34,6 +34,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         "--figure", metavar="DIR", help="write positions/voltages and errors (PNG, SVG) into DIR"
     )
     parser.add_argument("--json", action="store_true", help="print one JSON object")
+    parser.add_argument("--no-progress", action="store_true", help="no progress bar on stderr")
     parser.set_defaults(handler=run)
 
 
@@ -55,7 +56,9 @@ def run(args: argparse.Namespace) -> int:
     ]
     for warning in warnings:
         sys.stderr.write(f"posfb simulate: warning: {warning}\n")
-    result = run_scenario(loaded)
+    show = progress.wanted(args.no_progress)
+    with progress.run_progress(config.duration, config.controller, show) as update:
+        result = run_scenario(loaded, progress=update)
     written = export_run(result, out) if out else None
     if figures:
         runs, title = {config.controller: result}, f"scenario {summary_name(args)}"

@@ -193,6 +193,18 @@ class Study:
     overrides: list[SampleOverride] = field(default_factory=list)
     alpha_star: float | None = None
 
+    def draws_anything(self) -> bool:
+        """Whether two samples can differ: some distribution is not a single value."""
+        physical = [
+            *(d for name in JOINT_PARAMETERS for d in getattr(self.parameters, name)),
+            self.parameters.payload_mass,
+        ]
+        return (
+            len(set(self.encoder_counts)) > 1
+            or any(_random(d) for d in physical)
+            or any(_random(d) for d in self.draws.values())
+        )
+
     def base_scenario(self) -> Scenario:
         """``base`` with the study's ``duration``, ``divergence_bound`` and ``alpha_star``."""
         scenario = self.base
@@ -209,6 +221,17 @@ class Study:
         """The controllers' design in the base scenario (the paper's, with the study's
         ``alpha_star`` where it sets one)."""
         return resolve(LoadedScenario(self.base_scenario(), Path.cwd())).config.design
+
+
+def _random(distribution: Distribution) -> bool:
+    """Whether ``distribution`` can draw more than one value."""
+    if isinstance(distribution, Fixed):
+        return False
+    if isinstance(distribution, UniformDiscrete):
+        return len(set(distribution.values)) > 1
+    if isinstance(distribution, Uniform):
+        return distribution.low != distribution.high
+    return distribution.std > 0.0 and distribution.low != distribution.high
 
 
 def _require(condition: bool, message: str) -> None:

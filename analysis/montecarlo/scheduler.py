@@ -20,7 +20,7 @@ import multiprocessing
 import sys
 import time
 from collections import Counter
-from collections.abc import Callable, Generator
+from collections.abc import Callable, Generator, Iterator
 from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
 from dataclasses import dataclass
 
@@ -60,14 +60,12 @@ class RunSummary:
 
 
 def _local_results(
-    study_text: str, pending: list[int], workers: int, evaluate: Evaluate
+    study_text: str, pending: Iterator[int], workers: int, evaluate: Evaluate
 ) -> Generator[SampleResult, None, None]:
-    if not pending:
-        return
     context = multiprocessing.get_context("forkserver")
     # By name: importing it here would make this (the parent) process ignore Ctrl-C.
     context.set_forkserver_preload([FORKSERVER_INIT, worker.__name__])
-    queue = iter(pending)
+    queue = pending
     in_flight: set[Future] = set()
     pool = ProcessPoolExecutor(max_workers=workers, mp_context=context)
     try:
@@ -105,10 +103,8 @@ def _drain(in_flight: set[Future]) -> Generator[SampleResult, None, None]:
 
 
 def _dask_results(
-    study_text: str, pending: list[int], address: str, evaluate: Evaluate, key: str
+    study_text: str, pending: Iterator[int], address: str, evaluate: Evaluate, key: str
 ) -> Generator[SampleResult, None, None]:
-    if not pending:
-        return
     from dask.distributed import Client, as_completed
 
     try:
@@ -117,7 +113,7 @@ def _dask_results(
         raise UsageError(f"cannot reach the Dask scheduler at {address}: {error}") from None
     try:
         slots = max(1, sum(client.nthreads().values())) * IN_FLIGHT_PER_WORKER
-        queue = iter(pending)
+        queue = pending
 
         def submit(index: int):
             return client.submit(evaluate, study_text, index, key=f"{key}-{index}", pure=False)
@@ -150,14 +146,18 @@ def run_study(
     if workers < 1:
         raise UsageError(f"workers = {workers!r}; at least 1 worker is required")
     finished = store.finished()
-    pending = [index for index in range(study.samples) if index not in finished]
-    already = study.samples - len(pending)
+    already = sum(1 for index in finished if index < study.samples)
+    todo = study.samples - already
+    # Lazy: the memory of a run does not grow with --samples.
+    pending = (index for index in range(study.samples) if index not in finished)
     text = canonical_text(study)
-    if dask_scheduler:
+    if todo == 0:
+        results: Generator[SampleResult, None, None] = (result for result in ())
+    elif dask_scheduler:
         key = f"posfb-montecarlo-{identity(study)[:12]}"
         results = _dask_results(text, pending, dask_scheduler, evaluate, key)
     else:
-        results = _local_results(text, pending, max(1, min(workers, len(pending))), evaluate)
+        results = _local_results(text, pending, max(1, min(workers, todo)), evaluate)
     statuses: Counter[str] = Counter()
     written = 0
     start = time.perf_counter()

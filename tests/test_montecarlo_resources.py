@@ -1,0 +1,94 @@
+"""Monte-Carlo runs size themselves: lazy samples (memory flat in ``--samples``),
+workers capped at the cores, a warning for a study that draws nothing, and two runs on
+one store never mixing rows."""
+
+from __future__ import annotations
+
+import os
+import signal
+import sqlite3
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+CLI = [sys.executable, "-m", "posfb.analysis.cli"]
+
+RANDOM_STUDY = """\
+seed: 3
+samples: 6
+duration: 0.5
+controllers: [lin_lc]
+parameters:
+  payload_mass: !Uniform {low: 0.0, high: 0.3}
+"""
+
+
+def _peak_rss_mib(pid: int) -> float:
+    for line in Path(f"/proc/{pid}/status").read_text().splitlines():
+        if line.startswith("VmHWM:"):
+            return int(line.split()[1]) / 1024
+    raise AssertionError("no VmHWM")
+
+
+def _rows(db: Path) -> list[tuple]:
+    with sqlite3.connect(db) as connection:
+        return connection.execute(
+            "SELECT sample, controller, status, rms_q1, rms_q2, rms_u1, rms_u2 FROM runs "
+            "ORDER BY sample, controller"
+        ).fetchall()
+
+
+def test_a_trillion_samples_keep_memory_flat(tmp_path):
+    study, db = tmp_path / "study.yaml", tmp_path / "store.sqlite"
+    study.write_text(RANDOM_STUDY)
+    process = subprocess.Popen(
+        [*CLI, "montecarlo", "run", str(study), "--db", str(db), "--samples", "1e12",
+         "--no-progress"],
+        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, start_new_session=True,
+    )  # fmt: skip
+    time.sleep(8.0)  # the old eager sample list grew ~225 MB/s from the start
+    peak = _peak_rss_mib(process.pid)
+    os.killpg(process.pid, signal.SIGINT)
+    _, err = process.communicate(timeout=120)
+    assert process.returncode == 130, err
+    assert peak < 600, f"parent peaked at {peak:.0f} MiB"
+    assert "of 1000000000000 samples are saved" in err
+
+
+def test_workers_are_capped_and_a_fixed_study_is_flagged(tmp_path):
+    study, db = tmp_path / "study.yaml", tmp_path / "store.sqlite"
+    study.write_text("seed: 1\nsamples: 2\nduration: 0.5\ncontrollers: [lin_lc]\n")
+    result = subprocess.run(
+        [*CLI, "montecarlo", "run", str(study), "--db", str(db), "--workers", "1000",
+         "--no-progress"],
+        capture_output=True, text=True, timeout=300,
+    )  # fmt: skip
+    assert result.returncode == 0, result.stderr
+    assert "capped at the" in result.stderr and "--oversubscribe" in result.stderr
+    assert "draws nothing at random" in result.stderr
+
+
+def test_two_runs_on_one_store_give_the_rows_of_one_run(tmp_path):
+    study, shared, alone = tmp_path / "study.yaml", tmp_path / "a.sqlite", tmp_path / "b.sqlite"
+    study.write_text(RANDOM_STUDY)
+    command = [*CLI, "montecarlo", "run", str(study), "--no-progress"]
+    first = subprocess.Popen(
+        [*command, "--db", str(shared)], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+        text=True,
+    )  # fmt: skip
+    lock = shared.with_name(shared.name + ".lock")
+    deadline = time.monotonic() + 60
+    while time.monotonic() < deadline and not (lock.exists() and lock.read_text()):
+        time.sleep(0.1)
+    second = subprocess.run([*command, "--db", str(shared)], capture_output=True, text=True,
+                            timeout=300)  # fmt: skip
+    first.communicate(timeout=300)
+    assert first.returncode == 0
+    assert second.returncode == 2 and "another posfb run is writing it" in second.stderr
+    assert len(second.stderr.strip().splitlines()) == 1
+    reference = subprocess.run([*command, "--db", str(alone)], capture_output=True, timeout=300)
+    assert reference.returncode == 0
+    again = subprocess.run([*command, "--db", str(shared)], capture_output=True, timeout=300)
+    assert again.returncode == 0  # resuming a finished store adds nothing
+    assert _rows(shared) == _rows(alone)
