@@ -75,6 +75,12 @@ def test_ctrl_c_keeps_finished_samples_says_so_and_the_same_command_resumes(tmp_
     assert "Traceback" not in err
     saved = _count(db)
     assert saved >= 2
+    report = subprocess.run(
+        [*CLI, "montecarlo", "report", "--db", str(db), "--out", str(tmp_path / "report")],
+        capture_output=True, text=True, timeout=300,
+    )  # fmt: skip
+    assert report.returncode == 0 and f"{40 - saved} of 40 samples are missing" in report.stderr
+    assert "Unfinished study" in (tmp_path / "report" / "report.md").read_text()
     resumed = subprocess.run(command, capture_output=True, text=True, timeout=300)
     assert resumed.returncode == 0, resumed.stderr
     rows = _stored(db)
