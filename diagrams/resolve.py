@@ -80,8 +80,11 @@ def load_scenario(path: str | Path | None = None, settings: Iterable[str] = ()) 
             raise ValueError(f"scenario {file} does not exist")
         try:
             text = file.read_text()
-        except (OSError, UnicodeDecodeError) as error:
-            raise ValueError(f"scenario {file} cannot be read: {error}") from None
+        except UnicodeDecodeError:
+            message = f"scenario {file} is not a text file; a YAML file is required"
+            raise ValueError(message) from None
+        except OSError as error:
+            raise ValueError(f"scenario {file} cannot be read: {error.strerror}") from None
         scenario = load_typed(Scenario, text, f"scenario {file}", empty_ok=True)
         loaded = LoadedScenario(scenario, file.resolve().parent)
     for setting in settings:

@@ -89,7 +89,7 @@ CASES = {
     # scenario files
     "missing scenario": Case(("simulate", "--scenario", "{tmp}/nope.yaml"), "does not exist"),
     "scenario is a folder": Case(("simulate", "--scenario", "{tmp}"), "is a directory"),
-    "binary scenario": Case(("simulate", "--scenario", "{tmp}/binary.yaml"), "cannot be read"),
+    "binary scenario": Case(("simulate", "--scenario", "{tmp}/binary.yaml"), "not a text file"),
     "duplicated key": Case(("simulate", "--scenario", "{tmp}/dup.yaml"), "given twice"),
     "scenario not a map": Case(("simulate", "--scenario", "{tmp}/list.yaml"), "a map of keys"),
     "YAML syntax": Case(("simulate", "--scenario", "{tmp}/syntax.yaml"), "YAML syntax error"),
@@ -132,6 +132,14 @@ CASES = {
     "report on missing store": Case(
         ("montecarlo", "report", "--db", "{tmp}/none.sqlite", "--out", "{tmp}/r"), "do not exist"
     ),
+    "binary study": Case(
+        ("montecarlo", "run", "{tmp}/binary.yaml", "--db", "{tmp}/s"), "not a text file"
+    ),
+    "study is a folder": Case(("montecarlo", "run", "{tmp}", "--db", "{tmp}/s"), "directory"),
+    "comment-only study": Case(
+        ("montecarlo", "run", "{tmp}/comment.yaml", "--db", "{tmp}/s"), "empty"
+    ),
+    "study not a map": Case(("montecarlo", "run", "{tmp}/list.yaml", "--db", "{tmp}/s"), "map"),
     "empty study": Case(("montecarlo", "run", "{tmp}/empty.yaml", "--db", "{tmp}/s"), "empty"),
     "study duplicated key": Case(
         ("montecarlo", "run", "{tmp}/dup_study.yaml", "--db", "{tmp}/s"), "given twice"

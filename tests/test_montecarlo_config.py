@@ -158,3 +158,12 @@ def test_entry_point_reports_a_missing_study_as_one_line(tmp_path):
     assert result.returncode == 2
     lines = result.stderr.strip().splitlines()
     assert len(lines) == 1 and "none.yaml" in lines[0], result.stderr
+
+
+def test_yaml_12_numbers_are_numbers():
+    study = study_from_text(
+        "seed: 1\nsamples: 2\nduration: 2e1\ncontrollers: [lin_lc]\nalpha_star: .5\n"
+        "parameters:\n  payload_mass: !Uniform {low: 0, high: 1e-1}\n"
+    )
+    assert study.duration == 20.0 and study.alpha_star == 0.5
+    assert study.parameters.payload_mass.high == 0.1

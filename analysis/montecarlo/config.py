@@ -445,9 +445,15 @@ def load_study(path: str | Path) -> Study:
     ``scenario`` (relative to the study's folder) and ``settings`` are folded into
     ``base``, with the scenario's own relative paths made absolute."""
     path = Path(path)
+    if path.is_dir():
+        raise ValueError(f"study {path} is a directory; a YAML file is required")
     if not path.is_file():
         raise FileNotFoundError(f"study {path} does not exist")
-    return study_from_text(path.read_text(), source=f"study {path}", folder=path.parent)
+    try:
+        text = path.read_text()
+    except UnicodeDecodeError:
+        raise ValueError(f"study {path} is not a text file; a YAML file is required") from None
+    return study_from_text(text, source=f"study {path}", folder=path.parent)
 
 
 def study_from_text(text: str, source: str = "study", folder: Path | None = None) -> Study:
