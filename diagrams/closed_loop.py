@@ -84,7 +84,7 @@ from pydrake.systems.primitives import (
 from posfb.diagrams.encoder import DEFAULT_ENCODER_COUNTS, Encoder, per_joint_counts
 from posfb.models.controllers import CONTROLLER_KINDS, ControllerConfig, make_controller
 from posfb.models.plant import Arm, ArmParameters, PlantConfig, add_arm, apply_parameters
-from posfb.models.trajectory import JOINTS, DesiredTrajectory, Trajectory, WaveTrajectory
+from posfb.models.trajectory import JOINTS, Trajectory, WaveTrajectory, sampled_source
 from posfb.models.validation import require_finite, require_nonnegative, require_positive
 
 #: The paper's armature-voltage range, +-24 V (Sec. 4.1).
@@ -332,7 +332,10 @@ def build_closed_loop(config: ClosedLoopConfig, meshcat: Meshcat | None = None) 
     ``meshcat``, a ``MeshcatVisualizer`` of the arm is added (for recordings)."""
     builder = DiagramBuilder()
     arm = add_arm(builder, config.plant)
-    trajectory = builder.AddSystem(DesiredTrajectory(config.trajectory))
+    # Two samples past the last one read (t_{N0+1}): a sample is exact at its own start.
+    trajectory = builder.AddSystem(
+        sampled_source(config.trajectory, config.sample_time, config.samples + 3)
+    )
     encoder, measured, delay, noise_source = _add_sensor(builder, config, arm)
     controller = builder.AddSystem(make_controller(config.controller, config.design))
     limit = np.array(config.voltage_limit)

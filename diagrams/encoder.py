@@ -57,9 +57,12 @@ def quantise(q: np.ndarray, counts: int | np.ndarray) -> np.ndarray:
     """``Delta round(q / Delta)``, ``Delta = 2 pi / counts`` (one count for all entries or
     one per entry); an entry with ``counts == 0`` is passed through unquantised."""
     q = np.asarray(q, dtype=float)
-    counts = np.broadcast_to(np.asarray(counts, dtype=float), q.shape)
-    ideal = counts == 0
-    step = 2.0 * math.pi / np.where(ideal, 1.0, counts)
+    counts = np.asarray(counts, dtype=float)
+    if np.all(counts > 0):  # the usual case, kept cheap: it runs once per sample
+        step = 2.0 * math.pi / counts
+        return step * np.round(q / step)
+    ideal = np.broadcast_to(counts == 0, q.shape)
+    step = 2.0 * math.pi / np.where(counts == 0, 1.0, counts)
     return np.where(ideal, q, step * np.round(q / step))
 
 

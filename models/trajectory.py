@@ -19,8 +19,8 @@ Two forms, both answering ``evaluate(t) -> (q_d, qdot_d, qddot_d)``:
   holds its end point at rest (``qdot_d = qddot_d = 0``), so a run may start
   before or last longer than the path.
 
-The system depends on time only, so it is evaluated at control samples and log
-instants, never inside the integrator.
+``sampled_source`` turns any of them into a C++ ``TrajectorySource`` exact at the
+control instants, where the closed loop reads it.
 """
 
 from __future__ import annotations
@@ -30,7 +30,7 @@ from dataclasses import dataclass
 from typing import Protocol
 
 import numpy as np
-from pydrake.systems.framework import BasicVector, Context, LeafSystem
+from pydrake.systems.primitives import TrajectorySource
 from pydrake.trajectories import PiecewisePolynomial
 
 from posfb.models.validation import require_finite
@@ -183,15 +183,17 @@ class SplineTrajectory:
         )
 
 
-class DesiredTrajectory(LeafSystem):
-    """Outputs ``[q_d, qdot_d, qddot_d]`` (size 6) of ``trajectory`` on port ``desired``
-    (default: the paper's Sec. 4.2 trajectory)."""
+def sampled_source(trajectory: Trajectory, sample_time: float, samples: int) -> TrajectorySource:
+    """A C++ ``TrajectorySource`` of ``[q_d, qdot_d, qddot_d]`` (size 6): ``trajectory``
+    evaluated at ``t_k = k T_s``, ``k = 0..samples``, joined by a first-order hold.
 
-    def __init__(self, trajectory: Trajectory | None = None) -> None:
-        super().__init__()
-        self.trajectory = WaveTrajectory() if trajectory is None else trajectory
-        self.set_name("desired_trajectory")
-        self.DeclareVectorOutputPort("desired", DESIRED_SIZE, self._calc_desired)
-
-    def _calc_desired(self, context: Context, output: BasicVector) -> None:
-        output.SetFromVector(np.concatenate(self.trajectory.evaluate(context.get_time())))
+    Exact wherever it is read at a sample instant (a segment evaluated at its own start
+    returns its sample to the bit); the closed loop reads it only there (the controller's
+    update and the loggers), so no Python runs for it during a simulation. The last
+    sample is never read at its own end time: callers ask for two samples more than they
+    read."""
+    times = np.arange(samples + 1) * sample_time
+    values = np.column_stack([np.concatenate(trajectory.evaluate(float(t))) for t in times])
+    source = TrajectorySource(PiecewisePolynomial.FirstOrderHold(times, values))
+    source.set_name("desired_trajectory")
+    return source

@@ -20,7 +20,7 @@ from pydrake.systems.primitives import SymbolicVectorSystem, VectorLogSink
 from posfb.models.controllers import INTERNALS, make_controller
 from posfb.models.design import ControllerConfig, NonlinearTorqueConfig
 from posfb.models.lumped import TABLE1, LumpedModel, LumpedParameters
-from posfb.models.trajectory import DesiredTrajectory, desired
+from posfb.models.trajectory import WaveTrajectory, desired, sampled_source
 
 #: Table 1 without Coulomb friction: plant and controllers share it exactly.
 FRICTIONLESS = replace(TABLE1, theta6=0.0, theta11=0.0)
@@ -79,12 +79,13 @@ def simulate(
     """Closed loop on the exact lumped plant, starting at ``q_d(0) + initial_error`` at rest."""
     builder = DiagramBuilder()
     plant = builder.AddSystem(make_lumped_plant(config.nominal))
-    trajectory = builder.AddSystem(DesiredTrajectory())
+    T = config.sample_time
+    samples = round(duration / T) + 3
+    trajectory = builder.AddSystem(sampled_source(WaveTrajectory(), T, samples))
     controller = builder.AddSystem(make_controller(kind, config))
     builder.Connect(plant.get_output_port(), controller.GetInputPort("q_measured"))
     builder.Connect(trajectory.get_output_port(), controller.GetInputPort("desired"))
     builder.Connect(controller.GetOutputPort("voltage"), plant.get_input_port())
-    T = config.sample_time
     logs = {}
     for name, port, size in (
         ("q", plant.get_output_port(), 2),

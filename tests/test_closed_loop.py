@@ -45,7 +45,7 @@ def test_the_only_path_from_plant_to_controller_is_the_quantised_position(runner
     into_controller = {(e.source, e.output, e.input) for e in graph if e.target == controller}
     assert into_controller == {
         (encoder, "q_measured", "q_measured"),
-        ("desired_trajectory", "desired", "desired"),
+        ("desired_trajectory", "y0", "desired"),  # Drake's TrajectorySource names it y0
     }
     # the encoder reads the position half of the plant state, nothing else
     position = loop.arm.position_output_port()

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from posfb.models.trajectory import DesiredTrajectory, desired
+from posfb.models.trajectory import SplineTrajectory, WaveTrajectory, desired, sampled_source
 
 
 def test_starts_at_rest_hanging_down():
@@ -33,9 +33,15 @@ def test_derivatives_match_central_differences(t):
     np.testing.assert_allclose(qdd, (qd_plus - qd_minus) / (2 * h), atol=1e-7)
 
 
-def test_drake_system_outputs_the_same_values():
-    system = DesiredTrajectory()
-    context = system.CreateDefaultContext()
-    context.SetTime(5.5)
-    expected = np.concatenate(desired(5.5))
-    np.testing.assert_allclose(system.GetOutputPort("desired").Eval(context), expected, rtol=1e-15)
+def test_the_sampled_source_is_exact_at_every_sample_instant():
+    T, samples = 0.01, 500
+    for trajectory in (
+        WaveTrajectory(),
+        SplineTrajectory.from_waypoints([0.0, 2.0, 4.0], [[0, 0], [1, -1], [0.5, 0.2]]),
+    ):
+        source = sampled_source(trajectory, T, samples)
+        context = source.CreateDefaultContext()
+        for k in (0, 1, 7, 250, 399, samples - 1):
+            context.SetTime(k * T)
+            expected = np.concatenate(trajectory.evaluate(k * T))
+            np.testing.assert_array_equal(source.get_output_port().Eval(context), expected)
