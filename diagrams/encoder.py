@@ -58,7 +58,7 @@ def quantise(q: np.ndarray, counts: int | np.ndarray) -> np.ndarray:
     one per entry); an entry with ``counts == 0`` is passed through unquantised."""
     q = np.asarray(q, dtype=float)
     counts = np.asarray(counts, dtype=float)
-    if np.all(counts > 0):  # the usual case, kept cheap: it runs once per sample
+    if (counts > 0).all():  # the usual case, kept cheap: it runs once per sample
         step = 2.0 * math.pi / counts
         return step * np.round(q / step)
     ideal = np.broadcast_to(counts == 0, q.shape)

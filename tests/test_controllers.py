@@ -149,3 +149,19 @@ def test_torques_add_up_to_the_voltage(closed_loop_run):
     assert np.all(parts[names.index("U1"), 1:] >= 0.0)
     assert np.all(np.diff(parts[names.index("U2"), 1:]) >= 0.0)  # running maximum
     assert math.isfinite(parts[names.index("delta_bar")].max())
+
+
+def test_scalar_feedforward_equals_the_lumped_model_matrices():
+    """``NominalTorques`` (scalar form, Eq. 4, 7, ||M1*||) against ``LumpedModel``."""
+    from posfb.models.controllers.feedforward import NominalTorques
+    from posfb.models.lumped import TABLE1, LumpedModel
+
+    model = LumpedModel(TABLE1)
+    torques = NominalTorques(model)
+    rng = np.random.default_rng(4)
+    for _ in range(50):
+        q, v, a = rng.uniform(-3, 3, 2), rng.uniform(-2, 2, 2), rng.uniform(-5, 5, 2)
+        expected = model.M1(q) @ a + model.C(q, v) @ v + model.G(q) + model.F(v)
+        np.testing.assert_allclose(torques.linearization(q, v, a), expected, rtol=1e-13, atol=1e-13)
+        np.testing.assert_allclose(torques.desired(v, a), model.M0() @ a + model.B() @ v)
+        assert torques.M1_norm(q) == pytest.approx(np.linalg.norm(model.M1(q), 2), rel=1e-12)

@@ -26,7 +26,6 @@ import numpy as np
 from posfb.models.controllers.base import SampledController
 from posfb.models.controllers.feedforward import NominalTorques
 from posfb.models.design import Design
-from posfb.models.design.bounds import spectral_norm_2x2
 from posfb.models.design.config import JOINTS
 from posfb.models.lumped import LumpedModel
 
@@ -50,9 +49,7 @@ class ProposedController(SampledController):
         # memory: [filter state, running max |p|, running max |pbar|, y = |alpha~1|]
         super().__init__(design.config.sample_time, PROPOSED_INTERNALS, self._states + 2 * _N + 1)
         self.set_name("proposed_controller")
-        model = LumpedModel(design.config.nominal)
-        self._model = model
-        self._torques = NominalTorques(model)
+        self._torques = NominalTorques(LumpedModel(design.config.nominal))
         self._bounds = design.bounds
         self._c = design.bound_filter.c
         nonlinear = design.config.nonlinear
@@ -82,7 +79,7 @@ class ProposedController(SampledController):
         U1 = math.sqrt(p_max @ p_max) / self._c
         U2 = math.sqrt(pbar_max @ pbar_max) / self._c**2
         delta_bar = self._bounds.delta_bar(
-            spectral_norm_2x2(self._model.M1(q)), U1, U2,
+            self._torques.M1_norm(q), U1, U2,
             math.sqrt(qd_dot @ qd_dot), math.sqrt(qd_ddot @ qd_ddot),
         )  # fmt: skip
         U_x = math.sqrt(error @ error + U1 * U1 + eta @ eta)

@@ -71,13 +71,6 @@ def coriolis_bound(parameters: LumpedParameters) -> float:
     return max(-float(result.fun), norm_at(best))
 
 
-def spectral_norm_2x2(matrix: np.ndarray) -> float:
-    """``||matrix||_2`` of a 2 x 2 matrix in closed form (no SVD in the control loop)."""
-    frobenius2 = float(np.sum(matrix * matrix))
-    det = float(matrix[0, 0] * matrix[1, 1] - matrix[0, 1] * matrix[1, 0])
-    return math.sqrt(0.5 * (frobenius2 + math.sqrt(max(frobenius2**2 - 4.0 * det * det, 0.0))))
-
-
 @dataclass(frozen=True)
 class ResolvedBounds:
     """Numbers of Assumption 1, ``k_C1`` and ``||F*||`` (the largest ``||F*(q')||``)."""
