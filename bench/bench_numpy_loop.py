@@ -577,7 +577,7 @@ def posfb_run(variant: Variant, repeat: int) -> PosfbRun:
     # The same run once more, on a Simulator we keep, for the integrator's statistics.
     context = runner.new_context(parameters)
     simulator = Simulator(runner.diagram, context)
-    ApplySimulatorConfig(runner._simulator_config(), simulator)
+    ApplySimulatorConfig(runner.simulator_config(), simulator)
     simulator.Initialize()
     simulator.AdvanceTo((resolved.config.samples + 1) * resolved.config.sample_time)
     integrator = simulator.get_integrator()

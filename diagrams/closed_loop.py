@@ -440,7 +440,7 @@ class ClosedLoopRunner:
         context = self.new_context(parameters, sensor)
         simulator = Simulator(self.loop.diagram, context)
         T_s = self.config.sample_time
-        ApplySimulatorConfig(self._simulator_config(), simulator)
+        ApplySimulatorConfig(self.simulator_config(), simulator)
         # One sample past the end: the voltage computed at t_N0 is logged at t_N0+1.
         last = self.config.samples + 1
         status, message = "ok", ""
@@ -461,7 +461,7 @@ class ClosedLoopRunner:
         wall = time.perf_counter() - start
         return self._collect(context, status, message, wall)
 
-    def _simulator_config(self) -> SimulatorConfig:
+    def simulator_config(self) -> SimulatorConfig:
         """The config's integrator with steps capped at one sample period ``T_s``."""
         settings = self.config.simulator
         values = {entry.name: getattr(settings, entry.name) for entry in SimulatorConfig.__fields__}
