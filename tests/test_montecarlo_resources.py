@@ -92,3 +92,24 @@ def test_two_runs_on_one_store_give_the_rows_of_one_run(tmp_path):
     again = subprocess.run([*command, "--db", str(shared)], capture_output=True, timeout=300)
     assert again.returncode == 0  # resuming a finished store adds nothing
     assert _rows(shared) == _rows(alone)
+
+
+def test_dry_run_predicts_without_storing(tmp_path):
+    study, db = tmp_path / "study.yaml", tmp_path / "store.sqlite"
+    study.write_text(RANDOM_STUDY)
+    result = subprocess.run(
+        [*CLI, "montecarlo", "run", str(study), "--db", str(db), "--dry-run"],
+        capture_output=True, text=True, timeout=300,
+    )  # fmt: skip
+    assert result.returncode == 0, result.stderr
+    assert "s per sample" in result.stdout and "6 samples to run" in result.stdout
+    assert not db.exists()
+
+
+def test_cost_model_arithmetic():
+    from posfb.analysis.montecarlo.cost import PARALLEL_EFFICIENCY, CostEstimate
+
+    estimate = CostEstimate(seconds_per_sample=2.0, warm_up_s=1.0, memory_mib=200.0, samples=100)
+    assert estimate.wall_time_s(1) == 201.0
+    assert estimate.wall_time_s(4) == 1.0 + 200.0 / (4 * PARALLEL_EFFICIENCY)
+    assert estimate.memory_total_mib(4) == 800.0

@@ -11,9 +11,11 @@ from __future__ import annotations
 import argparse
 import os
 import sys
+from pathlib import Path
 
 from posfb.analysis.errors import InterruptedRunError, UsageError
-from posfb.analysis.montecarlo.config import load_study, with_overrides
+from posfb.analysis.montecarlo.config import Study, load_study, with_overrides
+from posfb.analysis.montecarlo.cost import advice, calibrate
 from posfb.analysis.montecarlo.provenance import code_version
 from posfb.analysis.montecarlo.report import write_report
 from posfb.analysis.montecarlo.scheduler import run_study
@@ -73,6 +75,10 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         "--dask-scheduler", metavar="ADDRESS", help="run on this Dask cluster (tcp://host:port)"
     )
     run.add_argument("--no-progress", action="store_true", help="no progress bar on stderr")
+    run.add_argument(
+        "--dry-run", action="store_true",
+        help="calibrate on a few samples and print the predicted time and memory; store nothing",
+    )  # fmt: skip
     run.set_defaults(handler=run_command)
 
     report = actions.add_parser("report", help="statistics, figures and Markdown from a store")
@@ -107,6 +113,8 @@ def run_command(args: argparse.Namespace) -> int:
             "allow more)"
         )
         workers = cores
+    if args.dry_run:
+        return dry_run(study, args.db, workers, cores)
     version = code_version()
     with ResultStore.create_or_resume(args.db, study, version) as store:
         for note in notes:  # once the store is known to be usable
@@ -132,6 +140,18 @@ def run_command(args: argparse.Namespace) -> int:
         f"({summary.written} new in {summary.elapsed_s:.1f} s, "
         f"{summary.samples_per_second:.2f} samples/s; runs: {statuses})"
     )
+    return 0
+
+
+def dry_run(study: Study, db: str, workers: int, cores: int) -> int:
+    """Print the cost model's prediction for the samples ``db`` does not hold yet."""
+    finished = 0
+    if Path(db).is_file() and Path(db).stat().st_size:
+        with ResultStore.open_existing(db) as store:
+            finished = sum(1 for index in store.finished() if index < study.samples)
+    estimate = calibrate(study, study.samples - finished)
+    for line in advice(estimate, workers, cores):
+        print(line)
     return 0
 
 
