@@ -1,21 +1,22 @@
 """The closed loop of Sec. 4 for any of the three controllers, built once and run
 many times::
 
-    desired_trajectory --desired--> controller --voltage--> saturation (+-limit)
-                                        ^                       |
-                                   q_measured              u applied
-                                        |                       v
-    [sensor_delay] <- encoder <--q---- state_split <--- arm (URDF plant, motor, Coulomb)
-                        ^
+    desired_trajectory -> desired_hold --desired--> controller --voltage--> saturation
+                                                       ^                        |
+                                          encoder_hold (ZOH, T_s)          u applied
+                                                       ^                        v
+    [sensor_delay] <- encoder <--------q-------- state_split <--- arm (URDF plant, motor,
+                        ^                                                   Coulomb)
                   [encoder_noise]  (bracketed blocks only where the config asks)
 
 The only path from the plant to the controller is the quantised position
 (``tests/test_closed_loop.py`` checks it on the diagram's graph): the true
 velocity feeds the friction and motor-work blocks and the loggers, never the
-controller. Timing: the controller's periodic update at ``t_k = k T_s`` reads
-``q_measured(t_k)`` straight from the stateless encoder and holds its voltage on
-``[t_k, t_k + T_s)``; there is no ZeroOrderHold in between (it would add one
-sample of delay, ``docs/drake-notes.md``). A sensor delay of ``d`` samples is a
+controller. Timing: two ``ZeroOrderHold(T_s)`` blocks sample the encoder and the
+desired trajectory at ``t_k = k T_s``; the controller has direct feedthrough
+(``models.controllers.base``: ``u_k = g(x_k, y_k)``, ``x_{k+1} = f(x_k, y_k)``), so
+the voltage applied on ``[t_k, t_k + T_s)`` uses ``q_measured(t_k)`` with no extra
+sample of delay (``docs/drake-notes.md``). A sensor delay of ``d`` samples is a
 ``DiscreteTimeDelay`` of ``d - 1`` steps at ``T_s`` (read at ``t_k`` before its own
 update, it lags one period more than its step count): the controller's update at
 ``t_k`` reads the measurement of ``t_{k-d}`` (the buffer starts filled with the
@@ -79,6 +80,7 @@ from pydrake.systems.primitives import (
     RandomSource,
     Saturation,
     VectorLogSink,
+    ZeroOrderHold,
 )
 
 from posfb.diagrams.encoder import DEFAULT_ENCODER_COUNTS, Encoder, per_joint_counts
@@ -291,6 +293,8 @@ class ClosedLoop:
     visualizer: MeshcatVisualizer | None
     delay: DiscreteTimeDelay | None
     noise_source: RandomSource | None
+    encoder_hold: ZeroOrderHold
+    desired_hold: ZeroOrderHold
 
 
 def _find_scene_graph(builder: DiagramBuilder) -> SceneGraph:
@@ -327,6 +331,28 @@ def _add_sensor(
     return encoder, measured, delay, noise_source
 
 
+def hold_inputs(
+    builder: DiagramBuilder,
+    controller: LeafSystem,
+    measured: OutputPort,
+    desired: OutputPort,
+    sample_time: float,
+) -> tuple[ZeroOrderHold, ZeroOrderHold]:
+    """Feed ``controller`` (``models.controllers.base``) its measured position and desired
+    trajectory through ``ZeroOrderHold(T_s)`` blocks, the sampling the design assumes."""
+    holds = []
+    for name, port, target in (
+        ("encoder_hold", measured, "q_measured"),
+        ("desired_hold", desired, "desired"),
+    ):
+        hold = builder.AddSystem(ZeroOrderHold(sample_time, port.size()))
+        hold.set_name(name)
+        builder.Connect(port, hold.get_input_port())
+        builder.Connect(hold.get_output_port(), controller.GetInputPort(target))
+        holds.append(hold)
+    return holds[0], holds[1]
+
+
 def build_closed_loop(config: ClosedLoopConfig, meshcat: Meshcat | None = None) -> ClosedLoop:
     """Wire plant, trajectory, sensor, controller, saturation and loggers. With
     ``meshcat``, a ``MeshcatVisualizer`` of the arm is added (for recordings)."""
@@ -343,8 +369,9 @@ def build_closed_loop(config: ClosedLoopConfig, meshcat: Meshcat | None = None) 
     saturation.set_name("voltage_saturation")
 
     desired_port = trajectory.get_output_port(0)
-    builder.Connect(measured, controller.GetInputPort("q_measured"))
-    builder.Connect(desired_port, controller.GetInputPort("desired"))
+    encoder_hold, desired_hold = hold_inputs(
+        builder, controller, measured, desired_port, config.sample_time
+    )
     builder.Connect(controller.GetOutputPort("voltage"), saturation.get_input_port(0))
     builder.Connect(saturation.get_output_port(0), arm.voltage_input_port())
 
@@ -371,8 +398,9 @@ def build_closed_loop(config: ClosedLoopConfig, meshcat: Meshcat | None = None) 
     diagram = builder.Build()
     diagram.set_name(f"closed_loop_{config.controller}")
     return ClosedLoop(
-        diagram, arm, encoder, controller, loggers, scene_graph, visualizer, delay, noise_source
-    )
+        diagram, arm, encoder, controller, loggers, scene_graph, visualizer, delay, noise_source,
+        encoder_hold, desired_hold,
+    )  # fmt: skip
 
 
 class ClosedLoopRunner:
@@ -420,11 +448,19 @@ class ClosedLoopRunner:
         plant_context = plant.GetMyMutableContextFromRoot(context)
         plant.SetPositions(plant_context, config.trajectory.evaluate(0.0)[0])
         plant.SetVelocities(plant_context, np.zeros(JOINTS))
+        first = loop.encoder.GetOutputPort("q_measured").Eval(encoder_context)
         if loop.delay is not None:
-            first = loop.encoder.GetOutputPort("q_measured").Eval(encoder_context)
             delay_context = loop.delay.GetMyMutableContextFromRoot(context)
             buffer = delay_context.get_discrete_state_vector().size() // JOINTS
             delay_context.SetDiscreteState(np.tile(first, buffer))
+        # The holds start at the first sample (they take it again at t = 0).
+        loop.encoder_hold.SetVectorState(
+            loop.encoder_hold.GetMyMutableContextFromRoot(context), first
+        )
+        loop.desired_hold.SetVectorState(
+            loop.desired_hold.GetMyMutableContextFromRoot(context),
+            np.concatenate(config.trajectory.evaluate(0.0)),
+        )
         return context
 
     def run(

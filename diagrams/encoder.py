@@ -2,10 +2,10 @@
 
     q_measured = Delta * round(q / Delta),   Delta = 2 pi / N   (N counts per joint revolution)
 
-It has no state and no sample period of its own: the controller's periodic
-update (period ``T_s``, offset 0) reads it at ``t_k``, which *is* the sampling.
-A ``ZeroOrderHold(T_s)`` in front of the controller would add one extra sample
-of delay (``docs/drake-notes.md``, "Timing of discrete systems").
+It has no state and no sample period of its own: the ``encoder_hold``
+(``ZeroOrderHold(T_s)``, ``diagrams.closed_loop``) samples it at ``t_k``, and the
+controller's direct feedthrough uses that sample with no extra delay
+(``docs/drake-notes.md``, "Timing of discrete systems").
 
 Round to nearest, not floor: an incremental encoder zeroed at a count boundary
 reports ``floor``, whose error lies in ``[0, Delta)`` with mean ``Delta/2``; the

@@ -17,6 +17,7 @@ from pydrake.systems.analysis import ApplySimulatorConfig, Simulator, SimulatorC
 from pydrake.systems.framework import DiagramBuilder
 from pydrake.systems.primitives import SymbolicVectorSystem, VectorLogSink
 
+from posfb.diagrams.closed_loop import hold_inputs
 from posfb.models.controllers import INTERNALS, make_controller
 from posfb.models.design import ControllerConfig, NonlinearTorqueConfig
 from posfb.models.lumped import TABLE1, LumpedModel, LumpedParameters
@@ -83,8 +84,7 @@ def simulate(
     samples = round(duration / T) + 3
     trajectory = builder.AddSystem(sampled_source(WaveTrajectory(), T, samples))
     controller = builder.AddSystem(make_controller(kind, config))
-    builder.Connect(plant.get_output_port(), controller.GetInputPort("q_measured"))
-    builder.Connect(trajectory.get_output_port(), controller.GetInputPort("desired"))
+    hold_inputs(builder, controller, plant.get_output_port(), trajectory.get_output_port(), T)
     builder.Connect(controller.GetOutputPort("voltage"), plant.get_input_port())
     logs = {}
     for name, port, size in (

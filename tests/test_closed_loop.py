@@ -44,8 +44,13 @@ def test_the_only_path_from_plant_to_controller_is_the_quantised_position(runner
     controller = loop.controller.get_name()
     into_controller = {(e.source, e.output, e.input) for e in graph if e.target == controller}
     assert into_controller == {
-        (encoder, "q_measured", "q_measured"),
-        ("desired_trajectory", "y0", "desired"),  # Drake's TrajectorySource names it y0
+        ("encoder_hold", "y", "q_measured"),  # Drake's ZeroOrderHold names its ports u, y
+        ("desired_hold", "y", "desired"),
+    }
+    into_holds = {(e.source, e.output, e.target) for e in graph if e.target.endswith("_hold")}
+    assert into_holds == {
+        (encoder, "q_measured", "encoder_hold"),
+        ("desired_trajectory", "y0", "desired_hold"),  # TrajectorySource names it y0
     }
     # the encoder reads the position half of the plant state, nothing else
     position = loop.arm.position_output_port()

@@ -21,15 +21,20 @@ DESIRED = np.concatenate([Q_D, QD_DOT, QD_DDOT])
 
 
 def _samples(controller, positions) -> tuple[np.ndarray, np.ndarray]:
-    """Voltage and internals computed at samples 0, 1, ... with ``q_measured`` set to
-    ``positions[k]`` at sample ``k`` and ``desired`` fixed."""
+    """Voltage and internals at samples 0, 1, ... with the (held) ``q_measured`` equal to
+    ``positions[k]`` from sample ``k`` on and ``desired`` fixed: the update at ``t_k``
+    steps with sample ``k - 1``'s input, then the input takes sample ``k``, as a
+    ``ZeroOrderHold`` in front does (``models.controllers.base``)."""
     simulator = Simulator(controller)
     context = simulator.get_mutable_context()
     controller.GetInputPort("desired").FixValue(context, DESIRED)
+    q_port = controller.GetInputPort("q_measured")
+    q_port.FixValue(context, np.asarray(positions[0], dtype=float))
     voltages, internals = [], []
     for k, q in enumerate(positions):
-        controller.GetInputPort("q_measured").FixValue(context, np.asarray(q, dtype=float))
+        # past t_k (a simulator handles the updates at t_k when it steps beyond t_k)
         simulator.AdvanceTo((k + 0.5) * controller.sample_time)
+        q_port.FixValue(context, np.asarray(q, dtype=float))
         voltages.append(controller.GetOutputPort("voltage").Eval(context))
         internals.append(controller.GetOutputPort("internals").Eval(context))
     return np.array(voltages), np.array(internals)
@@ -51,10 +56,12 @@ def test_ports_take_positions_and_no_velocity(kind):
 
 
 @pytest.mark.parametrize("kind", CONTROLLER_KINDS)
-def test_outputs_are_discrete_state_updated_every_period_from_t0(kind):
+def test_outputs_feed_through_the_held_input_and_the_state_updates_every_period(kind):
     controller = make_controller(kind)
     assert controller.num_continuous_states() == 0
-    assert not controller.HasAnyDirectFeedthrough()
+    q_port = controller.GetInputPort("q_measured")
+    voltage_port = controller.GetOutputPort("voltage")
+    assert controller.HasDirectFeedthrough(q_port.get_index(), voltage_port.get_index())
     periodic = controller.GetUniquePeriodicDiscreteUpdateAttribute()
     assert (periodic.period_sec(), periodic.offset_sec()) == (T, 0.0)
 

@@ -1,22 +1,41 @@
 """The shape shared by the three controllers (the interface the closed-loop
-diagrams wire).
+diagrams wire): discrete systems with direct feedthrough behind a zero-order hold.
 
-Inputs: ``q_measured`` (2, the quantised joint positions) and ``desired`` (6,
-``[q_d, qdot_d, qddot_d]`` of ``models.trajectory``); no velocity input. Outputs:
-``voltage`` (2, volts before saturation) and ``internals`` (named by the
-subclass's ``INTERNALS`` tuple). Both outputs come from discrete state written by
-one periodic update (period ``T_s``, offset 0, so the first sample is at
-``t = 0``): the voltage computed at ``t_k`` from ``q_measured(t_k)`` is applied on
-``[t_k, t_k + T_s)`` with no extra sample of delay.
+Inputs: ``q_measured`` (2, the held quantised joint positions) and ``desired`` (6,
+the held ``[q_d, qdot_d, qddot_d]`` of ``models.trajectory``); no velocity input.
+Outputs: ``voltage`` (2, volts before saturation) and ``internals`` (named by the
+subclass's ``INTERNALS`` tuple).
 
-The first update (``started = 0``) initialises the subclass's memory from the
-first measurement (``_start``), then computes the first sample as any other.
+With both inputs held by ``ZeroOrderHold(T_s)`` blocks (``diagrams.closed_loop``)
+the controller realises, with no extra sample of delay::
+
+    u_k = g(x_k, y_k),   x_{k+1} = f(x_k, y_k)
+
+``g`` is the output, computed from the discrete state and the held inputs (direct
+feedthrough); ``f`` is the periodic update (period ``T_s``, offset 0: the same event
+times as the holds', ``k T_s``). At ``t_k`` every discrete update reads the values
+from before ``t_k``: the hold takes ``y_k`` while the update writes
+``f(x_{k-1}, y_{k-1}) = x_k``, so after ``t_k`` the output is ``g(x_k, y_k)``,
+applied on ``[t_k, t_k + T_s)``. One cache entry computes ``(u, internals,
+x_next)`` once per sample for the output ports and the update.
+
+``phase`` counts the start: 0 before ``t_0``; the update at ``t_0`` only sets it to
+1 (there is no earlier sample to step from), and while it is 1 the state is the
+subclass's memory initialised from the held first measurement (``_start``); the
+update at ``t_1`` steps from there and sets it to 2.
 """
 
 from __future__ import annotations
 
 import numpy as np
-from pydrake.systems.framework import Context, DiscreteValues, LeafSystem
+from pydrake.common.value import AbstractValue
+from pydrake.systems.framework import (
+    BasicVector,
+    Context,
+    DiscreteValues,
+    LeafSystem,
+    ValueProducer,
+)
 
 from posfb.models.design.config import JOINTS
 from posfb.models.trajectory import DESIRED_SIZE
@@ -24,7 +43,8 @@ from posfb.models.validation import require_positive
 
 
 class SampledController(LeafSystem):
-    """Ports, state and the periodic update; subclasses implement ``_start`` and ``_step``."""
+    """Ports, state, the cached step and the periodic update; subclasses implement
+    ``_start`` and ``_step``."""
 
     def __init__(self, sample_time: float, internals: tuple[str, ...], memory_size: int) -> None:
         super().__init__()
@@ -32,26 +52,48 @@ class SampledController(LeafSystem):
         self.internals_names = internals
         self._q_port = self.DeclareVectorInputPort("q_measured", JOINTS)
         self._desired_port = self.DeclareVectorInputPort("desired", DESIRED_SIZE)
-        self._voltage = self.DeclareDiscreteState(JOINTS)
-        self._internals = self.DeclareDiscreteState(len(internals))
         self._memory = self.DeclareDiscreteState(memory_size)
-        self._started = self.DeclareDiscreteState(1)
-        self.DeclareStateOutputPort("voltage", self._voltage)
-        self.DeclareStateOutputPort("internals", self._internals)
+        self._phase = self.DeclareDiscreteState(1)
+        self._voltage_end = JOINTS
+        self._internals_end = JOINTS + len(internals)
+        self._step_cache = self.DeclareCacheEntry(
+            description="controller step (u, internals, next memory)",
+            value_producer=ValueProducer(
+                allocate=AbstractValue.Make(np.zeros(self._internals_end + memory_size)).Clone,
+                calc=self._calc_step,
+            ),
+            prerequisites_of_calc={self.xd_ticket(), self.all_input_ports_ticket()},
+        )
+        ticket = {self._step_cache.ticket()}
+        self.DeclareVectorOutputPort("voltage", JOINTS, self._calc_voltage, ticket)
+        self.DeclareVectorOutputPort("internals", len(internals), self._calc_internals, ticket)
         self.DeclarePeriodicDiscreteUpdateEvent(sample_time, 0.0, self._update)
 
-    def _update(self, context: Context, discrete_state: DiscreteValues) -> None:
+    def _calc_step(self, context: Context, value: AbstractValue) -> None:
         q = self._q_port.Eval(context)
         desired = self._desired_port.Eval(context)
-        if context.get_discrete_state(self._started).GetAtIndex(0) == 0.0:
+        if context.get_discrete_state(self._phase).GetAtIndex(0) < 2.0:
             memory = self._start(q, desired)
-            discrete_state.get_mutable_vector(self._started).SetAtIndex(0, 1.0)
         else:
             memory = context.get_discrete_state(self._memory).CopyToVector()
         voltage, internals = self._step(q, desired, memory)
-        discrete_state.get_mutable_vector(self._voltage).SetFromVector(voltage)
-        discrete_state.get_mutable_vector(self._internals).SetFromVector(internals)
-        discrete_state.get_mutable_vector(self._memory).SetFromVector(memory)
+        value.set_value(np.concatenate([voltage, internals, memory]))
+
+    def _calc_voltage(self, context: Context, output: BasicVector) -> None:
+        output.SetFromVector(self._step_cache.Eval(context)[: self._voltage_end])
+
+    def _calc_internals(self, context: Context, output: BasicVector) -> None:
+        step = self._step_cache.Eval(context)
+        output.SetFromVector(step[self._voltage_end : self._internals_end])
+
+    def _update(self, context: Context, discrete_state: DiscreteValues) -> None:
+        phase = context.get_discrete_state(self._phase).GetAtIndex(0)
+        if phase == 0.0:  # t_0: the holds take the first sample now; nothing to step
+            discrete_state.get_mutable_vector(self._phase).SetAtIndex(0, 1.0)
+            return
+        step = self._step_cache.Eval(context)
+        discrete_state.get_mutable_vector(self._memory).SetFromVector(step[self._internals_end :])
+        discrete_state.get_mutable_vector(self._phase).SetAtIndex(0, 2.0)
 
     def _start(self, q: np.ndarray, desired: np.ndarray) -> np.ndarray:
         """The memory before the first sample, from the first measurement."""
