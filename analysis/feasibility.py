@@ -7,14 +7,14 @@ from __future__ import annotations
 
 import numpy as np
 
-from posfb.diagrams.resolve import LoadedScenario, resolve
+from posfb.diagrams.resolve import ResolvedScenario
 from posfb.models.lumped import LumpedModel
 from posfb.models.plant import build_arm_diagram
 
 
-def trajectory_warnings(loaded: LoadedScenario) -> list[str]:
+def trajectory_warnings(resolved: ResolvedScenario) -> list[str]:
     """One line per problem of the scenario's trajectory at its sample instants."""
-    config = resolve(loaded).config
+    config = resolved.config
     times = np.arange(config.samples + 1) * config.sample_time
     samples = [config.trajectory.evaluate(float(t)) for t in times]
     positions = np.array([q for q, _, _ in samples])

@@ -87,7 +87,12 @@ from posfb.diagrams.encoder import DEFAULT_ENCODER_COUNTS, Encoder, per_joint_co
 from posfb.models.controllers import CONTROLLER_KINDS, ControllerConfig, make_controller
 from posfb.models.plant import Arm, ArmParameters, PlantConfig, add_arm, apply_parameters
 from posfb.models.trajectory import JOINTS, Trajectory, WaveTrajectory, sampled_source
-from posfb.models.validation import require_finite, require_nonnegative, require_positive
+from posfb.models.validation import (
+    per_joint,
+    require_finite,
+    require_nonnegative,
+    require_positive,
+)
 
 #: The paper's armature-voltage range, +-24 V (Sec. 4.1).
 VOLTAGE_LIMIT = 24.0
@@ -112,14 +117,7 @@ def default_simulator() -> SimulatorConfig:
 
 
 def _per_joint(name: str, value: float | Sequence[float]) -> tuple[float, ...]:
-    values = list(value) if isinstance(value, list | tuple | np.ndarray) else [value]
-    if len(values) == 1:
-        values = values * JOINTS
-    if len(values) != JOINTS:
-        raise ValueError(
-            f"{name} = {value!r}; one number for both joints or {JOINTS} (one per joint) "
-            "is required"
-        )
+    values = per_joint(name, value, JOINTS)
     return tuple(require_finite(f"{name}[{j}]", v) for j, v in enumerate(values))
 
 

@@ -39,6 +39,8 @@ from collections.abc import Sequence
 import numpy as np
 from pydrake.systems.framework import BasicVector, Context, LeafSystem
 
+from posfb.models.validation import per_joint
+
 #: Default counts per joint revolution (see the module docstring).
 DEFAULT_ENCODER_COUNTS = 20000
 
@@ -68,14 +70,7 @@ def quantise(q: np.ndarray, counts: int | np.ndarray) -> np.ndarray:
 
 def per_joint_counts(name: str, counts: int | Sequence[int], size: int) -> tuple[int, ...]:
     """``counts`` for each of ``size`` joints: one integer for all, or one per joint."""
-    values = list(counts) if isinstance(counts, list | tuple | np.ndarray) else [counts]
-    if len(values) == 1:
-        values = values * size
-    if len(values) != size:
-        raise ValueError(
-            f"{name} = {counts!r}; one integer for all joints or {size} (one per joint) "
-            "is required"
-        )
+    values = per_joint(name, counts, size, kind="integer")
     return tuple(require_counts(name, value) for value in values)
 
 

@@ -20,7 +20,6 @@ import pandas as pd
 
 from posfb.diagrams.closed_loop import ClosedLoopConfig, ClosedLoopResult, ClosedLoopRunner
 from posfb.diagrams.scenario import (
-    PARAMETER_NAMES,
     SHIPPED_URDF,
     ControllerSettings,
     CsvFile,
@@ -37,7 +36,7 @@ from posfb.diagrams.scenario import (
     Waypoints,
     apply_setting,
 )
-from posfb.diagrams.yaml_schema import load_typed
+from posfb.diagrams.yaml_schema import load_typed, read_text
 from posfb.models.controllers import CONTROLLER_KINDS
 from posfb.models.design import ControllerConfig
 from posfb.models.design.config import (
@@ -48,7 +47,13 @@ from posfb.models.design.config import (
 )
 from posfb.models.identify import identify_urdf
 from posfb.models.lumped import TABLE1, LumpedParameters
-from posfb.models.plant import DEFAULT_URDF, PAYLOAD_BODY, ArmParameters, PlantConfig
+from posfb.models.plant import (
+    DEFAULT_URDF,
+    JOINT_PARAMETERS,
+    PAYLOAD_BODY,
+    ArmParameters,
+    PlantConfig,
+)
 from posfb.models.trajectory import (
     JOINTS,
     JointWave,
@@ -57,6 +62,7 @@ from posfb.models.trajectory import (
     WaveTrajectory,
 )
 from posfb.models.urdf_check import check_arm_urdf
+from posfb.models.validation import per_joint
 
 
 @dataclass
@@ -74,17 +80,7 @@ def load_scenario(path: str | Path | None = None, settings: Iterable[str] = ()) 
         loaded = LoadedScenario(Scenario(), Path.cwd())
     else:
         file = Path(path)
-        if file.is_dir():
-            raise ValueError(f"scenario {file} is a directory; a YAML file is required")
-        if not file.is_file():
-            raise ValueError(f"scenario {file} does not exist")
-        try:
-            text = file.read_text()
-        except UnicodeDecodeError:
-            message = f"scenario {file} is not a text file; a YAML file is required"
-            raise ValueError(message) from None
-        except OSError as error:
-            raise ValueError(f"scenario {file} cannot be read: {error.strerror}") from None
+        text = read_text(file, "scenario")
         scenario = load_typed(Scenario, text, f"scenario {file}", empty_ok=True)
         loaded = LoadedScenario(scenario, file.resolve().parent)
     for setting in settings:
@@ -259,17 +255,11 @@ class ResolvedScenario:
 
 def _overrides(settings: ParameterOverrides) -> dict[str, tuple[float, ...]]:
     overrides = {}
-    for name in PARAMETER_NAMES:
+    for name in JOINT_PARAMETERS:
         values = getattr(settings, name)
         if values is None:
             continue
-        if len(values) == 1:
-            values = values * JOINTS
-        if len(values) != JOINTS:
-            raise ValueError(
-                f"plant.parameters.{name} has {len(values)} entries; 1 (both joints) or "
-                f"{JOINTS} are required"
-            )
+        values = per_joint(f"plant.parameters.{name}", values, JOINTS)
         overrides[name] = tuple(float(v) for v in values)
     return overrides
 
@@ -312,7 +302,7 @@ def resolve(loaded: LoadedScenario) -> ResolvedScenario:
         )
         # The payload and overrides are checked against ArmParameters' own rules.
         overrides = _overrides(plant.parameters)
-        probe = ArmParameters(**{n: (1.0, 1.0) for n in PARAMETER_NAMES})
+        probe = ArmParameters(**{n: (1.0, 1.0) for n in JOINT_PARAMETERS})
         replace(probe, **overrides, payload_mass=plant.payload_mass)
     except ValueError as error:
         raise _with_key(error, "plant.parameters") from None
@@ -328,7 +318,13 @@ def run_scenario(
 ) -> ClosedLoopResult:
     """Build the scenario's closed loop and run it on its true arm (``progress``: see
     ``ClosedLoopRunner.run``)."""
-    resolved = resolve(loaded)
+    return run_resolved(resolve(loaded), progress)
+
+
+def run_resolved(
+    resolved: ResolvedScenario, progress: Callable[[float], None] | None = None
+) -> ClosedLoopResult:
+    """``run_scenario`` for a scenario already resolved (no second validation)."""
     runner = ClosedLoopRunner(resolved.config)
     parameters = resolved.true_parameters(runner.arm.default_parameters)
     return runner.run(parameters, progress=progress)

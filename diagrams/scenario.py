@@ -62,16 +62,6 @@ from posfb.models.trajectory import (
 #: How a scenario names the arm shipped with posfb.
 SHIPPED_URDF = "package://posfb/two_link_arm.urdf"
 
-#: Physical parameters a scenario (and a Monte-Carlo study) may override, two values each.
-PARAMETER_NAMES = (
-    "link_mass",
-    "link_com",
-    "link_inertia",
-    "rotor_inertia",
-    "damping",
-    "coulomb",
-    "motor_constant",
-)
 
 
 def _rows(matrix: tuple[tuple[float, ...], ...]) -> list[list[float]]:

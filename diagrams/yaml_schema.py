@@ -14,6 +14,7 @@ import re
 import types
 import typing
 from dataclasses import fields
+from pathlib import Path
 
 import yaml
 from pydrake.common.yaml import yaml_load_typed
@@ -119,6 +120,21 @@ def check_shape(value: object, schema: object, key: str) -> None:
 #: YAML 1.2 floats that YAML 1.1 (PyYAML) would read as strings: ``1e-3``, ``2E5``.
 _FLOAT = re.compile(r"^[-+]?(\.[0-9]+|[0-9]+(\.[0-9]*)?)([eE][-+]?[0-9]+)?$")
 _TaggedLoader.add_implicit_resolver("tag:yaml.org,2002:float", _FLOAT, list("-+0123456789."))
+
+
+def read_text(path: Path, what: str, missing: type[Exception] = ValueError) -> str:
+    """The text of the YAML file ``path`` (a ``what`` such as "scenario"); a folder, a
+    missing file (``missing`` is raised), a binary or unreadable file is one line."""
+    if path.is_dir():
+        raise ValueError(f"{what} {path} is a directory; a YAML file is required")
+    if not path.is_file():
+        raise missing(f"{what} {path} does not exist")
+    try:
+        return path.read_text()
+    except UnicodeDecodeError:
+        raise ValueError(f"{what} {path} is not a text file; a YAML file is required") from None
+    except OSError as error:
+        raise ValueError(f"{what} {path} cannot be read: {error.strerror}") from None
 
 
 def parse(text: str, source: str) -> object:

@@ -139,6 +139,11 @@ class ArmParameters:
         return replace(self, payload_mass=mass)
 
 
+#: The per-joint fields of ``ArmParameters`` (two values each), in declaration order:
+#: what a scenario overrides and a Monte-Carlo study draws (its stream order).
+JOINT_PARAMETERS = tuple(f.name for f in fields(ArmParameters) if f.name != "payload_mass")
+
+
 @dataclass(frozen=True)
 class Arm:
     """Handles to the systems that make up the true plant inside a diagram."""

@@ -36,6 +36,20 @@ def require_positive(name: str, value: float) -> float:
     return number
 
 
+def per_joint(name: str, value: object, size: int, kind: str = "number") -> list:
+    """``value`` as ``size`` entries: one ``kind`` for all joints (a scalar or a list of
+    one) or one per joint; the entries themselves are checked by the caller."""
+    values = list(value) if isinstance(value, list | tuple | np.ndarray) else [value]
+    if len(values) == 1:
+        values = values * size
+    if len(values) != size:
+        raise ValueError(
+            f"{name} = {value!r}; one {kind} for all joints or {size} (one per joint) "
+            "is required"
+        )
+    return values
+
+
 def require_vector(name: str, value: Sequence[float] | np.ndarray, size: int) -> np.ndarray:
     """Return ``value`` as a finite float vector of length ``size``."""
     array = np.asarray(value, dtype=float)

@@ -37,10 +37,11 @@ def run_dump(args: argparse.Namespace) -> int:
 
 def run_check(args: argparse.Namespace) -> int:
     loaded = load_scenario(args.file, args.settings)
-    config = resolve(loaded).config
+    resolved = resolve(loaded)
+    config = resolved.config
     print(f"{args.file}: valid; controller {config.controller}, T_s = {config.sample_time:g} s, "
           f"{config.duration:g} s")  # fmt: skip
-    for warning in trajectory_warnings(loaded):
+    for warning in trajectory_warnings(resolved):
         print(f"warning: {warning}")
     design = cached_design(config.design)
     print(format_report(design))

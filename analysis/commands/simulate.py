@@ -14,7 +14,7 @@ from posfb.analysis.export import EXPORT_FORMATS, export_run
 from posfb.analysis.feasibility import trajectory_warnings
 from posfb.analysis.metrics import run_metrics
 from posfb.analysis.outputs import output_file, output_folder
-from posfb.diagrams.resolve import resolve, run_scenario
+from posfb.diagrams.resolve import resolve, run_resolved
 from posfb.models.controllers import failed_checks, require_design
 
 
@@ -47,9 +47,10 @@ def run(args: argparse.Namespace) -> int:
     out = output_file("--out", args.out, EXPORT_FORMATS) if args.out else None
     figures = output_folder("--figure", args.figure) if args.figure else None
     loaded = scenario_from_args(args)
-    config = resolve(loaded).config
+    resolved = resolve(loaded)
+    config = resolved.config
     require_design(config.controller, config.design)  # a refused design is bad input
-    warnings = trajectory_warnings(loaded)
+    warnings = trajectory_warnings(resolved)
     warnings += [
         f"the {config.controller} design fails a check: {detail}"
         for detail in failed_checks(config.controller, config.design)
@@ -58,7 +59,7 @@ def run(args: argparse.Namespace) -> int:
         sys.stderr.write(f"posfb simulate: warning: {warning}\n")
     show = progress.wanted(args.no_progress)
     with progress.run_progress(config.duration, config.controller, show) as update:
-        result = run_scenario(loaded, progress=update)
+        result = run_resolved(resolved, progress=update)
     written = export_run(result, out) if out else None
     if figures:
         runs, title = {config.controller: result}, f"scenario {summary_name(args)}"

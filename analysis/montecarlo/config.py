@@ -71,20 +71,10 @@ from posfb.diagrams.resolve import (
     with_absolute_paths,
 )
 from posfb.diagrams.scenario import Scenario, apply_setting, get_setting
-from posfb.diagrams.yaml_schema import load_typed
+from posfb.diagrams.yaml_schema import load_typed, read_text
 from posfb.models.controllers import CONTROLLER_KINDS, require_design
 from posfb.models.design import ControllerConfig
-
-#: Per-joint physical parameters of ``ArmParameters`` (two values each), in draw order.
-JOINT_PARAMETERS = (
-    "link_mass",
-    "link_com",
-    "link_inertia",
-    "rotor_inertia",
-    "damping",
-    "coulomb",
-    "motor_constant",
-)
+from posfb.models.plant import JOINT_PARAMETERS
 
 #: Parameters that must be > 0 (the others must be >= 0), as ``ArmParameters`` requires.
 POSITIVE_PARAMETERS = ("link_mass", "motor_constant")
@@ -445,14 +435,7 @@ def load_study(path: str | Path) -> Study:
     ``scenario`` (relative to the study's folder) and ``settings`` are folded into
     ``base``, with the scenario's own relative paths made absolute."""
     path = Path(path)
-    if path.is_dir():
-        raise ValueError(f"study {path} is a directory; a YAML file is required")
-    if not path.is_file():
-        raise FileNotFoundError(f"study {path} does not exist")
-    try:
-        text = path.read_text()
-    except UnicodeDecodeError:
-        raise ValueError(f"study {path} is not a text file; a YAML file is required") from None
+    text = read_text(path, "study", missing=FileNotFoundError)
     return study_from_text(text, source=f"study {path}", folder=path.parent)
 
 

@@ -16,7 +16,6 @@ from dataclasses import dataclass
 import numpy as np
 
 from posfb.analysis.montecarlo.config import (
-    JOINT_PARAMETERS,
     Distribution,
     Fixed,
     Normal,
@@ -25,7 +24,7 @@ from posfb.analysis.montecarlo.config import (
     UniformDiscrete,
 )
 from posfb.diagrams.scenario import Scenario, apply_setting, get_setting
-from posfb.models.plant import ArmParameters
+from posfb.models.plant import JOINT_PARAMETERS, ArmParameters
 
 #: The scalars of one sample, in stream order: (name, joint). Append only: a slot's
 #: position seeds its stream.
