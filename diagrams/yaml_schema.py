@@ -78,7 +78,9 @@ def check_shape(value: object, schema: object, key: str) -> None:
 
     ``yaml_load_typed`` refuses unknown keys but neither says where nor refuses
     every misfit (it pours a scalar into a dataclass's first field), so the raw
-    document is checked against the dataclasses first."""
+    document is checked against the dataclasses first. A dataclass may name keys it
+    has renamed (``RENAMED``: old -> new) and tags it replaces (``FORMERLY``); those
+    are refused with the new spelling."""
     where = key or "the document"
     origin, args = typing.get_origin(schema), typing.get_args(schema)
     if dataclasses.is_dataclass(schema) or hasattr(schema, "__fields__"):
@@ -88,6 +90,11 @@ def check_shape(value: object, schema: object, key: str) -> None:
             if name == "_tag":
                 continue
             path = f"{key}.{name}" if key else str(name)
+            renamed = getattr(schema, "RENAMED", {}).get(name)
+            _require(
+                renamed is None or renamed in value,
+                f"{path}: {name!r} is now spelled {renamed!r} (Drake's name); write {renamed}:",
+            )
             _require(name in allowed, f"{path}: unknown key; known keys: {', '.join(allowed)}")
             check_shape(item, allowed[name], path)
     elif origin in (typing.Union, types.UnionType):
@@ -103,6 +110,12 @@ def check_shape(value: object, schema: object, key: str) -> None:
             f"{where} = {value!r}; a distribution (!{' {...}, !'.join(tags)} {{...}}) is required",
         )
         tag = value.get("_tag", options[0].__name__)
+        for name, option in tags.items():
+            _require(
+                tag not in getattr(option, "FORMERLY", ()),
+                f"{where}: !{tag} is now !{name} {{{', '.join(_field_types(option))}}} "
+                "(Drake's name)",
+            )
         _require(tag in tags, f"{where}: unknown tag !{tag}; one of !{', !'.join(tags)}")
         check_shape(value, tags[tag], key)
     elif origin is list:

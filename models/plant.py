@@ -143,6 +143,18 @@ class ArmParameters:
 #: what a scenario overrides and a Monte-Carlo study draws (its stream order).
 JOINT_PARAMETERS = tuple(f.name for f in fields(ArmParameters) if f.name != "payload_mass")
 
+#: The SI unit of each ``ArmParameters`` field, as a column-name suffix (exports).
+PARAMETER_UNITS = {
+    "link_mass": "kg",
+    "link_com": "m",
+    "link_inertia": "kg_m2",
+    "rotor_inertia": "kg_m2",
+    "damping": "N_m_s_per_rad",
+    "coulomb": "N_m",
+    "motor_constant": "N_m_per_V",
+    "payload_mass": "kg",
+}
+
 
 @dataclass(frozen=True)
 class Arm:

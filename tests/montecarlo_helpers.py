@@ -16,12 +16,12 @@ duration: 1.0
 controllers: [proposed, pid]
 encoder_counts: [20000, 4000]
 parameters:
-  link_mass: [!Uniform {low: -0.2, high: 0.2, relative: true}]
-  link_com: [!Uniform {low: -0.1, high: 0.1, relative: true}]
-  damping: [!Uniform {low: -0.2, high: 0.2, relative: true}]
-  coulomb: [!Uniform {low: -0.2, high: 0.2, relative: true}, !Fixed {}]
-  motor_constant: [!Normal {mean: 0.0, std: 0.05, relative: true, low: -0.15, high: 0.15}]
-  payload_mass: !Uniform {low: 0.0, high: 0.5}
+  link_mass: [!Uniform {min: -0.2, max: 0.2, relative: true}]
+  link_com: [!Uniform {min: -0.1, max: 0.1, relative: true}]
+  damping: [!Uniform {min: -0.2, max: 0.2, relative: true}]
+  coulomb: [!Uniform {min: -0.2, max: 0.2, relative: true}, !Deterministic {}]
+  motor_constant: [!Gaussian {mean: 0.0, stddev: 0.05, relative: true, min: -0.15, max: 0.15}]
+  payload_mass: !Uniform {min: 0.0, max: 0.5}
 """
 
 

@@ -45,7 +45,7 @@ samples: 40
 duration: 2.0
 controllers: [lin_lc]
 parameters:
-  payload_mass: !Uniform {low: 0.0, high: 0.3}
+  payload_mass: !Uniform {min: 0.0, max: 0.3}
 """
 
 

@@ -44,7 +44,7 @@ FILES = {
     "list.yaml": "- 1\n- 2\n",
     "syntax.yaml": "timing: {duration: 1\n",
     "dup_study.yaml": "seed: 1\nseed: 2\n",
-    "bad_draw.yaml": STUDY + "draws:\n  timing.sampel_time: !Fixed {value: 0.01}\n",
+    "bad_draw.yaml": STUDY + "draws:\n  timing.sampel_time: !Deterministic {value: 0.01}\n",
     "bad_csv.csv": "time,q1,q2\n0,0,0\n1,x,0\n2,0,0\n3,0,0\n",
     "two_columns.csv": "0,0\n1,0\n2,0\n3,0\n",
     "backwards.csv": "0,0,0\n2,0,0\n1,0,0\n3,0,0\n",

@@ -20,7 +20,7 @@ samples: 6
 duration: 0.5
 controllers: [lin_lc]
 parameters:
-  payload_mass: !Uniform {low: 0.0, high: 0.3}
+  payload_mass: !Uniform {min: 0.0, max: 0.3}
 """
 
 

@@ -155,7 +155,7 @@ samples: 3
 duration: 2.0
 controllers: [proposed, pid]
 parameters:
-  payload_mass: !Uniform {low: 0.0, high: 0.3}
+  payload_mass: !Uniform {min: 0.0, max: 0.3}
 # Sample 1's amplifiers deliver almost nothing: the arm cannot follow the
 # trajectory and |q~| passes the 1 rad divergence bound within 2 s.
 overrides: [{sample: 1, values: {motor_constant: [0.001, 0.001]}}]

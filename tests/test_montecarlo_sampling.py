@@ -72,7 +72,7 @@ def test_draws_follow_the_configured_ranges(study, nominal):
 def test_changing_one_distribution_leaves_the_other_draws_alone(nominal):
     base = study_from_text(TINY_STUDY)
     changed = study_from_text(
-        TINY_STUDY.replace("!Uniform {low: 0.0, high: 0.5}", "!Fixed {value: 1.0}")
+        TINY_STUDY.replace("!Uniform {min: 0.0, max: 0.5}", "!Deterministic {value: 1.0}")
     )
     for i in range(5):
         a, b = sample_plant(base, nominal, i), sample_plant(changed, nominal, i)

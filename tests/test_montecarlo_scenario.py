@@ -60,7 +60,7 @@ def test_a_study_names_a_base_scenario_file_and_settings(tmp_path):
         "seed: 1\nsamples: 2\nduration: 0.5\ncontrollers: [proposed]\nscenario: base.yaml\n"
         "settings: ['timing.sample_time=0.005']\n"
         "draws:\n  trajectory.joints[1].frequency:\n"
-        "    !Uniform {low: -0.1, high: 0.1, relative: true}\n"
+        "    !Uniform {min: -0.1, max: 0.1, relative: true}\n"
     )
     study = load_study(tmp_path / "study.yaml")
     assert study.scenario == "" and study.base.plant.payload_mass == 0.2
@@ -74,11 +74,11 @@ def test_a_study_names_a_base_scenario_file_and_settings(tmp_path):
 @pytest.mark.parametrize(
     ("draws", "needle"),
     [
-        ("timing.sample_time: !Uniform {low: 0.0, high: 0.01}", "timing.sample_time"),
-        ("sensor.encoder_counts: !Uniform {low: 100, high: 200}", "UniformDiscrete"),
-        ("plant.payload_mass: !Uniform {low: 0, high: 1}", "parameters"),
-        ("timing.sampel_time: !Fixed {value: 0.01}", "sampel_time"),
-        ("controller.kind: !Fixed {value: 1}", "not a number"),
+        ("timing.sample_time: !Uniform {min: 0.0, max: 0.01}", "timing.sample_time"),
+        ("sensor.encoder_counts: !Uniform {min: 100, max: 200}", "UniformDiscrete"),
+        ("plant.payload_mass: !Uniform {min: 0, max: 1}", "parameters"),
+        ("timing.sampel_time: !Deterministic {value: 0.01}", "sampel_time"),
+        ("controller.kind: !Deterministic {value: 1}", "not a number"),
         ("timing.sample_time: !UniformDiscrete {values: [0.003]}", "whole number"),
         ("timing.sample_time: !UniformDiscrete {values: [0.005]}", "filter_a"),
     ],

@@ -10,18 +10,21 @@ compare, the simulated duration, the number of samples and the seed::
     controllers: [proposed, lin_lc, pid]
     encoder_counts: [20000]
     parameters:
-      link_mass: [!Uniform {low: -0.2, high: 0.2, relative: true}]
-      payload_mass: !Uniform {low: 0.0, high: 0.5}
+      link_mass: [!Uniform {min: -0.2, max: 0.2, relative: true}]
+      payload_mass: !Uniform {min: 0.0, max: 0.5}
 
-Distributions (YAML tags; an untagged map is a ``Uniform``):
+Distributions are written with Drake's names and keys
+(``drake/common/schema/stochastic.h``; an untagged map is a ``Uniform``):
 
-* ``!Uniform {low, high, relative}``: uniform on ``[low, high]``;
-* ``!Normal {mean, std, relative, low, high}``: normal, truncated to
-  ``[low, high]`` when either is given (drawn by rejection);
-* ``!Fixed {value}``: always ``value``, or the URDF's value when omitted.
+* ``!Uniform {min, max}``: uniform on ``[min, max]``;
+* ``!Gaussian {mean, stddev}``: normal; posfb's ``min``/``max`` truncate it
+  (drawn by rejection);
+* ``!UniformDiscrete {values}``: one of the values, each equally likely;
+* ``!Deterministic {value}``: always ``value``; posfb reads an omitted ``value`` as
+  the base value (the URDF's).
 
-``relative: true`` reads the numbers as fractions of the URDF's value ``v0``
-(the draw ``x`` gives ``v0 (1 + x)``: ``low: -0.2, high: 0.2`` is +-20 %);
+posfb adds ``relative: true``, which reads the numbers as fractions of the URDF's
+value ``v0`` (the draw ``x`` gives ``v0 (1 + x)``: ``min: -0.2, max: 0.2`` is +-20 %);
 ``relative: false`` (the default) reads them as the value itself in SI units.
 The per-joint parameters take a list of one distribution (used for both joints,
 each joint drawing its own value) or two (joint 1, joint 2).
@@ -36,13 +39,13 @@ as for ``--set``). ``draws`` gives any other numeric scenario key a distribution
     draws:
       timing.sample_time: !UniformDiscrete {values: [0.005, 0.01]}
       sensor.encoder_counts: !UniformDiscrete {values: [4096, 20000]}
-      sensor.noise_std[1]: !Uniform {low: 0.0, high: 1e-4}
-      trajectory.joints[0].frequency: !Uniform {low: -0.1, high: 0.1, relative: true}
+      sensor.noise_std[1]: !Uniform {min: 0.0, max: 1e-4}
+      trajectory.joints[0].frequency: !Uniform {min: -0.1, max: 0.1, relative: true}
 
-``!UniformDiscrete {values}`` draws one of the values (integer keys need it or
-``!Fixed``); ``relative`` reads a draw as a fraction of the base value; a per-joint
-key without ``[j]`` gives both joints the same value. The physical plant stays
-under ``parameters`` (one place for it). Every drawn value is recorded with the
+Integer keys need ``!UniformDiscrete`` or ``!Deterministic``; ``relative`` reads a
+draw as a fraction of the base value; a per-joint key without ``[j]`` gives both
+joints the same value. The physical plant stays under ``parameters`` (one place for
+it). Every drawn value is recorded with the
 sample (its ``parameters``, under the dotted key).
 
 ``overrides`` pins parameters of chosen samples to absolute values after the
@@ -59,6 +62,7 @@ import hashlib
 import math
 from dataclasses import dataclass, field, replace
 from pathlib import Path
+from typing import ClassVar
 
 import scipy.stats
 from pydrake.common.yaml import yaml_dump_typed
@@ -74,7 +78,7 @@ from posfb.diagrams.scenario import Scenario, apply_setting, get_setting
 from posfb.diagrams.yaml_schema import load_typed, read_text
 from posfb.models.controllers import CONTROLLER_KINDS, require_design
 from posfb.models.design import ControllerConfig
-from posfb.models.plant import JOINT_PARAMETERS
+from posfb.models.plant import JOINT_PARAMETERS, PARAMETER_UNITS
 
 #: Parameters that must be > 0 (the others must be >= 0), as ``ArmParameters`` requires.
 POSITIVE_PARAMETERS = ("link_mass", "motor_constant")
@@ -85,43 +89,55 @@ MIN_TRUNCATED_MASS = 1e-3
 
 @dataclass
 class Uniform:
-    """Uniform on ``[low, high]`` (fractions of the URDF value when ``relative``)."""
+    """Uniform on ``[min, max]`` (Drake's ``!Uniform``); fractions of the base value
+    when ``relative``."""
 
-    low: float = 0.0
-    high: float = 0.0
+    min: float = 0.0
+    max: float = 0.0
     relative: bool = False
+
+    #: Keys of posfb's earlier spelling and the key that replaced each.
+    RENAMED: ClassVar[dict[str, str]] = {"low": "min", "high": "max"}
 
 
 @dataclass
-class Normal:
-    """Normal ``N(mean, std^2)``, truncated to ``[low, high]`` where given."""
+class Gaussian:
+    """Normal ``N(mean, stddev^2)`` (Drake's ``!Gaussian``), truncated to ``[min, max]``
+    where given (posfb's keys, like ``relative``)."""
 
     mean: float = 0.0
-    std: float = 0.0
+    stddev: float = 0.0
     relative: bool = False
-    low: float | None = None
-    high: float | None = None
+    min: float | None = None
+    max: float | None = None
+
+    RENAMED: ClassVar[dict[str, str]] = {"std": "stddev", "low": "min", "high": "max"}
+    #: Tags of posfb's earlier spelling of this distribution.
+    FORMERLY: ClassVar[tuple[str, ...]] = ("Normal",)
 
 
 @dataclass
-class Fixed:
-    """Always ``value`` (absolute), or the URDF's value when ``value`` is omitted."""
+class Deterministic:
+    """Always ``value`` (Drake's ``!Deterministic``, absolute); posfb reads an omitted
+    ``value`` as the base value (the URDF's, or the scenario's)."""
 
     value: float | None = None
+
+    FORMERLY: ClassVar[tuple[str, ...]] = ("Fixed",)
 
 
 @dataclass
 class UniformDiscrete:
-    """One of ``values``, each equally likely (Drake's name for this distribution)."""
+    """One of ``values``, each equally likely (Drake's ``!UniformDiscrete``)."""
 
     values: list[float] = field(default_factory=list)
 
 
-Distribution = Uniform | Normal | Fixed | UniformDiscrete
+Distribution = Uniform | Gaussian | Deterministic | UniformDiscrete
 
 
 def _nominal() -> list[Distribution]:
-    return [Fixed()]
+    return [Deterministic()]
 
 
 @dataclass
@@ -136,7 +152,7 @@ class ParameterDistributions:
     damping: list[Distribution] = field(default_factory=_nominal)
     coulomb: list[Distribution] = field(default_factory=_nominal)
     motor_constant: list[Distribution] = field(default_factory=_nominal)
-    payload_mass: Distribution = field(default_factory=Fixed)
+    payload_mass: Distribution = field(default_factory=Deterministic)
 
     def for_joint(self, name: str, joint: int) -> Distribution:
         """The distribution of ``name`` at ``joint`` (0 or 1)."""
@@ -167,10 +183,13 @@ class Study:
     fixes it; 0 is an ideal sensor; empty: the scenario's). ``draws`` gives any other
     numeric scenario key a distribution (``relative: true`` reads it as a fraction of
     the base value; a per-joint key without ``[j]`` gives both joints the same draw).
+    ``sampling`` is the design the draws follow (``SAMPLING_DESIGNS``,
+    ``analysis.montecarlo.sampling``).
     """
 
     seed: int = 0
     samples: int = 100
+    sampling: str = "random"
     scenario: str = ""
     settings: list[str] = field(default_factory=list)
     base: Scenario = field(default_factory=Scenario)
@@ -191,8 +210,8 @@ class Study:
         ]
         return (
             len(set(self.encoder_counts)) > 1
-            or any(_random(d) for d in physical)
-            or any(_random(d) for d in self.draws.values())
+            or any(is_random(d) for d in physical)
+            or any(is_random(d) for d in self.draws.values())
         )
 
     def base_scenario(self) -> Scenario:
@@ -213,15 +232,67 @@ class Study:
         return resolve(LoadedScenario(self.base_scenario(), Path.cwd())).config.design
 
 
-def _random(distribution: Distribution) -> bool:
+def is_random(distribution: Distribution) -> bool:
     """Whether ``distribution`` can draw more than one value."""
-    if isinstance(distribution, Fixed):
+    if isinstance(distribution, Deterministic):
         return False
     if isinstance(distribution, UniformDiscrete):
         return len(set(distribution.values)) > 1
     if isinstance(distribution, Uniform):
-        return distribution.low != distribution.high
-    return distribution.std > 0.0 and distribution.low != distribution.high
+        return distribution.min != distribution.max
+    return distribution.stddev > 0.0 and distribution.min != distribution.max
+
+
+#: The scalars of one sample, in stream order: (name, joint). Append only: a slot's
+#: position seeds its stream.
+SLOTS = (
+    *((name, joint) for name in JOINT_PARAMETERS for joint in (0, 1)),
+    ("payload_mass", 0),
+    ("encoder_counts", 0),
+)
+
+#: The sampling designs a study may name (``Study.sampling``).
+SAMPLING_DESIGNS = ("random", "latin_hypercube", "sobol", "saltelli")
+
+#: Designs built for a given number of rows: ``samples`` belongs to the study's identity.
+SIZED_DESIGNS = ("latin_hypercube",)
+
+@dataclass(frozen=True)
+class VariedScalar:
+    """One scalar that differs between samples: its ``slot``, the ``key`` it is recorded
+    under in a sample's ``parameters`` (with ``joint`` for a per-joint parameter) and
+    its column name with unit in exports."""
+
+    slot: int
+    key: str
+    joint: int | None
+    column: str
+
+
+def varied_scalars(study: Study) -> tuple[VariedScalar, ...]:
+    """The scalars whose distribution can draw more than one value, in slot order: the
+    dimensions of a QMC design, the columns of an export, the inputs of a sensitivity
+    analysis."""
+    varied = []
+    for slot, (name, joint) in enumerate(SLOTS):
+        if name == "payload_mass":
+            if is_random(study.parameters.payload_mass):
+                varied.append(VariedScalar(slot, name, None, f"{name}_kg"))
+        elif name == "encoder_counts":
+            if len(set(study.encoder_counts)) > 1:
+                varied.append(VariedScalar(slot, name, None, name))
+        elif is_random(study.parameters.for_joint(name, joint)):
+            column = f"{name}_{joint + 1}_{PARAMETER_UNITS[name]}"
+            varied.append(VariedScalar(slot, name, joint, column))
+    for position, (key, distribution) in enumerate(study.draws.items()):
+        if is_random(distribution):
+            varied.append(VariedScalar(len(SLOTS) + position, key, None, key))
+    return tuple(varied)
+
+
+def saltelli_rows(dimensions: int) -> int:
+    """Rows of a Saltelli design per base sample (first and total order): ``d + 2``."""
+    return dimensions + 2
 
 
 def _require(condition: bool, message: str) -> None:
@@ -244,35 +315,38 @@ def _support(key: str, distribution: Distribution) -> tuple[float, float]:
             _finite(f"{key}.values[{i}]", value)
         return min(distribution.values), max(distribution.values)
     if isinstance(distribution, Uniform):
-        _finite(f"{key}.low", distribution.low)
-        _finite(f"{key}.high", distribution.high)
+        _finite(f"{key}.min", distribution.min)
+        _finite(f"{key}.max", distribution.max)
         _require(
-            distribution.low <= distribution.high,
-            f"{key}: low = {distribution.low!r} > high = {distribution.high!r}; "
-            "low <= high is required",
+            distribution.min <= distribution.max,
+            f"{key}: min = {distribution.min!r} > max = {distribution.max!r}; "
+            "min <= max is required",
         )
-        return distribution.low, distribution.high
-    if isinstance(distribution, Normal):
+        return distribution.min, distribution.max
+    if isinstance(distribution, Gaussian):
         _finite(f"{key}.mean", distribution.mean)
-        _finite(f"{key}.std", distribution.std)
-        _require(distribution.std >= 0.0, f"{key}.std = {distribution.std!r}; std >= 0 is required")
-        low = -math.inf if distribution.low is None else distribution.low
-        high = math.inf if distribution.high is None else distribution.high
-        for name in ("low", "high"):
+        _finite(f"{key}.stddev", distribution.stddev)
+        _require(
+            distribution.stddev >= 0.0,
+            f"{key}.stddev = {distribution.stddev!r}; stddev >= 0 is required",
+        )
+        low = -math.inf if distribution.min is None else distribution.min
+        high = math.inf if distribution.max is None else distribution.max
+        for name in ("min", "max"):
             if getattr(distribution, name) is not None:
                 _finite(f"{key}.{name}", getattr(distribution, name))
-        _require(low <= high, f"{key}: low = {low!r} > high = {high!r}; low <= high is required")
-        if distribution.std == 0.0:
+        _require(low <= high, f"{key}: min = {low!r} > max = {high!r}; min <= max is required")
+        if distribution.stddev == 0.0:
             _require(
                 low <= distribution.mean <= high,
-                f"{key}: mean = {distribution.mean!r} lies outside [low, high] with std = 0",
+                f"{key}: mean = {distribution.mean!r} lies outside [min, max] with stddev = 0",
             )
         else:
-            norm = scipy.stats.norm(distribution.mean, distribution.std)
+            norm = scipy.stats.norm(distribution.mean, distribution.stddev)
             kept = norm.cdf(high) - norm.cdf(low)
             _require(
                 kept >= MIN_TRUNCATED_MASS,
-                f"{key}: [low, high] keeps {kept:.2g} of the normal's probability; "
+                f"{key}: [min, max] keeps {kept:.2g} of the normal's probability; "
                 f"at least {MIN_TRUNCATED_MASS:g} is required",
             )
         return low, high
@@ -282,7 +356,7 @@ def _support(key: str, distribution: Distribution) -> tuple[float, float]:
 
 def _check_physical(key: str, name: str, distribution: Distribution) -> None:
     """Refuse a distribution that can draw a value ``ArmParameters`` would refuse."""
-    if isinstance(distribution, Fixed) and distribution.value is None:
+    if isinstance(distribution, Deterministic) and distribution.value is None:
         return  # the URDF value, valid by construction
     low, _ = _support(key, distribution)
     relative = getattr(distribution, "relative", False)
@@ -297,7 +371,7 @@ def _check_physical(key: str, name: str, distribution: Distribution) -> None:
     else:
         ok = low > 0.0 if positive else low >= 0.0
         bound = "> 0" if positive else ">= 0"
-    hint = "; truncate the normal with low:" if isinstance(distribution, Normal) else ""
+    hint = "; truncate the normal with min:" if isinstance(distribution, Gaussian) else ""
     _require(
         ok,
         f"{key}: the range reaches {low!r}{' (relative)' if relative else ''}, "
@@ -346,7 +420,7 @@ def _extremes(distribution: Distribution, base: float) -> list[float]:
     """The values at the ends of what ``distribution`` can draw around ``base``."""
     if isinstance(distribution, UniformDiscrete):
         return [float(v) for v in distribution.values]
-    if isinstance(distribution, Fixed):
+    if isinstance(distribution, Deterministic):
         return [base if distribution.value is None else float(distribution.value)]
     low, high = _support("", distribution)
     ends = [v for v in (low, high) if math.isfinite(v)] or [distribution.mean]
@@ -374,8 +448,9 @@ def _check_draws(study: Study, base: Scenario) -> None:
         _support(where, distribution)
         if integer:
             _require(
-                isinstance(distribution, UniformDiscrete | Fixed),
-                f"{where}: {key} is an integer; use !UniformDiscrete {{values: [...]}} or !Fixed",
+                isinstance(distribution, UniformDiscrete | Deterministic),
+                f"{where}: {key} is an integer; use !UniformDiscrete {{values: [...]}} or "
+                "!Deterministic",
             )
         for value in _extremes(distribution, float(values[0])):
             if integer:
@@ -404,6 +479,10 @@ def validate_study(study: Study) -> Study:
     )
     _require(study.samples > 0, f"samples = {study.samples!r}; at least 1 sample is required")
     _require(
+        study.sampling in SAMPLING_DESIGNS,
+        f"sampling = {study.sampling!r}; one of {', '.join(SAMPLING_DESIGNS)} is required",
+    )
+    _require(
         not study.scenario and not study.settings,
         "scenario/settings are folded into base when a study file is loaded",
     )
@@ -427,7 +506,22 @@ def validate_study(study: Study) -> Study:
         _check_override(position, override)
     samples = [override.sample for override in study.overrides]
     _require(len(set(samples)) == len(samples), "overrides name a sample twice")
+    if study.sampling == "saltelli":
+        _check_saltelli(study)
     return study
+
+
+def _check_saltelli(study: Study) -> None:
+    """A Saltelli design has ``N (d + 2)`` rows for ``N`` a power of 2 (Sobol' balance)."""
+    dimensions = len(varied_scalars(study))
+    _require(dimensions > 0, "sampling = 'saltelli' needs at least one varied parameter")
+    rows = saltelli_rows(dimensions)
+    base, extra = divmod(study.samples, rows)
+    _require(
+        extra == 0 and base > 0 and base & (base - 1) == 0,
+        f"samples = {study.samples!r} with sampling = 'saltelli' over {dimensions} varied "
+        f"parameters; N x {rows} with N a power of 2 is required (e.g. {16 * rows} = 16 x {rows})",
+    )
 
 
 def load_study(path: str | Path) -> Study:
@@ -484,5 +578,8 @@ def canonical_text(study: Study) -> str:
 def identity(study: Study) -> str:
     """SHA-256 of the canonical study without ``samples``: results belong together iff
     the identities match (a resume may ask for more or fewer samples, since a sample's
-    draw depends only on the seed and its index)."""
-    return hashlib.sha256(canonical_text(replace(study, samples=1)).encode()).hexdigest()
+    draw depends only on the seed and its index). A design built for its number of rows
+    (``SIZED_DESIGNS``) keeps ``samples``: another count gives other plants."""
+    sized = study.sampling in SIZED_DESIGNS
+    text = canonical_text(study if sized else replace(study, samples=1))
+    return hashlib.sha256(text.encode()).hexdigest()

@@ -39,7 +39,13 @@ from datetime import UTC, datetime
 from pathlib import Path
 
 from posfb.analysis.errors import UsageError
-from posfb.analysis.montecarlo.config import Study, canonical_text, identity, study_from_text
+from posfb.analysis.montecarlo.config import (
+    SIZED_DESIGNS,
+    Study,
+    canonical_text,
+    identity,
+    study_from_text,
+)
 from posfb.analysis.montecarlo.records import METRIC_COLUMNS, STATUSES, SampleResult
 
 SCHEMA_VERSION = "1"
@@ -116,10 +122,11 @@ def _connect(path: Path) -> sqlite3.Connection:
 
 
 def _differing_keys(stored: Study, study: Study) -> list[str]:
+    sized = study.sampling in SIZED_DESIGNS
     return [
         key
         for key in (f.name for f in fields(Study))
-        if key != "samples" and getattr(stored, key) != getattr(study, key)
+        if (key != "samples" or sized) and getattr(stored, key) != getattr(study, key)
     ]
 
 
