@@ -1,9 +1,9 @@
-"""``posfb montecarlo run|report``: robustness over a population of sampled plants.
+"""``posfb montecarlo run|report|export``: robustness over a population of sampled plants.
 
 ``run`` evaluates every sample of a study (each controller on the same sampled
 plant) on local worker processes or a Dask cluster and stores each finished
 sample in SQLite; running it again resumes. ``report`` turns a store into
-statistics, figures and a Markdown report.
+statistics, figures and a Markdown report; ``export`` into one tidy table.
 """
 
 from __future__ import annotations
@@ -14,12 +14,14 @@ import sys
 from pathlib import Path
 
 from posfb.analysis.errors import InterruptedRunError, UsageError
+from posfb.analysis.export import write_table
 from posfb.analysis.montecarlo.config import Study, load_study, with_overrides
 from posfb.analysis.montecarlo.cost import advice, calibrate
 from posfb.analysis.montecarlo.provenance import code_version
 from posfb.analysis.montecarlo.report import write_report
 from posfb.analysis.montecarlo.scheduler import run_study
 from posfb.analysis.montecarlo.store import ResultStore
+from posfb.analysis.montecarlo.table import TABLE_FORMATS, study_table
 from posfb.analysis.outputs import output_file, output_folder
 
 
@@ -85,6 +87,13 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     report.add_argument("--db", required=True, help="SQLite results file")
     report.add_argument("--out", required=True, help="output folder")
     report.set_defaults(handler=report_command)
+
+    export = actions.add_parser(
+        "export", help="one tidy table, a row per (sample, controller): Parquet or CSV"
+    )
+    export.add_argument("--db", required=True, help="SQLite results file")
+    export.add_argument("--out", required=True, help="FILE.parquet or FILE.csv")
+    export.set_defaults(handler=export_command)
 
 
 def available_cores() -> int:
@@ -152,6 +161,15 @@ def dry_run(study: Study, db: str, workers: int, cores: int) -> int:
     estimate = calibrate(study, study.samples - finished)
     for line in advice(estimate, workers, cores):
         print(line)
+    return 0
+
+
+def export_command(args: argparse.Namespace) -> int:
+    out = output_file("--out", args.out, TABLE_FORMATS)
+    with ResultStore.open_existing(args.db) as store:
+        table = study_table(store)
+    write_table(table, out)
+    print(f"{len(table)} rows ({table['sample'].nunique()} samples) written to {out}")
     return 0
 
 

@@ -23,12 +23,16 @@ METRIC_COLUMNS = (
 @dataclass(frozen=True)
 class ControllerRun:
     """One controller on one sampled plant. ``metrics`` maps ``METRIC_COLUMNS`` to
-    values (``None`` where the run produced none, e.g. an error before the first step)."""
+    values (``None`` where the run produced none, e.g. an error before the first step).
+    ``spectral_radius``: the sampled-data loop of this plant's linear part with the
+    controller as designed (``models.design.plant_spectral_radii``); ``None`` for a
+    controller without one (PID)."""
 
     controller: str
     status: str
     message: str
     metrics: dict[str, float | None]
+    spectral_radius: float | None = None
 
     def __post_init__(self) -> None:
         if self.status not in STATUSES:

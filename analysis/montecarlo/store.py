@@ -1,6 +1,6 @@
 """The results of a study in one SQLite file: durable, resumable, self-describing.
 
-Schema (version 1)::
+Schema (version 2)::
 
     meta(key PRIMARY KEY, value)      -- schema_version, study (canonical YAML),
                                       -- identity, code_version, created_at
@@ -9,7 +9,10 @@ Schema (version 1)::
             code_version, finished_at)
     runs(sample, controller, status, message,
          rms_q1, rms_q2, rms_u1, rms_u2, max_abs_q_err, saturated_fraction,
-         wall_time_s, PRIMARY KEY (sample, controller))
+         wall_time_s, sampled_data_spectral_radius, PRIMARY KEY (sample, controller))
+
+Version 2 added ``sampled_data_spectral_radius`` (NULL for PID); a version-1 store
+is read (the radius reads as missing) but not resumed.
 
 The file carries SQLite's ``application_id`` ``APPLICATION_ID`` ("posf"). Before
 anything is written, an existing file is looked at read-only: a file that is not
@@ -48,13 +51,16 @@ from posfb.analysis.montecarlo.config import (
 )
 from posfb.analysis.montecarlo.records import METRIC_COLUMNS, STATUSES, SampleResult
 
-SCHEMA_VERSION = "1"
+SCHEMA_VERSION = "2"
 
 #: SQLite ``PRAGMA application_id`` of a posfb store: "posf" in ASCII.
 APPLICATION_ID = 0x706F7366
 
 #: The first bytes of every SQLite 3 database file.
 SQLITE_HEADER = b"SQLite format 3\x00"
+
+#: The per-run column of the sampled-data spectral radius (schema version 2).
+RADIUS_COLUMN = "sampled_data_spectral_radius"
 
 #: The tables of a posfb store.
 TABLES = {"meta", "samples", "runs"}
@@ -78,6 +84,7 @@ CREATE TABLE IF NOT EXISTS runs (
     status TEXT NOT NULL CHECK (status IN ({", ".join(repr(s) for s in STATUSES)})),
     message TEXT NOT NULL,
     {", ".join(f"{column} REAL" for column in METRIC_COLUMNS)},
+    {RADIUS_COLUMN} REAL,
     PRIMARY KEY (sample, controller)
 );
 """
@@ -221,8 +228,8 @@ class ResultStore:
 
     def write(self, result: SampleResult, code_version: str) -> None:
         """Store one finished sample and its runs in one transaction."""
-        columns = ", ".join(("sample", "controller", "status", "message", *METRIC_COLUMNS))
-        marks = ", ".join("?" * (4 + len(METRIC_COLUMNS)))
+        names = ("sample", "controller", "status", "message", *METRIC_COLUMNS, RADIUS_COLUMN)
+        columns, marks = ", ".join(names), ", ".join("?" * len(names))
         with self._transaction():
             self._connection.execute(
                 "INSERT INTO samples VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?)",
@@ -247,6 +254,7 @@ class ResultStore:
                         run.status,
                         run.message,
                         *(run.metrics.get(column) for column in METRIC_COLUMNS),
+                        run.spectral_radius,
                     )
                     for run in result.runs
                 ],
@@ -264,9 +272,12 @@ class ResultStore:
         return rows
 
     def run_rows(self) -> list[dict[str, object]]:
-        """Every ``runs`` row, by sample index and controller."""
+        """Every ``runs`` row, by sample index and controller (a version-1 store's rows
+        have ``sampled_data_spectral_radius`` ``None``)."""
         query = "SELECT * FROM runs ORDER BY sample, controller"
-        return [dict(row) for row in self._connection.execute(query)]
+        return [
+            {RADIUS_COLUMN: None, **dict(row)} for row in self._connection.execute(query)
+        ]
 
     def close(self) -> None:
         self._connection.close()

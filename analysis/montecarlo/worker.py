@@ -26,6 +26,8 @@ from posfb.analysis.montecarlo.sampling import SampledPlant, sample_plant, sampl
 from posfb.diagrams.closed_loop import ClosedLoopRunner, SensorState
 from posfb.diagrams.resolve import LoadedScenario, resolve
 from posfb.diagrams.scenario import ParameterOverrides, Scenario, dump_scenario
+from posfb.models.controllers import cached_design
+from posfb.models.design import plant_spectral_radii
 from posfb.models.design.bounds import resolve_bounds
 from posfb.models.identify import identify
 from posfb.models.trajectory import JOINTS
@@ -65,7 +67,8 @@ def structure_key(scenario: Scenario, controller: str) -> str:
 
 class ClosedLoopEvaluator:
     """Evaluates samples of one study: sample the scenario and the plant, identify its
-    theta, place it against the Assumption-1 bounds, run every controller on it."""
+    theta, place it against the Assumption-1 bounds, compute the sampled-data spectral
+    radius of each designed loop on it, run every controller on it."""
 
     def __init__(self, study: Study) -> None:
         self.study = study
@@ -101,6 +104,7 @@ class ClosedLoopEvaluator:
         theta = identify(self._reference.arm, context)
         design = config.design
         where = coverage(theta, design.nominal, resolve_bounds(design.bounds, design.nominal))
+        radii = plant_spectral_radii(cached_design(design), theta)
         parameters = {
             key: list(value) if isinstance(value, tuple) else value
             for key, value in asdict(plant.parameters).items()
@@ -113,22 +117,26 @@ class ClosedLoopEvaluator:
             bound_ratios=where.ratios,
             inside_bounds=where.inside,
             runs=tuple(
-                self._run(scenario, controller, plant, sensor)
+                self._run(scenario, controller, plant, sensor, radii.get(controller))
                 for controller in self.study.controllers
             ),
         )
 
     def _run(
-        self, scenario: Scenario, controller: str, plant: SampledPlant, sensor: SensorState
+        self,
+        scenario: Scenario,
+        controller: str,
+        plant: SampledPlant,
+        sensor: SensorState,
+        radius: float | None,
     ) -> ControllerRun:
         """One controller on ``plant``; an exception is recorded as ``error``."""
         try:
             result = self.runner(scenario, controller).run(plant.parameters, sensor)
         except Exception as error:  # recorded, never stops the study
-            return ControllerRun(controller, "error", _one_line(error), {})
-        return ControllerRun(
-            controller, result.status, result.message, _metrics_dict(run_metrics(result))
-        )
+            return ControllerRun(controller, "error", _one_line(error), {}, radius)
+        metrics = _metrics_dict(run_metrics(result))
+        return ControllerRun(controller, result.status, result.message, metrics, radius)
 
 
 _local = threading.local()

@@ -10,9 +10,17 @@ from posfb.models.design.config import (
     UncertaintyBounds,
     diagonal,
 )
-from posfb.models.design.synthesis import Check, Design, compute_design
+from posfb.models.design.synthesis import (
+    LOOP_CONTROLLERS,
+    Check,
+    Design,
+    compute_design,
+    plant_spectral_radii,
+)
 
 __all__ = [
+    "LOOP_CONTROLLERS",
+    "plant_spectral_radii",
     "Check",
     "ControllerConfig",
     "Design",

@@ -45,7 +45,7 @@ from posfb.models.design.realisation import (
     velocity_bound_filter,
 )
 from posfb.models.design.spr import SprCertificate, spr_certificate
-from posfb.models.lumped import LumpedModel
+from posfb.models.lumped import LumpedModel, LumpedParameters
 
 _N = JOINTS
 
@@ -201,6 +201,52 @@ def _stability_check(name: str, what: str, radius: float) -> Check:
     return Check(name, radius < 1.0, f"{what}: spectral radius {radius:.4f} {verdict}")
 
 
+#: The controllers whose sampled-data loop a design computes (PID is not a filter of
+#: Sec. 3: its loop on the nominal model is not part of the design report).
+LOOP_CONTROLLERS = ("proposed", "lin_lc")
+
+
+def _loop_radii(
+    M0: np.ndarray,
+    B: np.ndarray,
+    proposed_filter: DiscreteFilter,
+    lin_lc_filter: DiscreteFilter,
+    alpha_star: float,
+    sample_time: float,
+) -> dict[str, float]:
+    """Spectral radius of each ``LOOP_CONTROLLERS`` sampled-data loop on the linear part
+    ``M0 q~'' + B q~' = u`` (``models.design.closed_loop``). The proposed controller's
+    filter outputs ``[eta~, phi, p, pbar]`` give ``u = eta~ - alpha* phi`` (Eq. 13, 19 with
+    ``alpha = alpha*``); the bound filter runs open loop, so its poles ``abar`` are in the
+    spectrum too."""
+    outputs = proposed_filter.C.shape[0]
+    gain = np.hstack([np.eye(_N), -alpha_star * np.eye(_N), np.zeros((_N, outputs - 2 * _N))])
+    return {
+        "proposed": spectral_radius(
+            sampled_data_closed_loop(M0, B, proposed_filter, gain, sample_time)
+        ),
+        "lin_lc": spectral_radius(
+            sampled_data_closed_loop(M0, B, lin_lc_filter, np.eye(_N), sample_time)
+        ),
+    }
+
+
+def plant_spectral_radii(design: Design, plant: LumpedParameters) -> dict[str, float]:
+    """The sampled-data spectral radius of each ``LOOP_CONTROLLERS`` loop with the filters
+    *as designed* (on the nominal model) closed around the linear part ``M0, B`` of
+    ``plant`` (another arm's theta): the design report's check, asked of a sampled plant.
+    On ``design.config.nominal`` it is the design's own radii."""
+    model = LumpedModel(plant)
+    return _loop_radii(
+        model.M0(),
+        model.B(),
+        design.proposed_filter,
+        design.lin_lc_filter,
+        design.config.nonlinear.alpha_star,
+        design.config.sample_time,
+    )
+
+
 def compute_design(config: ControllerConfig | None = None) -> Design:
     """The design of Sec. 3 for ``config`` (default: the paper's Sec. 4.2 settings)."""
     config = ControllerConfig() if config is None else config
@@ -225,8 +271,8 @@ def compute_design(config: ControllerConfig | None = None) -> Design:
     )
     nc_gain = np.hstack([np.eye(_N), -nonlinear.alpha_star * np.eye(_N)])
     lin_lc_filter = lc.discretise(T, method)
-    radius = spectral_radius(sampled_data_closed_loop(M0, B, nc.discretise(T, method), nc_gain, T))
-    radius_lin_lc = spectral_radius(sampled_data_closed_loop(M0, B, lin_lc_filter, np.eye(_N), T))
+    proposed_filter = stack(nc, velocity_bound_filter(nonlinear.filter_a, _N)).discretise(T, method)
+    radii = _loop_radii(M0, B, proposed_filter, lin_lc_filter, nonlinear.alpha_star, T)
     continuous_poles = _sorted_poles(augmented.A_a - augmented.B_a1 @ lqr.K)
     poles_with_nc = _sorted_poles(continuous_closed_loop(M0, B, nc, nc_gain))
     lc_filter_poles = _sorted_poles(lc.A)
@@ -256,12 +302,12 @@ def compute_design(config: ControllerConfig | None = None) -> Design:
             f"sampled-data closed loop of the proposed controller (nominal linear plant held "
             f"over T_s = {T:g} s, alpha = alpha* = {nonlinear.alpha_star:g}, "
             f"{method.upper()} filters)",
-            radius,
+            radii["proposed"],
         ),
         _stability_check(
             "sampled_data_lin_lc",
             f"sampled-data closed loop of Lin+LC (T_s = {T:g} s, {method.upper()} filters)",
-            radius_lin_lc,
+            radii["lin_lc"],
         ),
     )
     return Design(
@@ -284,10 +330,8 @@ def compute_design(config: ControllerConfig | None = None) -> Design:
         bound_filter=bound_filter,
         bounds=resolve_bounds(config.bounds, config.nominal),
         lin_lc_filter=lin_lc_filter,
-        proposed_filter=stack(nc, velocity_bound_filter(nonlinear.filter_a, _N)).discretise(
-            T, method
-        ),
-        sampled_data_spectral_radius=radius,
-        sampled_data_spectral_radius_lin_lc=radius_lin_lc,
+        proposed_filter=proposed_filter,
+        sampled_data_spectral_radius=radii["proposed"],
+        sampled_data_spectral_radius_lin_lc=radii["lin_lc"],
         checks=checks,
     )

@@ -1,0 +1,126 @@
+"""The tidy export of a study and the per-sample sampled-data spectral radius."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+from montecarlo_helpers import TINY_STUDY
+
+from posfb.analysis.cli import main
+from posfb.analysis.montecarlo.config import study_from_text
+from posfb.analysis.montecarlo.scheduler import run_study
+from posfb.analysis.montecarlo.store import ResultStore
+from posfb.analysis.montecarlo.table import (
+    PLANT_COLUMNS,
+    RATIO_COLUMNS,
+    THETA_COLUMNS,
+    study_table,
+)
+from posfb.models.controllers import cached_design
+from posfb.models.design import ControllerConfig, plant_spectral_radii
+from posfb.models.lumped import LumpedParameters
+
+#: The tiny study, shorter, with one scenario key drawn as well.
+STUDY = (
+    TINY_STUDY.replace("duration: 1.0", "duration: 0.3")
+    + "draws:\n  sensor.noise_std[1]: !Uniform {min: 0.0, max: 1e-5}\n"
+)
+
+ISSUE_COLUMNS = [
+    "sample", "controller", "status", "rms_q1_rad", "rms_q2_rad", "rms_u1_V", "rms_u2_V",
+    "max_abs_q_err_rad", "saturated_fraction",
+]  # fmt: skip
+
+
+@pytest.fixture(scope="module")
+def db(tmp_path_factory) -> Path:
+    path = tmp_path_factory.mktemp("table") / "study.sqlite"
+    study = study_from_text(STUDY)
+    with ResultStore.create_or_resume(path, study, "test") as store:
+        run_study(study, store, "test", workers=1, progress=False)
+    return path
+
+
+def test_the_table_has_a_row_per_sample_and_controller_with_every_column(db):
+    table = study_table(db)
+    assert len(table) == 4 * 2
+    assert list(table.columns[: len(ISSUE_COLUMNS)]) == ISSUE_COLUMNS
+    for column in (*PLANT_COLUMNS, "sensor.noise_std[1]", *THETA_COLUMNS, *RATIO_COLUMNS):
+        assert column in table.columns, column
+    assert {"inside_bounds", "sampled_data_spectral_radius"} <= set(table.columns)
+    assert "link_mass_1_kg" in table.columns and "payload_mass_kg" in table.columns
+    assert set(zip(table["sample"], table["controller"], strict=True)) == {
+        (i, c) for i in range(4) for c in ("proposed", "pid")
+    }
+    assert table["inside_bounds"].dtype == bool
+
+
+def test_the_table_equals_what_the_store_holds(db):
+    table = study_table(db).set_index(["sample", "controller"])
+    with ResultStore.open_existing(db) as store:
+        samples = {row["sample"]: row for row in store.sample_rows()}
+        runs = store.run_rows()
+    for run in runs:
+        row = table.loc[(run["sample"], run["controller"])]
+        sample = samples[run["sample"]]
+        assert row["status"] == run["status"]
+        assert row["rms_q2_rad"] == run["rms_q2"] and row["rms_u1_V"] == run["rms_u1"]
+        assert row["link_com_2_m"] == sample["parameters"]["link_com"][1]
+        assert row["payload_mass_kg"] == sample["parameters"]["payload_mass"]
+        assert row["sensor.noise_std[1]"] == sample["parameters"]["sensor.noise_std[1]"]
+        assert row["theta7"] == sample["theta"]["theta7"]
+        assert row["delta_M0_ratio"] == sample["bound_ratios"]["delta_M0"]
+        assert row["encoder_counts"] == sample["encoder_counts"]
+
+
+def test_export_writes_parquet_and_csv_that_read_back_equal(db, tmp_path, capsys):
+    table = study_table(db)
+    for name, read in (("t.parquet", pd.read_parquet), ("t.csv", pd.read_csv)):
+        out = tmp_path / name
+        assert main(["montecarlo", "export", "--db", str(db), "--out", str(out)]) == 0
+        assert "8 rows (4 samples)" in capsys.readouterr().out
+        back = read(out)
+        # An empty message is an empty CSV field, which pandas reads as missing.
+        back["message"] = back["message"].astype(object).where(back["message"].notna(), "")
+        pd.testing.assert_frame_equal(back, table, check_dtype=False)
+
+
+def test_export_refuses_bad_input_in_one_line(db, tmp_path, capsys):
+    missing = str(tmp_path / "missing.sqlite")
+    for db_arg, out, needle in (
+        (str(db), "t.xlsx", "--out 't.xlsx'; a file ending in one of .parquet, .csv"),
+        (missing, str(tmp_path / "t.csv"), "results do not exist"),
+    ):
+        assert main(["montecarlo", "export", "--db", db_arg, "--out", out]) != 0
+        err = capsys.readouterr().err.strip()
+        assert needle in err and len(err.splitlines()) == 1
+
+
+def test_the_radius_on_the_nominal_plant_is_the_design_reports(capsys):
+    for alpha_star in (4.0, 2.75):
+        config = ControllerConfig().with_alpha_star(alpha_star)
+        assert main(["design", "--json", "--alpha-star", str(alpha_star)]) == 0
+        report = json.loads(capsys.readouterr().out)
+        radii = plant_spectral_radii(cached_design(config), config.nominal)
+        assert radii["proposed"] == report["sampled_data_spectral_radius"]
+        assert radii["lin_lc"] == report["sampled_data_spectral_radius_lin_lc"]
+
+
+def test_each_sample_stores_the_radius_of_its_own_plant(db):
+    table = study_table(db)
+    design = cached_design(study_from_text(STUDY).controller_config())
+    for _, row in table.iterrows():
+        if row["controller"] == "pid":
+            assert np.isnan(row["sampled_data_spectral_radius"])
+            continue
+        theta = LumpedParameters(
+            **{f"theta{i}": row[f"theta{i}"] for i in range(1, 12)}, l1=row["l1_m"]
+        )
+        expected = plant_spectral_radii(design, theta)["proposed"]
+        assert row["sampled_data_spectral_radius"] == expected
+    radii = table.loc[table["controller"] == "proposed", "sampled_data_spectral_radius"]
+    assert radii.nunique() == 4  # four plants, four loops
