@@ -10,7 +10,8 @@ from posfb.analysis.cli import main
 from posfb.analysis.montecarlo.config import study_from_text
 from posfb.analysis.montecarlo.coverage import BOUND_NAMES
 from posfb.analysis.montecarlo.records import METRIC_COLUMNS, ControllerRun, SampleResult
-from posfb.analysis.montecarlo.report import FIGURES, beats, joint_stats, load, status_counts
+from posfb.analysis.montecarlo.report import FIGURES
+from posfb.analysis.montecarlo.results import beats, joint_stats, load, status_counts
 from posfb.analysis.montecarlo.store import ResultStore
 
 #: rms_q per sample: (proposed joint 1, joint 2), (pid joint 1, joint 2); None: diverged.
@@ -91,3 +92,90 @@ def test_report_of_a_missing_store_is_one_line(tmp_path, capsys):
     code = main(["montecarlo", "report", "--db", str(tmp_path / "no.sqlite"), "--out", "x"])
     assert code == 2
     assert len(capsys.readouterr().err.strip().splitlines()) == 1
+
+
+def _synthetic_store(path, study, error_of):
+    """A store whose sampled plants are the study's own draws and whose RMS errors are
+    ``error_of(plant parameters)`` (no simulation)."""
+    from posfb.analysis.montecarlo.sampling import sample_plant
+    from posfb.models.plant import build_arm_diagram
+
+    nominal = build_arm_diagram()[1].default_parameters
+    with ResultStore.create_or_resume(path, study, "test") as store:
+        for i in range(study.samples):
+            plant = sample_plant(study, nominal, i).parameters
+            rms = error_of(plant)
+            metrics = dict.fromkeys(METRIC_COLUMNS, 0.5)
+            metrics.update(rms_q1=rms, rms_q2=rms)
+            parameters = {
+                k: list(v) if isinstance(v, tuple) else v for k, v in plant.__dict__.items()
+            }
+            store.write(
+                SampleResult(
+                    index=i,
+                    parameters=parameters,
+                    encoder_counts=20000,
+                    theta={},
+                    bound_ratios=dict.fromkeys(BOUND_NAMES, 0.5),
+                    inside_bounds=True,
+                    runs=(ControllerRun("proposed", "ok", "", metrics, 1.0 + 0.01 * rms),),
+                ),
+                "test",
+            )
+    return ResultStore.open_existing(path)
+
+
+def test_sensitivity_ranks_the_one_parameter_that_matters_first(tmp_path):
+    from posfb.analysis.montecarlo.sensitivity import sensitivities
+
+    text = TINY_STUDY.replace("samples: 4", "samples: 120")
+    study = study_from_text(text.replace("[proposed, pid]", "[proposed]"))
+    store = _synthetic_store(
+        tmp_path / "s.sqlite", study, lambda plant: 0.01 * (1.0 + plant.link_com[1] ** 3)
+    )
+    with store:
+        found = sensitivities(load(store))
+    for entry in found:
+        assert entry.ranking[0].parameter == "link_com_2_m"
+        assert entry.ranking[0].rho > 0.9 and entry.ranking[0].p_value < 1e-6
+        assert all(abs(rank.rho) < 0.35 for rank in entry.ranking[1:])
+
+
+def test_a_saltelli_study_reports_sobol_indices_of_the_parameter_that_matters(tmp_path):
+    from posfb.analysis.montecarlo.sensitivity import sensitivities
+
+    text = """
+seed: 3
+samples: 256
+sampling: saltelli
+controllers: [proposed]
+parameters:
+  coulomb: [!Uniform {min: -0.2, max: 0.2, relative: true}, !Deterministic {}]
+  payload_mass: !Uniform {min: 0.0, max: 0.5}
+"""
+    study = study_from_text(text)
+    store = _synthetic_store(tmp_path / "s.sqlite", study, lambda plant: plant.payload_mass)
+    with store:
+        data = load(store)
+        (entry, _) = sensitivities(data)
+        out = tmp_path / "report"
+        main(["montecarlo", "report", "--db", str(store.path), "--out", str(out)])
+    indices = {index.parameter: index for index in entry.sobol}
+    payload, coulomb = indices["payload_mass_kg"], indices["coulomb_1_N_m"]
+    assert abs(payload.first - 1.0) <= max(payload.first_conf, 0.05)
+    assert abs(payload.total - 1.0) <= max(payload.total_conf, 0.05)
+    assert abs(coulomb.total) <= max(coulomb.total_conf, 0.05)
+    assert "Sobol' indices" in (out / "report.md").read_text()
+
+
+def test_the_report_has_the_answer_sections_and_every_figure(store, tmp_path):
+    out = tmp_path / "report"
+    assert main(["montecarlo", "report", "--db", str(store.path), "--out", str(out)]) == 0
+    text = (out / "report.md").read_text()
+    for heading in (
+        "## Sensitivity", "## Were there enough samples?", "median [95 % CI]",
+        "failed share [95 % CI]", "Wilson 95 % interval",
+    ):  # fmt: skip
+        assert heading in text, heading
+    for name in FIGURES:
+        assert (out / f"{name}.png").is_file(), name

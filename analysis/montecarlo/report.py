@@ -1,16 +1,14 @@
 """Statistics, figures and a Markdown report of a Monte-Carlo store.
 
-Conventions (stated in the report too):
-
-* The RMS statistics use the runs with status ``ok`` only: a diverged run stops
-  early, so its RMS covers a different time span; it counts as a failure
-  (``diverged`` or ``error``) instead.
-* "The paper's controller beats PID" on a sample when ``proposed`` finished
-  (``ok``) and either PID did not, or the proposed controller's tracking error
-  ``||(rms_q1, rms_q2)||`` is smaller. The share is over the samples where
-  neither run is an ``error``.
-* Inside/outside: the sample's identified plant against the Assumption-1 bounds
-  of the controller design (``analysis.montecarlo.coverage``).
+The data and its conventions (which runs enter the RMS statistics, what "beats
+PID" means) are ``analysis.montecarlo.results``. Every median and 95th
+percentile comes with a percentile-bootstrap 95 % interval and every share with
+a Wilson 95 % interval (``analysis.montecarlo.statistics``, seeded, so the same
+store writes the same report). Inside/outside: the sample's identified plant
+against the Assumption-1 bounds of the controller design
+(``analysis.montecarlo.coverage``). The answers come in sections of their own:
+per-sample sampled-data stability (``stability``), sensitivity
+(``sensitivity``) and whether N was enough (``convergence``).
 """
 
 from __future__ import annotations
@@ -21,9 +19,18 @@ from pathlib import Path
 import numpy as np
 from matplotlib.figure import Figure
 
-from posfb.analysis.montecarlo.config import Study
-from posfb.analysis.montecarlo.coverage import BOUND_NAMES
+from posfb.analysis.montecarlo import convergence, sensitivity, stability
 from posfb.analysis.montecarlo.records import STATUSES
+from posfb.analysis.montecarlo.results import (
+    JointStats,
+    StudyData,
+    beats,
+    joint_stats,
+    load,
+    ok_values,
+    status_counts,
+)
+from posfb.analysis.montecarlo.statistics import Interval, proportion_interval
 from posfb.analysis.montecarlo.store import ResultStore
 from posfb.analysis.plots import save
 from posfb.diagrams.scenario import Wave
@@ -32,119 +39,12 @@ from posfb.diagrams.scenario import Wave
 #: command a voltage beyond the limit.
 SATURATION_SHARE = 0.1
 
-#: Figure files written next to the report (each as .png and .svg).
-FIGURES = ("rms_distributions", "rms_vs_payload", "rms_inside_outside")
-
-
-@dataclass(frozen=True)
-class StudyData:
-    """A store's results as arrays aligned by sample (row ``i`` is ``samples[i]``).
-
-    ``rms_q[controller]`` has shape ``(n, 2)`` and ``saturated[controller]`` (the share
-    of control samples with a commanded voltage beyond the limit) shape ``(n,)``, NaN
-    where the run is not ``ok``; ``status[controller]`` holds the status strings."""
-
-    study: Study
-    meta: dict[str, str]
-    samples: np.ndarray
-    payload: np.ndarray
-    inside: np.ndarray
-    exceeded: dict[str, int]
-    code_versions: tuple[str, ...]
-    controllers: tuple[str, ...]
-    rms_q: dict[str, np.ndarray]
-    saturated: dict[str, np.ndarray]
-    status: dict[str, np.ndarray]
-    messages: dict[str, list[str]]
-
-
-@dataclass(frozen=True)
-class JointStats:
-    """RMS tracking error (rad) of one controller at one joint over its ``ok`` runs."""
-
-    controller: str
-    joint: int
-    count: int
-    mean: float
-    median: float
-    p95: float
-    max: float
-
-
-def load(store: ResultStore) -> StudyData:
-    """Read every finished sample of ``store``."""
-    study = store.study()
-    samples = store.sample_rows()
-    index = {row["sample"]: i for i, row in enumerate(samples)}
-    n = len(samples)
-    rms_q = {c: np.full((n, 2), np.nan) for c in study.controllers}
-    saturated = {c: np.full(n, np.nan) for c in study.controllers}
-    status = {c: np.full(n, "error", dtype=object) for c in study.controllers}
-    messages: dict[str, list[str]] = {c: [] for c in study.controllers}
-    for run in store.run_rows():
-        i, controller = index[run["sample"]], run["controller"]
-        status[controller][i] = run["status"]
-        if run["status"] == "ok":
-            rms_q[controller][i] = (run["rms_q1"], run["rms_q2"])
-            saturated[controller][i] = run["saturated_fraction"]
-        elif run["message"]:
-            messages[controller].append(f"sample {run['sample']}: {run['message']}")
-    return StudyData(
-        study=study,
-        meta=store.meta(),
-        samples=np.array([row["sample"] for row in samples], dtype=int),
-        payload=np.array([row["payload_mass"] for row in samples], dtype=float),
-        inside=np.array([row["inside_bounds"] for row in samples], dtype=bool),
-        exceeded={
-            name: sum(row["bound_ratios"][name] > 1.0 for row in samples) for name in BOUND_NAMES
-        },
-        code_versions=tuple(sorted({row["code_version"] for row in samples})),
-        controllers=tuple(study.controllers),
-        rms_q=rms_q,
-        saturated=saturated,
-        status=status,
-        messages=messages,
-    )
-
-
-def joint_stats(data: StudyData) -> list[JointStats]:
-    """Mean, median, 95th percentile and max of the RMS error per controller and joint."""
-    stats = []
-    for controller in data.controllers:
-        for joint in (0, 1):
-            values = data.rms_q[controller][:, joint]
-            values = values[np.isfinite(values)]
-            if values.size == 0:
-                stats.append(JointStats(controller, joint + 1, 0, *(4 * [float("nan")])))
-                continue
-            stats.append(
-                JointStats(
-                    controller=controller,
-                    joint=joint + 1,
-                    count=int(values.size),
-                    mean=float(np.mean(values)),
-                    median=float(np.median(values)),
-                    p95=float(np.percentile(values, 95)),
-                    max=float(np.max(values)),
-                )
-            )
-    return stats
-
-
-def status_counts(data: StudyData) -> dict[str, dict[str, int]]:
-    """``{controller: {status: count}}``."""
-    return {c: {s: int(np.sum(data.status[c] == s)) for s in STATUSES} for c in data.controllers}
-
-
-def beats(data: StudyData, challenger: str = "proposed", baseline: str = "pid") -> tuple[int, int]:
-    """``(wins, comparable)``: samples where ``challenger`` beats ``baseline`` (module
-    docstring) and samples where neither run is an error."""
-    ours, theirs = data.status[challenger], data.status[baseline]
-    comparable = (ours != "error") & (theirs != "error")
-    ours_error = np.linalg.norm(data.rms_q[challenger], axis=1)
-    theirs_error = np.linalg.norm(data.rms_q[baseline], axis=1)
-    better = (ours == "ok") & ((theirs != "ok") | (ours_error < theirs_error))
-    return int(np.sum(better & comparable)), int(np.sum(comparable))
+#: Figure files written next to every report (each as .png and .svg); ``rms_vs_radius``
+#: joins them when some controller has a designed loop (``stability``).
+FIGURES = (
+    "rms_distributions", "rms_vs_payload", "rms_inside_outside", "sensitivity", "convergence",
+    "ecdf",
+)  # fmt: skip
 
 
 def _save(figure: Figure, out: Path, name: str) -> None:
@@ -157,17 +57,12 @@ def _two_joint_axes() -> tuple[Figure, np.ndarray]:
     return figure, figure.subplots(1, 2, sharey=True)
 
 
-def _ok_values(data: StudyData, controller: str, joint: int, mask: np.ndarray) -> np.ndarray:
-    values = data.rms_q[controller][mask, joint]
-    return values[np.isfinite(values)]
-
-
 def plot_distributions(data: StudyData, out: Path) -> None:
     """Box plots (with every sample as a dot) of the RMS error per controller and joint."""
     figure, axes = _two_joint_axes()
     everything = np.ones(len(data.samples), dtype=bool)
     for joint, axis in enumerate(axes):
-        values = [_ok_values(data, c, joint, everything) for c in data.controllers]
+        values = [ok_values(data, c, joint, everything) for c in data.controllers]
         positions = np.arange(1, len(values) + 1)
         kept = [(p, v) for p, v in zip(positions, values, strict=True) if v.size]
         if kept:
@@ -211,7 +106,7 @@ def plot_inside_outside(data: StudyData, out: Path) -> None:
             kept = [
                 (k, v)
                 for k, c in enumerate(data.controllers)
-                if (v := _ok_values(data, c, joint, mask)).size
+                if (v := ok_values(data, c, joint, mask)).size
             ]
             if not kept:
                 continue
@@ -239,8 +134,45 @@ def _number(value: float) -> str:
     return "-" if not np.isfinite(value) else f"{value:.4g}"
 
 
-def markdown(data: StudyData, title: str = "Monte-Carlo robustness study") -> str:
+def _interval(interval: Interval) -> str:
+    return "-" if not np.isfinite(interval.estimate) else interval.text(4)
+
+
+def _share(interval: Interval) -> str:
+    """A proportion and its interval in percent."""
+    if not np.isfinite(interval.estimate):
+        return "-"
+    return (
+        f"{100 * interval.estimate:.1f} % [{100 * interval.low:.1f}, {100 * interval.high:.1f}]"
+    )
+
+
+@dataclass(frozen=True)
+class Answers:
+    """What the report computes from a store before writing it."""
+
+    stats: list[JointStats]
+    loops: list[stability.LoopStability]
+    ranked: list[sensitivity.Sensitivity]
+    settled: list[convergence.Convergence]
+
+
+def answers(data: StudyData) -> Answers:
+    stats = joint_stats(data)
+    return Answers(
+        stats=stats,
+        loops=stability.loop_stability(data),
+        ranked=sensitivity.sensitivities(data),
+        settled=convergence.convergence(data, stats),
+    )
+
+
+def markdown(
+    data: StudyData, found: Answers | None = None, title: str = "Monte-Carlo robustness study"
+) -> str:
     """The report as Markdown (figures referenced by relative path)."""
+    found = answers(data) if found is None else found
+    stats, loops, ranked, settled = found.stats, found.loops, found.ranked, found.settled
     study, n = data.study, len(data.samples)
     design = (
         ""
@@ -270,42 +202,49 @@ def markdown(data: StudyData, title: str = "Monte-Carlo robustness study") -> st
         "",
         "## RMS tracking error (rad), runs that finished",
         "",
-        "| controller | joint | runs | mean | median | 95th pct | max |",
+        "Medians and 95th percentiles with their percentile-bootstrap 95 % intervals.",
+        "",
+        "| controller | joint | runs | mean | median [95 % CI] | 95th pct [95 % CI] | max |",
         "|---|---:|---:|---:|---:|---:|---:|",
     ]
-    for s in joint_stats(data):
+    for s in stats:
         lines.append(
             f"| {s.controller} | {s.joint} | {s.count} | {_number(s.mean)} | "
-            f"{_number(s.median)} | {_number(s.p95)} | {_number(s.max)} |"
+            f"{_interval(s.median_interval)} | {_interval(s.p95_interval)} | {_number(s.max)} |"
         )
     lines += [
         "",
         "## Failures and saturation",
         "",
-        "| controller | ok | diverged | error | runs saturated > "
-        f"{SATURATION_SHARE:.0%} of the time | largest saturated share |",
-        "|---|---:|---:|---:|---:|---:|",
+        "Shares of the runs with Wilson 95 % intervals.",
+        "",
+        "| controller | ok | diverged | error | failed share [95 % CI] | runs saturated > "
+        f"{SATURATION_SHARE:.0%} of the time [95 % CI] | largest saturated share |",
+        "|---|---:|---:|---:|---:|---:|---:|",
     ]
     for controller, counts in status_counts(data).items():
         row = " | ".join(str(counts[status]) for status in STATUSES)
+        runs = sum(counts.values())
+        failed = _share(proportion_interval(runs - counts["ok"], runs))
         shares = data.saturated[controller]
         often = int(np.sum(shares > SATURATION_SHARE))
+        saturated = f"{often} ({_share(proportion_interval(often, runs))})"
         largest = _number(float(np.nanmax(shares))) if np.any(np.isfinite(shares)) else "-"
-        lines.append(f"| {controller} | {row} | {often} | {largest} |")
+        lines.append(f"| {controller} | {row} | {failed} | {saturated} | {largest} |")
     failures = [m for c in data.controllers for m in data.messages[c][:3]]
     if failures:
         lines += ["", "First failure messages per controller:", ""]
         lines += [f"- {m}" for m in failures]
     if {"proposed", "pid"} <= set(data.controllers):
         wins, comparable = beats(data)
-        share = f"{100 * wins / comparable:.1f} %" if comparable else "-"
+        share = _share(proportion_interval(wins, comparable)) if comparable else "-"
         lines += [
             "",
             "## The paper's controller against PID",
             "",
             f"The proposed controller beats computed torque + PID on **{wins} of "
-            f"{comparable}** samples ({share}): it finished and its tracking error "
-            "`||(rms_q1, rms_q2)||` is smaller, or PID did not finish.",
+            f"{comparable}** samples ({share}, Wilson 95 % interval): it finished and its "
+            "tracking error `||(rms_q1, rms_q2)||` is smaller, or PID did not finish.",
         ]
     inside = int(np.sum(data.inside))
     lines += [
@@ -323,7 +262,7 @@ def markdown(data: StudyData, title: str = "Monte-Carlo robustness study") -> st
     ]
     for controller in data.controllers:
         medians = [
-            _number(float(np.median(v))) if (v := _ok_values(data, controller, j, m)).size else "-"
+            _number(float(np.median(v))) if (v := ok_values(data, controller, j, m)).size else "-"
             for j in (0, 1)
             for m in (data.inside, ~data.inside)
         ]
@@ -332,8 +271,11 @@ def markdown(data: StudyData, title: str = "Monte-Carlo robustness study") -> st
             f"| {controller} | {' | '.join(medians)} | {int(np.sum(failed & data.inside))} | "
             f"{int(np.sum(failed & ~data.inside))} |"
         )
-    lines += ["", "## Figures", ""]
-    lines += [f"![{name}]({name}.png)" for name in FIGURES]
+    lines += ["", *stability.markdown(loops)]
+    lines += sensitivity.markdown(ranked)
+    lines += convergence.markdown(settled, n)
+    lines += ["## Figures", ""]
+    lines += [f"![{name}]({name}.png)" for name in FIGURES[:3]]
     lines += [
         "",
         "RMS statistics use finished (`ok`) runs; a diverged run stops early and counts "
@@ -351,9 +293,14 @@ def write_report(store: ResultStore, out: str | Path) -> Path:
     data = load(store)
     if len(data.samples) == 0:
         raise ValueError(f"{store.path} holds no finished samples yet; nothing to report")
+    found = answers(data)
     plot_distributions(data, out)
     plot_against_payload(data, out)
     plot_inside_outside(data, out)
+    if found.loops:
+        stability.plot(data, found.loops, out)
+    sensitivity.plot(found.ranked, data.controllers, out)
+    convergence.plot(data, out)
     path = out / "report.md"
-    path.write_text(markdown(data))
+    path.write_text(markdown(data, found))
     return path

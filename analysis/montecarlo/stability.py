@@ -1,0 +1,145 @@
+"""Which sampled plants the designed loops destabilise: the report's per-sample
+sampled-data section.
+
+Each sample stores, per controller with a loop of Sec. 3 (the proposed
+controller and Lin+LC), the spectral radius ``rho`` of that loop closed around
+the sample's own linear part ``M0, B`` with the filters as designed on the
+nominal model (``models.design.plant_spectral_radii``; on the nominal model it
+is the design report's number). ``rho >= 1``: the held, sampled linear loop is
+unstable on that plant, and the nonlinear run typically oscillates (a limit
+cycle bounded by friction and saturation) rather than diverging.
+
+The section counts the plants with ``rho >= 1`` (Wilson 95 % interval of the
+share), compares the RMS error of the two groups (medians with bootstrap 95 %
+intervals) and gives Spearman's rho of the RMS error with ``rho``; figure
+``rms_vs_radius`` plots one against the other.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+from matplotlib.figure import Figure
+
+from posfb.analysis.montecarlo.results import StudyData, ok_values
+from posfb.analysis.montecarlo.statistics import (
+    Interval,
+    RankCorrelation,
+    median_interval,
+    proportion_interval,
+    spearman_ranking,
+)
+from posfb.analysis.plots import save
+
+
+@dataclass(frozen=True)
+class LoopStability:
+    """One controller's loops over the sampled plants (``unstable``: ``rho >= 1``)."""
+
+    controller: str
+    plants: int
+    unstable: int
+    unstable_share: Interval
+    largest: float
+    smallest: float
+    median_rms: dict[tuple[bool, int], Interval]  # (unstable, joint 1|2) -> median RMS
+    correlation: dict[int, RankCorrelation | None]  # joint -> RMS against rho
+
+
+def loop_stability(data: StudyData) -> list[LoopStability]:
+    """The per-sample stability of every controller that has a designed loop."""
+    found = []
+    for controller in data.controllers:
+        radius = data.radius[controller]
+        known = np.isfinite(radius)
+        if not np.any(known):
+            continue
+        unstable = known & (radius >= 1.0)
+        medians = {
+            (flag, joint + 1): median_interval(
+                ok_values(data, controller, joint, unstable if flag else known & ~unstable)
+            )
+            for flag in (False, True)
+            for joint in (0, 1)
+        }
+        correlation = {}
+        for joint in (0, 1):
+            ranking = spearman_ranking({"rho": radius}, data.rms_q[controller][:, joint])
+            correlation[joint + 1] = ranking[0] if ranking else None
+        found.append(
+            LoopStability(
+                controller=controller,
+                plants=int(np.sum(known)),
+                unstable=int(np.sum(unstable)),
+                unstable_share=proportion_interval(int(np.sum(unstable)), int(np.sum(known))),
+                largest=float(np.max(radius[known])),
+                smallest=float(np.min(radius[known])),
+                median_rms=medians,
+                correlation=correlation,
+            )
+        )
+    return found
+
+
+def _median(interval: Interval) -> str:
+    return "-" if not np.isfinite(interval.estimate) else interval.text(3)
+
+
+def markdown(found: list[LoopStability]) -> list[str]:
+    """The section's Markdown lines (none when no controller has a designed loop)."""
+    if not found:
+        return []
+    lines = [
+        "## Per-sample sampled-data stability",
+        "",
+        "Spectral radius rho of each designed loop (filters of the nominal design, held "
+        "over T_s) closed around each sampled plant's linear part; rho >= 1 is an unstable "
+        "sampled loop on that plant. Shares with Wilson 95 % intervals, median RMS (rad, "
+        "finished runs) with bootstrap 95 % intervals.",
+        "",
+        "| controller | rho range | plants with rho >= 1 | share [95 % CI] | median RMS j1 "
+        "rho < 1 | rho >= 1 | median RMS j2 rho < 1 | rho >= 1 | Spearman(RMS j2, rho) |",
+        "|---|---:|---:|---:|---:|---:|---:|---:|---:|",
+    ]
+    for entry in found:
+        share = entry.unstable_share
+        correlation = entry.correlation[2]
+        rank = "-" if correlation is None else (
+            f"{correlation.rho:+.2f} (p = {correlation.p_value:.2g})"
+        )  # fmt: skip
+        lines.append(
+            f"| {entry.controller} | {entry.smallest:.4f} - {entry.largest:.4f} | "
+            f"{entry.unstable} of {entry.plants} | {100 * share.estimate:.1f} % "
+            f"[{100 * share.low:.1f}, {100 * share.high:.1f}] | "
+            + " | ".join(
+                _median(entry.median_rms[(flag, joint)])
+                for joint in (1, 2)
+                for flag in (False, True)
+            )
+            + f" | {rank} |"
+        )
+    lines += ["", "![rms_vs_radius](rms_vs_radius.png)", ""]
+    return lines
+
+
+def plot(data: StudyData, found: list[LoopStability], out: Path) -> None:
+    """RMS error against the loop's spectral radius, per joint, one colour per controller."""
+    figure = Figure(figsize=(11, 4))
+    axes = figure.subplots(1, 2, sharey=True)
+    for joint, axis in enumerate(axes):
+        for entry in found:
+            radius = data.radius[entry.controller]
+            values = data.rms_q[entry.controller][:, joint]
+            ok = np.isfinite(values) & np.isfinite(radius)
+            axis.plot(radius[ok], values[ok], ".", alpha=0.6, label=entry.controller)
+        axis.axvline(1.0, color="black", linestyle="--", linewidth=0.8)
+        axis.set_yscale("log")
+        axis.set_xlabel("spectral radius of the designed sampled loop on the plant")
+        axis.set_ylabel("RMS tracking error (rad)")
+        axis.set_title(f"joint {joint + 1}")
+        axis.grid(True, which="both", alpha=0.3)
+    axes[0].legend()
+    figure.suptitle("Error against per-sample sampled-data stability (rho >= 1: unstable)", y=1.02)
+    save(figure, out, "rms_vs_radius", dpi=120, tight=True)
