@@ -6,9 +6,13 @@ For the shipped study (``analysis/studies/paper_uncertainty.yaml``, 20 s runs
 of the three controllers) it reports
 
 * the serial compute rate: samples/s of one in-process evaluator, diagrams
-  already built (what a warm worker sustains);
+  already built (what a warm worker sustains), and the share of a sample's time
+  spent outside the simulations (sampling, identification, design checks, the
+  spectral radii, metrics: everything but each run's ``wall_time_s``, which is
+  Initialize + AdvanceTo);
 * for each worker count, samples/s of the whole command path (store, pool
-  start, diagram builds, SQLite commits) into a fresh store under ``--out``;
+  start, diagram builds, SQLite commits) into a fresh store under ``--out``,
+  and the share of the workers' time (workers x elapsed) not spent simulating;
 * the peak memory of one worker process: RSS (shared pages of the forkserver
   counted) and USS (pages only that worker holds), sampled every 0.2 s.
 
@@ -66,14 +70,24 @@ class WorkerMemory:
                 self.uss[child.pid] = max(self.uss.get(child.pid, 0.0), info.uss * mib)
 
 
-def serial_rate(study, samples: int) -> float:
-    """Samples/s of one warm in-process evaluator."""
+def serial_rate(study, samples: int) -> tuple[float, float]:
+    """Samples/s of one warm in-process evaluator, and the share of its time spent
+    outside the runs' simulations."""
     evaluator = ClosedLoopEvaluator(study)
     evaluator(0)  # warm-up: design caches, first-call costs
+    simulating = 0.0
     start = time.perf_counter()
     for index in range(1, samples + 1):
-        evaluator(index)
-    return samples / (time.perf_counter() - start)
+        result = evaluator(index)
+        simulating += sum(run.metrics["wall_time_s"] or 0.0 for run in result.runs)
+    elapsed = time.perf_counter() - start
+    return samples / elapsed, 1.0 - simulating / elapsed
+
+
+def simulated_seconds(db: Path) -> float:
+    """The stored runs' summed simulation wall time."""
+    with ResultStore.open_existing(db) as store:
+        return sum(row["wall_time_s"] or 0.0 for row in store.run_rows())
 
 
 def main() -> None:
@@ -91,17 +105,23 @@ def main() -> None:
         f"study {args.study}: {len(canonical_text(study))} B canonical, "
         f"{study.duration:g} s runs of {', '.join(study.controllers)}"
     )
-    rate = serial_rate(study, args.serial_samples)
-    print(f"serial, warm, in-process: {rate:.3f} samples/s ({1 / rate:.2f} s per sample)")
+    rate, outside = serial_rate(study, args.serial_samples)
+    print(
+        f"serial, warm, in-process: {rate:.3f} samples/s ({1 / rate:.2f} s per sample), "
+        f"{100 * outside:.1f} % of it outside the simulations"
+    )
     for workers in args.workers:
         db = out / f"bench_w{workers}.sqlite"
         for suffix in ("", "-wal", "-shm"):
             Path(f"{db}{suffix}").unlink(missing_ok=True)
         with ResultStore.create_or_resume(db, study, "bench") as store, WorkerMemory() as memory:
             summary = run_study(study, store, "bench", workers=workers, progress=False)
+        busy = workers * summary.elapsed_s
+        outside = 1.0 - simulated_seconds(db) / busy
         print(
             f"workers {workers}: {summary.written} samples in {summary.elapsed_s:.1f} s = "
-            f"{summary.samples_per_second:.3f} samples/s; statuses {summary.statuses}; "
+            f"{summary.samples_per_second:.3f} samples/s ({100 * outside:.1f} % of "
+            f"workers x elapsed outside the simulations); statuses {summary.statuses}; "
             f"worker peak RSS {max(memory.rss.values(), default=0):.0f} MiB, "
             f"USS {max(memory.uss.values(), default=0):.0f} MiB"
         )

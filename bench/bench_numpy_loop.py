@@ -574,18 +574,11 @@ def posfb_run(variant: Variant, repeat: int) -> PosfbRun:
     results = [runner.run(parameters) for _ in range(repeat)]
     if any(result.status != "ok" for result in results):
         raise SystemExit(f"{variant.label}: posfb's run diverged: {results[0].message}")
-    # The same run once more, on a Simulator we keep, for the integrator's statistics.
-    context = runner.new_context(parameters)
-    simulator = Simulator(runner.diagram, context)
-    ApplySimulatorConfig(runner.simulator_config(), simulator)
-    simulator.Initialize()
-    simulator.AdvanceTo((resolved.config.samples + 1) * resolved.config.sample_time)
-    integrator = simulator.get_integrator()
     return PosfbRun(
         wall_s=min(result.wall_time_s for result in results),
         rms=np.array(run_metrics(results[0]).rms_q),
-        evaluations=integrator.get_num_derivative_evaluations(),
-        steps=integrator.get_num_steps_taken(),
+        evaluations=results[0].derivative_evaluations,
+        steps=results[0].integrator_steps,
     )
 
 

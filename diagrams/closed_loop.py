@@ -54,6 +54,7 @@ about 1.2x the wall time of 1e-2; 1e-3 costs 1.3-1.9x for no further gain.
 
 from __future__ import annotations
 
+import dataclasses
 import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
@@ -250,8 +251,9 @@ class ClosedLoopResult:
     and applied on ``[t_k, t_k + T_s)``); ``internals`` (columns
     ``internals_names``). ``status`` is ``"ok"`` or ``"diverged"``; ``message`` says
     why a run stopped early (empty if it did not); ``wall_time_s`` is the
-    simulation's wall time (build excluded). Metrics are computed from these logs
-    in ``analysis.metrics``.
+    simulation's wall time (build excluded); ``derivative_evaluations`` and
+    ``integrator_steps`` are the integrator's counts over the run. Metrics are
+    computed from these logs in ``analysis.metrics``.
     """
 
     config: ClosedLoopConfig
@@ -266,6 +268,8 @@ class ClosedLoopResult:
     status: str
     message: str
     wall_time_s: float
+    derivative_evaluations: int = 0
+    integrator_steps: int = 0
 
     @property
     def controller(self) -> str:
@@ -493,7 +497,13 @@ class ClosedLoopRunner:
             status = "diverged"
             message = f"integrator failed: {str(error).strip().splitlines()[0]}"
         wall = time.perf_counter() - start
-        return self._collect(context, status, message, wall)
+        result = self._collect(context, status, message, wall)
+        integrator = simulator.get_integrator()
+        return dataclasses.replace(
+            result,
+            derivative_evaluations=integrator.get_num_derivative_evaluations(),
+            integrator_steps=integrator.get_num_steps_taken(),
+        )
 
     def simulator_config(self) -> SimulatorConfig:
         """The config's integrator with steps capped at one sample period ``T_s``."""

@@ -72,3 +72,14 @@ def fake_evaluate(study_text: str, index: int) -> SampleResult:
     if index == 2:
         raise RuntimeError("bug in the worker")
     return make_result(index)
+
+
+def run_into_store(path: Path, study_text: str, workers: int = 1) -> Path:
+    """Run the study ``study_text`` (the real closed loop) into a new store at ``path``."""
+    from posfb.analysis.montecarlo.config import study_from_text
+    from posfb.analysis.montecarlo.scheduler import run_study
+
+    study = study_from_text(study_text)
+    with ResultStore.create_or_resume(path, study, "test") as store:
+        run_study(study, store, "test", workers=workers, progress=False)
+    return path

@@ -8,11 +8,10 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 import pytest
-from montecarlo_helpers import TINY_STUDY
+from montecarlo_helpers import TINY_STUDY, run_into_store
 
 from posfb.analysis.cli import main
 from posfb.analysis.montecarlo.config import study_from_text
-from posfb.analysis.montecarlo.scheduler import run_study
 from posfb.analysis.montecarlo.store import ResultStore
 from posfb.analysis.montecarlo.table import (
     PLANT_COLUMNS,
@@ -38,11 +37,7 @@ ISSUE_COLUMNS = [
 
 @pytest.fixture(scope="module")
 def db(tmp_path_factory) -> Path:
-    path = tmp_path_factory.mktemp("table") / "study.sqlite"
-    study = study_from_text(STUDY)
-    with ResultStore.create_or_resume(path, study, "test") as store:
-        run_study(study, store, "test", workers=1, progress=False)
-    return path
+    return run_into_store(tmp_path_factory.mktemp("table") / "study.sqlite", STUDY)
 
 
 def test_the_table_has_a_row_per_sample_and_controller_with_every_column(db):

@@ -1,9 +1,13 @@
-"""``posfb montecarlo run|report|export``: robustness over a population of sampled plants.
+"""``posfb montecarlo run|report|export|replay``: robustness over a population of sampled
+plants.
 
 ``run`` evaluates every sample of a study (each controller on the same sampled
 plant) on local worker processes or a Dask cluster and stores each finished
 sample in SQLite; running it again resumes. ``report`` turns a store into
 statistics, figures and a Markdown report; ``export`` into one tidy table.
+``replay`` runs one stored sample again from the store alone, checks that it
+reproduces the stored rows bit for bit and writes its time series, figures and
+animations (``analysis.montecarlo.replay``).
 """
 
 from __future__ import annotations
@@ -18,10 +22,17 @@ from posfb.analysis.export import write_table
 from posfb.analysis.montecarlo.config import Study, load_study, with_overrides
 from posfb.analysis.montecarlo.cost import advice, calibrate
 from posfb.analysis.montecarlo.provenance import code_version
+from posfb.analysis.montecarlo.replay import (
+    chosen_controllers,
+    compare,
+    require_stored,
+    write_outputs,
+)
 from posfb.analysis.montecarlo.report import write_report
 from posfb.analysis.montecarlo.scheduler import run_study
 from posfb.analysis.montecarlo.store import ResultStore
 from posfb.analysis.montecarlo.table import TABLE_FORMATS, study_table
+from posfb.analysis.montecarlo.worker import ClosedLoopEvaluator
 from posfb.analysis.outputs import output_file, output_folder
 
 
@@ -94,6 +105,19 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     export.add_argument("--db", required=True, help="SQLite results file")
     export.add_argument("--out", required=True, help="FILE.parquet or FILE.csv")
     export.set_defaults(handler=export_command)
+
+    replay = actions.add_parser(
+        "replay",
+        help="run one stored sample again, check it against the store, write its time series",
+    )
+    replay.add_argument("--db", required=True, help="SQLite results file")
+    replay.add_argument("--sample", required=True, type=_seed, help="the sample's index")
+    replay.add_argument("--controller", help="replay only this controller (default: all)")
+    replay.add_argument("--out", required=True, help="output folder")
+    replay.add_argument(
+        "--animate", action="store_true", help="also an HTML animation per controller"
+    )
+    replay.set_defaults(handler=replay_command)
 
 
 def available_cores() -> int:
@@ -185,3 +209,35 @@ def report_command(args: argparse.Namespace) -> int:
         )
     print(f"report written to {path}")
     return 0
+
+
+def replay_command(args: argparse.Namespace) -> int:
+    """Rebuild sample ``--sample`` from the store's study, compare it with the stored rows
+    (one line each), write its files; 0 if every row matches, 1 if any differs."""
+    out = output_folder("--out", args.out)
+    with ResultStore.open_existing(args.db) as store:
+        study, schema = store.study(), store.meta().get("schema_version")
+        require_stored(args.sample, store.finished(), args.db)
+        controllers = chosen_controllers(study, args.controller, args.db)
+        stored_sample = next(row for row in store.sample_rows() if row["sample"] == args.sample)
+        stored_runs = [row for row in store.run_rows() if row["sample"] == args.sample]
+    print(
+        f"sample {args.sample} of --db {args.db} (seed {study.seed}, stored by "
+        f"{stored_sample['code_version']}): replaying {', '.join(controllers)}",
+        flush=True,
+    )
+    replayed, results = ClosedLoopEvaluator(study).evaluate(args.sample, controllers)
+    comparisons = compare(stored_sample, stored_runs, replayed, with_radius=schema != "1")
+    for comparison in comparisons:
+        print(f"  {comparison.line()}")
+    matches = all(comparison.matches for comparison in comparisons)
+    if not matches:
+        stored_by, current = stored_sample["code_version"], code_version()
+        if current != stored_by:
+            print(f"  note: the sample was stored by {stored_by}; this is {current}")
+    try:
+        paths = write_outputs(args.sample, results, out, animate=args.animate)
+    except RuntimeError as error:  # Meshcat could not start (as ``posfb animate``)
+        raise UsageError(str(error)) from None
+    print(f"{len(paths)} files written to {out}")
+    return 0 if matches else 1

@@ -6,6 +6,10 @@ machine) boundaries as ``(study_text, index)`` and comes back as a plain
 the first time it sees a study and reuses them for every later sample (a
 thread-local cache, so a Dask worker with several threads never shares a
 runner between threads).
+
+``montecarlo replay`` (``analysis.montecarlo.replay``) rebuilds a stored sample
+with ``ClosedLoopEvaluator.evaluate``, the method ``__call__`` runs, and keeps
+the closed-loop runs that a study throws away after taking their metrics.
 """
 
 from __future__ import annotations
@@ -15,6 +19,7 @@ import dataclasses
 import math
 import threading
 from collections import OrderedDict
+from collections.abc import Sequence
 from dataclasses import asdict
 from pathlib import Path
 
@@ -23,7 +28,7 @@ from posfb.analysis.montecarlo.config import Study, study_from_text
 from posfb.analysis.montecarlo.coverage import coverage
 from posfb.analysis.montecarlo.records import METRIC_COLUMNS, ControllerRun, SampleResult
 from posfb.analysis.montecarlo.sampling import SampledPlant, sample_plant, sample_scenario
-from posfb.diagrams.closed_loop import ClosedLoopRunner, SensorState
+from posfb.diagrams.closed_loop import ClosedLoopResult, ClosedLoopRunner, SensorState
 from posfb.diagrams.resolve import LoadedScenario, resolve
 from posfb.diagrams.scenario import ParameterOverrides, Scenario, dump_scenario
 from posfb.models.controllers import cached_design
@@ -94,6 +99,16 @@ class ClosedLoopEvaluator:
         return self._runners[key]
 
     def __call__(self, index: int) -> SampleResult:
+        """Sample ``index`` with every controller of the study (what the store keeps)."""
+        return self.evaluate(index)[0]
+
+    def evaluate(
+        self, index: int, controllers: Sequence[str] | None = None
+    ) -> tuple[SampleResult, dict[str, ClosedLoopResult]]:
+        """Sample ``index``: the ``SampleResult`` with one run per controller of
+        ``controllers`` (default: the study's, in its order) and each run's
+        ``ClosedLoopResult`` by controller (none for a run that raised). The one code
+        path of both a study's samples (``__call__``) and ``montecarlo replay``."""
         scenario, drawn = sample_scenario(self.study, index)
         config = resolve(self._loaded(scenario)).config
         plant = sample_plant(self.study, self.nominal_plant, index)
@@ -109,18 +124,22 @@ class ClosedLoopEvaluator:
             key: list(value) if isinstance(value, tuple) else value
             for key, value in asdict(plant.parameters).items()
         }
-        return SampleResult(
+        runs, results = [], {}
+        for controller in self.study.controllers if controllers is None else controllers:
+            run, result = self._run(scenario, controller, plant, sensor, radii.get(controller))
+            runs.append(run)
+            if result is not None:
+                results[controller] = result
+        sample = SampleResult(
             index=index,
             parameters={**parameters, **drawn},
             encoder_counts=sensor.encoder_counts[0],
             theta={key: float(value) for key, value in theta.as_dict().items()},
             bound_ratios=where.ratios,
             inside_bounds=where.inside,
-            runs=tuple(
-                self._run(scenario, controller, plant, sensor, radii.get(controller))
-                for controller in self.study.controllers
-            ),
+            runs=tuple(runs),
         )
+        return sample, results
 
     def _run(
         self,
@@ -129,14 +148,16 @@ class ClosedLoopEvaluator:
         plant: SampledPlant,
         sensor: SensorState,
         radius: float | None,
-    ) -> ControllerRun:
-        """One controller on ``plant``; an exception is recorded as ``error``."""
+    ) -> tuple[ControllerRun, ClosedLoopResult | None]:
+        """One controller on ``plant`` and its run; an exception is recorded as
+        ``error`` (and there is no run)."""
         try:
             result = self.runner(scenario, controller).run(plant.parameters, sensor)
         except Exception as error:  # recorded, never stops the study
-            return ControllerRun(controller, "error", _one_line(error), {}, radius)
+            return ControllerRun(controller, "error", _one_line(error), {}, radius), None
         metrics = _metrics_dict(run_metrics(result))
-        return ControllerRun(controller, result.status, result.message, metrics, radius)
+        run = ControllerRun(controller, result.status, result.message, metrics, radius)
+        return run, result
 
 
 _local = threading.local()
