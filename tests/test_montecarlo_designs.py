@@ -7,7 +7,7 @@ from dataclasses import replace
 
 import numpy as np
 import pytest
-from montecarlo_helpers import TINY_STUDY, deterministic_rows
+from montecarlo_helpers import deterministic_rows
 
 from posfb.analysis.montecarlo.config import (
     identity,
@@ -113,9 +113,9 @@ def test_bad_designs_are_refused_naming_the_key(sampling, samples, needle):
         )
 
 
-def test_a_quasi_random_study_stores_the_same_rows_for_any_worker_count(tmp_path):
-    text = TINY_STUDY.replace("duration: 1.0", "duration: 0.3") + "sampling: sobol\n"
-    study = study_from_text(text)
+@pytest.mark.parametrize("sampling", ["random", "latin_hypercube", "sobol", "saltelli"])
+def test_every_design_stores_the_same_rows_for_any_worker_count(sampling, tmp_path):
+    study = _study(sampling, samples=saltelli_rows(2))  # one Saltelli block: 4 samples
     for workers in (1, 2):
         with ResultStore.create_or_resume(tmp_path / f"w{workers}.sqlite", study, "t") as store:
             run_study(study, store, "t", workers=workers, progress=False)
