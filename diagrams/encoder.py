@@ -60,12 +60,23 @@ def quantise(q: np.ndarray, counts: int | np.ndarray) -> np.ndarray:
     one per entry); an entry with ``counts == 0`` is passed through unquantised."""
     q = np.asarray(q, dtype=float)
     counts = np.asarray(counts, dtype=float)
-    if (counts > 0).all():  # the usual case, kept cheap: it runs once per sample
-        step = 2.0 * math.pi / counts
-        return step * np.round(q / step)
     ideal = np.broadcast_to(counts == 0, q.shape)
     step = 2.0 * math.pi / np.where(counts == 0, 1.0, counts)
     return np.where(ideal, q, step * np.round(q / step))
+
+
+def _quantise_joints(q: Sequence[float], counts: Sequence[float]) -> list[float]:
+    """``quantise`` for one sample, joint by joint with Python floats: the same IEEE
+    operations (``round`` and ``numpy.round`` both round half to even), so the same
+    bits, without the cost of small-array numpy calls (it runs once per sample)."""
+    measured = []
+    for value, count in zip(q, counts, strict=True):
+        if count > 0.0:
+            step = 2.0 * math.pi / count
+            measured.append(step * round(value / step))
+        else:
+            measured.append(value)
+    return measured
 
 
 def per_joint_counts(name: str, counts: int | Sequence[int], size: int) -> tuple[int, ...]:
@@ -127,7 +138,7 @@ class Encoder(LeafSystem):
     def _calc_measured(self, context: Context, output: BasicVector) -> None:
         q = self._q.Eval(context) + context.get_numeric_parameter(self._offset_index).value()
         counts = context.get_numeric_parameter(self._counts_index).value()
-        measured = quantise(q, counts)
+        measured = np.array(_quantise_joints(q.tolist(), counts.tolist()))
         if self._noise is not None:
             std = context.get_numeric_parameter(self._noise_index).value()
             measured += std * self._noise.Eval(context)

@@ -6,6 +6,8 @@ import math
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from posfb.diagrams.encoder import DEFAULT_ENCODER_COUNTS, Encoder, quantise
 
@@ -57,3 +59,30 @@ def test_counts_offset_and_noise_are_per_joint():
     step = 2 * math.pi / 1000
     expected = [step * round((q[0] + 0.01) / step) + 1e-3, q[1] + 0.02 - 2e-4]
     np.testing.assert_allclose(encoder.get_output_port(0).Eval(context), expected, rtol=1e-15)
+
+
+@settings(max_examples=300, deadline=None)
+@given(
+    q=st.lists(st.floats(-50.0, 50.0), min_size=2, max_size=2),
+    counts=st.lists(st.sampled_from([0, 1, 7, 1000, 4096, 20000, 2**20]), min_size=2, max_size=2),
+    offset=st.lists(st.floats(-0.1, 0.1), min_size=2, max_size=2),
+)
+def test_the_encoder_system_equals_the_vectorised_quantiser_bit_for_bit(q, counts, offset):
+    """The system quantises joint by joint with Python floats (its per-sample fast path);
+    it must give exactly the bits of the vectorised ``quantise`` (half to even in both)."""
+    encoder = Encoder(2, 1000)
+    context = encoder.CreateDefaultContext()
+    encoder.set_counts(context, counts)
+    encoder.set_zero_offset(context, offset)
+    encoder.get_input_port(0).FixValue(context, q)
+    expected = quantise(np.array(q) + np.array(offset), np.array(counts))
+    np.testing.assert_array_equal(encoder.get_output_port(0).Eval(context), expected)
+
+
+def test_exact_half_counts_round_to_even_like_numpy():
+    step = 2 * math.pi / 4
+    encoder = Encoder(2, 4)
+    context = encoder.CreateDefaultContext()
+    q = np.array([0.5, 1.5]) * step
+    encoder.get_input_port(0).FixValue(context, q)
+    np.testing.assert_array_equal(encoder.get_output_port(0).Eval(context), quantise(q, 4))
