@@ -221,21 +221,42 @@ def _rotation(rpy: np.ndarray) -> np.ndarray:
 # --- the tree ---------------------------------------------------------------
 
 
-def _parse_arm(robot: ET.Element) -> _Arm:
+#: What the two-link model accepts as joints (in messages).
+TWO_LINK_JOINTS = (
+    "revolute or continuous is required for the two arm joints of Sec. 4.1 and fixed for "
+    "any other joint (a welded body)"
+)
+
+#: What a serial arm accepts as joints (in messages).
+SERIAL_JOINTS = (
+    "revolute or continuous is required for an arm joint (posfb drives rotary joints "
+    "through motors) and fixed for a welded body"
+)
+
+
+def _read_tree(
+    robot: ET.Element, rule: str
+) -> tuple[dict[str, ET.Element], list[_Joint], str, dict[str, _Joint]]:
+    """Links, joints (each of a type ``rule`` allows), the root link and each link's
+    parent joint; refuses ``<drake:joint>``, repeated names, a forest and loops."""
     drake_joint = robot.find(f"{{{DRAKE_NS}}}joint")
     if drake_joint is not None:
         raise ValueError(
             f"drake:joint {drake_joint.get('name')!r} type = {_shown(drake_joint.get('type'))}; "
-            "only URDF <joint> elements (two revolute or continuous, the others fixed) are "
-            "supported"
+            f"only URDF <joint> elements are supported: {rule}"
         )
     links = _links(robot)
-    joints = [_joint(element, links) for element in robot.findall("joint")]
+    joints = [_joint(element, links, rule) for element in robot.findall("joint")]
     names = [joint.name for joint in joints]
     for name in names:
         if names.count(name) > 1:
             raise ValueError(f"joint name = {name!r} appears twice; unique names are required")
     root, parent_joint = _tree(links, joints)
+    return links, joints, root, parent_joint
+
+
+def _parse_arm(robot: ET.Element) -> _Arm:
+    links, joints, root, parent_joint = _read_tree(robot, TWO_LINK_JOINTS)
     poses = _world_poses(root, links, parent_joint)
     shoulder, elbow = _arm_joints(root, joints, parent_joint)
     return _Arm(links, parent_joint, poses, shoulder, elbow)
@@ -253,17 +274,14 @@ def _links(robot: ET.Element) -> dict[str, ET.Element]:
     return links
 
 
-def _joint(element: ET.Element, links: dict[str, ET.Element]) -> _Joint:
+def _joint(element: ET.Element, links: dict[str, ET.Element], rule: str) -> _Joint:
     name = element.get("name")
     if not name:
         raise ValueError("joint name = (missing); every <joint> needs a unique name")
     label = f"joint {name!r}"
     kind = element.get("type")
     if kind not in JOINT_TYPES:
-        raise ValueError(
-            f"{label} type = {_shown(kind)}; revolute or continuous is required for the two "
-            "arm joints of Sec. 4.1 and fixed for any other joint (a welded body)"
-        )
+        raise ValueError(f"{label} type = {_shown(kind)}; {rule}")
     ends = {}
     for end in ("parent", "child"):
         link = _shown(_attribute(element.find(end), "link"))
@@ -584,3 +602,91 @@ def _check_link2_inertia(arm: _Arm, bodies: list[_Body]) -> None:
             f"{moment:g} kg m^2; > 0 is required (theta7 > 0): link 2 cannot be a point mass "
             "on joint 2's axis"
         )
+
+
+# --- any serial arm -------------------------------------------------------------
+
+@dataclass(frozen=True)
+class SerialChain:
+    """A checked serial arm: its ``base`` link and arm ``joints`` from the base to the tip."""
+
+    base: str
+    joints: tuple[str, ...]
+
+
+def check_serial_urdf(path: str | Path) -> SerialChain:
+    """Refuse a URDF that is not a serial chain of actuated revolute joints; return its
+    base link and the arm joints' names from the base to the tip.
+
+    Accepted: one root link (the base, welded to the world), any number of revolute
+    or continuous joints in one chain (each hanging from the previous joint's child
+    link or a body welded to it), fixed joints for welded bodies anywhere. Each arm
+    joint needs its motor stage (``posfb:coulomb_friction``, a transmission actuator
+    with ``posfb:motor_constant``; ``drake:rotor_inertia``, ``drake:gear_ratio`` and
+    ``<dynamics damping>`` where given are checked as for the two-link arm) and the
+    link it moves must have mass (a massless link makes the mass matrix singular).
+    Raises as ``check_arm_urdf``: one line naming the element."""
+    path = Path(path)
+    robot = _read_robot(path)
+    try:
+        links, joints, root, parent_joint = _read_tree(robot, SERIAL_JOINTS)
+        _world_poses(root, links, parent_joint)  # refuses loops
+        chain = _serial_chain(root, joints, parent_joint)
+        for joint in chain:
+            _check_drive(robot, joint)
+        _check_moving_masses(links, chain, parent_joint)
+    except ValueError as error:
+        raise ValueError(f"URDF {path}: {error}") from None
+    return SerialChain(root, tuple(joint.name for joint in chain))
+
+
+def _serial_chain(
+    root: str, joints: list[_Joint], parent_joint: dict[str, _Joint]
+) -> list[_Joint]:
+    """The arm joints from the base to the tip; refuses a branch or no arm joint."""
+    movable = [joint for joint in joints if joint.kind != "fixed"]
+    if not movable:
+        raise ValueError(
+            "revolute/continuous joints = 0; at least one arm joint is required, each with "
+            "posfb:coulomb_friction and a transmission actuator with posfb:motor_constant"
+        )
+    chain, carrier = [], root
+    while True:
+        hanging = [joint for joint in movable if _carrier(joint.parent, parent_joint) == carrier]
+        if len(hanging) > 1:
+            raise ValueError(
+                f"link {carrier!r} carries the arm joints {', '.join(j.name for j in hanging)}; "
+                "one is required: a serial chain base -> link 1 -> ... -> link n (a branched "
+                "tree is not supported)"
+            )
+        if not hanging:
+            break
+        chain.append(hanging[0])
+        carrier = hanging[0].child
+    if len(chain) != len(movable):
+        left = [joint.name for joint in movable if joint not in chain]
+        raise ValueError(
+            f"arm joints {', '.join(left)} are not on the chain from the base "
+            f"({' -> '.join(j.name for j in chain)}); one serial chain is required"
+        )
+    return chain
+
+
+def _check_moving_masses(
+    links: dict[str, ET.Element], chain: list[_Joint], parent_joint: dict[str, _Joint]
+) -> None:
+    """The bodies each arm joint moves directly (its child link and what is welded to
+    it) have a total mass > 0."""
+    for joint in chain:
+        carried = [name for name in links if _carrier(name, parent_joint) == joint.child]
+        total = 0.0
+        for name in carried:
+            inertial = links[name].find("inertial")
+            if inertial is not None:
+                label = f"link {name!r} mass"
+                total += _scalar(_value(inertial.find("mass")), label, False, "kg")
+        if total <= 0.0:
+            raise ValueError(
+                f"link {joint.child!r} mass = {total:g} (with what is welded to it); a total "
+                f"> 0 (kg) is required for the link joint {joint.name!r} moves"
+            )

@@ -1,0 +1,151 @@
+"""``models.serial_model``: the nominal model of any serial URDF arm, computed by Drake,
+against the Table 1 model on the paper's arm and against an independent planar
+recursive Newton-Euler on the shipped three-link arm; bad arms refused in one line."""
+
+from __future__ import annotations
+
+import re
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from posfb.models.identify import identify_urdf
+from posfb.models.lumped import LumpedModel
+from posfb.models.serial_model import SerialArmModel
+
+URDF = Path(__file__).resolve().parent.parent / "urdf"
+GRAVITY = 9.81
+
+#: The three-link arm as typed from its URDF comments (not parsed): per link its
+#: length, mass, centre of mass along the link, inertia about the joint axis through
+#: the centre of mass, and per joint rotor inertia, gear ratio, damping, Coulomb
+#: level and motor constant.
+LENGTH = np.array([0.40, 0.30, 0.20])
+MASS = np.array([3.0, 1.5, 0.5])
+COM = np.array([0.20, 0.15, 0.10])
+INERTIA = np.array([0.04, 0.01125, 0.0016667])
+ROTOR = np.array([0.00017, 0.00006, 0.00002])
+GEAR = np.array([100.0, 50.0, 20.0])
+DAMPING = np.array([15.0, 4.0, 1.0])
+COULOMB = np.array([8.0, 2.5, 0.8])
+KAPPA = np.array([6.0, 3.0, 1.2])
+
+
+def _perp(r: np.ndarray) -> np.ndarray:
+    """``r`` turned +90 deg in the arm's (x, z) plane: the direction a positive angle moves."""
+    return np.array([-r[1], r[0]])
+
+
+def _cross(a: np.ndarray, b: np.ndarray) -> float:
+    return float(a[0] * b[1] - a[1] * b[0])
+
+
+def planar_newton_euler(q: np.ndarray, v: np.ndarray, a: np.ndarray) -> np.ndarray:
+    """Joint voltages of the planar three-link arm by recursive Newton-Euler, written
+    from the link data above without Drake: forward pass of link velocities and
+    accelerations (gravity as an upward base acceleration), backward pass of forces
+    and moments, then the motor stage (reflected rotor inertia, damping, Coulomb)
+    divided by the motor constants."""
+    n = len(q)
+    phi, omega, alpha = np.cumsum(q), np.cumsum(v), np.cumsum(a)
+    joint_acceleration = np.array([0.0, GRAVITY])
+    com_acceleration, direction = [], []
+    for i in range(n):
+        e = np.array([np.cos(phi[i]), np.sin(phi[i])])
+        direction.append(e)
+        c = COM[i] * e
+        com_acceleration.append(joint_acceleration + alpha[i] * _perp(c) - omega[i] ** 2 * c)
+        r = LENGTH[i] * e
+        joint_acceleration = joint_acceleration + alpha[i] * _perp(r) - omega[i] ** 2 * r
+    torque = np.zeros(n)
+    force_from_next, moment_from_next = np.zeros(2), 0.0
+    for i in reversed(range(n)):
+        inertial_force = MASS[i] * com_acceleration[i]
+        force = inertial_force + force_from_next
+        moment = (
+            INERTIA[i] * alpha[i]
+            + moment_from_next
+            + _cross(COM[i] * direction[i], inertial_force)
+            + _cross(LENGTH[i] * direction[i], force_from_next)
+        )
+        torque[i] = moment
+        force_from_next, moment_from_next = force, moment
+    torque += ROTOR * GEAR**2 * a + DAMPING * v + COULOMB * np.sign(v)
+    return torque / KAPPA
+
+
+@pytest.fixture(scope="module")
+def three_link():
+    return SerialArmModel(URDF / "three_link_arm.urdf")
+
+
+def test_the_paper_arm_equals_the_table_1_model_of_its_identified_theta():
+    model = SerialArmModel(URDF / "two_link_arm.urdf")
+    lumped = LumpedModel(identify_urdf(str(URDF / "two_link_arm.urdf")))
+    rng = np.random.default_rng(1)
+    for _ in range(20):
+        q, v, a = rng.uniform(-np.pi, np.pi, 2), rng.uniform(-3, 3, 2), rng.uniform(-9, 9, 2)
+        np.testing.assert_allclose(model.M(q), lumped.M(q), rtol=0, atol=1e-12)
+        np.testing.assert_allclose(model.coriolis(q, v), lumped.C(q, v) @ v, atol=1e-12)
+        np.testing.assert_allclose(model.G(q), lumped.G(q), atol=1e-12)
+        np.testing.assert_allclose(
+            model.inverse_dynamics(q, v, a), lumped.inverse_dynamics(q, v, a, friction=True),
+            atol=1e-12,
+        )  # fmt: skip
+    np.testing.assert_allclose(model.M0(), lumped.M0(), atol=1e-14)
+    np.testing.assert_allclose(model.B(), lumped.B(), atol=1e-14)
+    np.testing.assert_allclose(model.coulomb_levels(), lumped.coulomb_levels(), atol=1e-14)
+
+
+def test_three_link_dynamics_agree_with_an_independent_newton_euler(three_link):
+    assert three_link.joints == ("joint1", "joint2", "joint3")
+    rng = np.random.default_rng(2)
+    for _ in range(50):
+        q, v, a = rng.uniform(-np.pi, np.pi, 3), rng.uniform(-3, 3, 3), rng.uniform(-9, 9, 3)
+        expected = planar_newton_euler(q, v, a)
+        got = three_link.inverse_dynamics(q, v, a)
+        np.testing.assert_allclose(got, expected, rtol=1e-9, atol=1e-9 * np.abs(expected).max())
+
+
+def test_m0_is_the_exact_mean_of_the_mass_matrix_over_joint_turns(three_link):
+    coarse, fine = three_link.mean_mass_matrix(3), three_link.mean_mass_matrix(6)
+    np.testing.assert_allclose(coarse, fine, rtol=0, atol=1e-14)
+    np.testing.assert_allclose(three_link.M0(), fine, atol=1e-14)
+    # The mean of M over q3 at random q2 by fine quadrature gives the same matrix.
+    rng = np.random.default_rng(3)
+    angles = np.linspace(0, 2 * np.pi, 64, endpoint=False)
+    brute = np.mean(
+        [three_link.M(np.array([rng.uniform(-3, 3), q2, q3])) for q2 in angles for q3 in angles],
+        axis=0,
+    )
+    np.testing.assert_allclose(three_link.M0(), brute, atol=1e-12)
+
+
+def _edited(tmp_path: Path, old: str, new: str, count: int = 1) -> Path:
+    text = (URDF / "three_link_arm.urdf").read_text()
+    assert old in text
+    path = tmp_path / "arm.urdf"
+    path.write_text(text.replace(old, new, count))
+    return path
+
+
+@pytest.mark.parametrize(
+    ("old", "new", "needle"),
+    [
+        ('<joint name="joint3" type="continuous">', '<joint name="joint3" type="prismatic">',
+         "joint 'joint3' type = prismatic; revolute or continuous is required"),
+        ('<parent link="link2"/>\n    <child link="link3"/>',
+         '<parent link="link1"/>\n    <child link="link3"/>',
+         "link 'link1' carries the arm joints joint2, joint3"),
+        ('<posfb:motor_constant value="1.2"/>', "",
+         "actuator 'motor3' posfb:motor_constant value = (missing)"),
+        ('<mass value="0.5"/>', '<mass value="0"/>', "link 'link3' mass = 0"),
+        ('<posfb:coulomb_friction value="2.5"/>', "",
+         "joint 'joint2' posfb:coulomb_friction value = (missing)"),
+    ],
+)  # fmt: skip
+def test_bad_arms_are_refused_in_one_line_naming_the_element(tmp_path, old, new, needle):
+    with pytest.raises(ValueError, match=re.escape(needle)) as error:
+        SerialArmModel(_edited(tmp_path, old, new))
+    assert len(str(error.value).splitlines()) == 1
