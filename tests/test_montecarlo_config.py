@@ -225,3 +225,11 @@ def _holder(kind: object) -> type:
     return dataclasses.make_dataclass(
         "Holder", [("x", kind, dataclasses.field(default_factory=first))]
     )
+
+
+@pytest.mark.parametrize(
+    "path", sorted((SHIPPED.parent).glob("*.yaml")), ids=lambda path: path.name
+)
+def test_every_shipped_study_loads(path):
+    study = load_study(path)
+    assert study.samples > 0 and study.controllers
