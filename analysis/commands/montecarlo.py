@@ -219,8 +219,8 @@ def replay_command(args: argparse.Namespace) -> int:
         study, schema = store.study(), store.meta().get("schema_version")
         require_stored(args.sample, store.finished(), args.db)
         controllers = chosen_controllers(study, args.controller, args.db)
-        stored_sample = next(row for row in store.sample_rows() if row["sample"] == args.sample)
-        stored_runs = [row for row in store.run_rows() if row["sample"] == args.sample]
+        (stored_sample,) = store.sample_rows(args.sample)
+        stored_runs = store.run_rows(args.sample)
     print(
         f"sample {args.sample} of --db {args.db} (seed {study.seed}, stored by "
         f"{stored_sample['code_version']}): replaying {', '.join(controllers)}",

@@ -260,10 +260,12 @@ class ResultStore:
                 ],
             )
 
-    def sample_rows(self) -> list[dict[str, object]]:
-        """Every ``samples`` row (JSON columns decoded), by sample index."""
+    def sample_rows(self, sample: int | None = None) -> list[dict[str, object]]:
+        """Every ``samples`` row (JSON columns decoded), by sample index; only sample
+        ``sample``'s where given."""
+        query, arguments = _where("SELECT * FROM samples", sample, "ORDER BY sample")
         rows = []
-        for row in self._connection.execute("SELECT * FROM samples ORDER BY sample"):
+        for row in self._connection.execute(query, arguments):
             record = dict(row)
             for key in ("parameters", "theta", "bound_ratios"):
                 record[key] = json.loads(record[key])
@@ -271,12 +273,14 @@ class ResultStore:
             rows.append(record)
         return rows
 
-    def run_rows(self) -> list[dict[str, object]]:
+    def run_rows(self, sample: int | None = None) -> list[dict[str, object]]:
         """Every ``runs`` row, by sample index and controller (a version-1 store's rows
-        have ``sampled_data_spectral_radius`` ``None``)."""
-        query = "SELECT * FROM runs ORDER BY sample, controller"
+        have ``sampled_data_spectral_radius`` ``None``); only sample ``sample``'s where
+        given."""
+        query, arguments = _where("SELECT * FROM runs", sample, "ORDER BY sample, controller")
         return [
-            {RADIUS_COLUMN: None, **dict(row)} for row in self._connection.execute(query)
+            {RADIUS_COLUMN: None, **dict(row)}
+            for row in self._connection.execute(query, arguments)
         ]
 
     def close(self) -> None:
@@ -289,6 +293,13 @@ class ResultStore:
 
     def __exit__(self, *exc: object) -> None:
         self.close()
+
+
+def _where(select: str, sample: int | None, order: str) -> tuple[str, tuple[int, ...]]:
+    """``select`` restricted to one sample where given, then ``order``."""
+    if sample is None:
+        return f"{select} {order}", ()
+    return f"{select} WHERE sample = ? {order}", (int(sample),)
 
 
 class _WriterLock:
