@@ -4,25 +4,19 @@
 from __future__ import annotations
 
 import argparse
+import importlib
 import os
 import sys
 import traceback
 from collections.abc import Sequence
 
-from posfb.analysis.commands import (
-    animate,
-    design,
-    graph,
-    identify,
-    montecarlo,
-    reproduce,
-    scenario,
-    simulate,
-)
 from posfb.analysis.errors import InterruptedRunError, UsageError
 
-#: Subcommand modules, in the order ``posfb --help`` lists them.
-COMMANDS = [identify, design, scenario, simulate, reproduce, graph, animate, montecarlo]
+#: Subcommand modules of ``posfb.analysis.commands``, in the order ``posfb --help`` lists
+#: them. Imported by ``build_parser``, inside ``main``: a Ctrl-C while Drake and numpy load
+#: (the first seconds) is then one line too.
+COMMANDS = ("identify", "design", "scenario", "simulate", "reproduce", "graph", "animate",
+            "montecarlo")  # fmt: skip
 
 #: Exit code for bad input (argparse uses the same).
 EXIT_BAD_INPUT = 2
@@ -45,14 +39,19 @@ class _Parser(argparse.ArgumentParser):
 def build_parser() -> argparse.ArgumentParser:
     parser = _Parser(prog="posfb", description=__doc__)
     subparsers = parser.add_subparsers(dest="command", required=True, parser_class=_Parser)
-    for module in COMMANDS:
-        module.register(subparsers)
+    for name in COMMANDS:
+        importlib.import_module(f"posfb.analysis.commands.{name}").register(subparsers)
     return parser
 
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Entry point of ``posfb``; returns the exit code."""
-    args = build_parser().parse_args(argv)
+    try:
+        parser = build_parser()
+    except KeyboardInterrupt:
+        sys.stderr.write("posfb: interrupted\n")
+        return EXIT_INTERRUPTED
+    args = parser.parse_args(argv)
     try:
         return int(args.handler(args) or 0)
     except (UsageError, ValueError, FileNotFoundError) as error:

@@ -15,6 +15,8 @@ from collections.abc import Mapping
 from pathlib import Path
 
 import matplotlib
+import numpy as np
+from matplotlib.axes import Axes
 from matplotlib.figure import Figure
 
 from posfb.analysis.experiment import CONTROLLER_LABELS
@@ -108,3 +110,14 @@ def save(
         figure.savefig(paths[0], dpi=dpi, bbox_inches=bbox)
         figure.savefig(paths[1], bbox_inches=bbox, metadata={"Date": None})
     return paths
+
+
+def log_scale(axis: Axes, which: str = "y", empty: str = "no finished runs") -> None:
+    """A log scale on ``which`` (``"x"`` or ``"y"``) when the axis's lines hold a
+    positive value; otherwise the axis stays linear and says ``empty`` (a log axis
+    with no positive data cannot be drawn)."""
+    values = [np.asarray(getattr(line, f"get_{which}data")(), dtype=float) for line in axis.lines]
+    if any(np.any(np.isfinite(v) & (v > 0.0)) for v in values):
+        getattr(axis, f"set_{which}scale")("log")
+    else:
+        axis.text(0.5, 0.5, empty, transform=axis.transAxes, ha="center", va="center")

@@ -179,3 +179,20 @@ def test_the_report_has_the_answer_sections_and_every_figure(store, tmp_path):
         assert heading in text, heading
     for name in FIGURES:
         assert (out / f"{name}.png").is_file(), name
+
+
+@pytest.mark.parametrize("samples", [1, 3])
+def test_a_study_where_no_run_finished_still_reports(tmp_path, samples):
+    from montecarlo_helpers import make_result
+
+    from posfb.analysis.montecarlo.report import write_report
+
+    study = study_from_text(TINY_STUDY)
+    with ResultStore.create_or_resume(tmp_path / "d.sqlite", study, "test") as store:
+        for i in range(samples):
+            store.write(make_result(i, status="diverged"), "test")
+    with ResultStore.open_existing(tmp_path / "d.sqlite") as store:
+        path = write_report(store, tmp_path / "report")
+    assert f"| proposed | 0 | {samples} | 0 |" in path.read_text()  # ok, diverged, error
+    for name in FIGURES:
+        assert (tmp_path / "report" / f"{name}.png").is_file(), name

@@ -69,6 +69,19 @@ def test_workers_are_capped_and_a_fixed_study_is_flagged(tmp_path):
     assert "draws nothing at random" in result.stderr
 
 
+#: ``python -c`` of the second run: import posfb, wait for the file ``argv[1]``, run the
+#: command ``argv[2:]``.
+SECOND_RUN = """
+import pathlib, sys, time
+import posfb.analysis.commands.montecarlo
+from posfb.analysis.cli import main
+go = pathlib.Path(sys.argv[1])
+while not go.exists():
+    time.sleep(0.01)
+raise SystemExit(main(sys.argv[2:]))
+"""
+
+
 def test_two_runs_on_one_store_give_the_rows_of_one_run(tmp_path):
     study, shared, alone = tmp_path / "study.yaml", tmp_path / "a.sqlite", tmp_path / "b.sqlite"
     study.write_text(RANDOM_STUDY)
@@ -77,16 +90,24 @@ def test_two_runs_on_one_store_give_the_rows_of_one_run(tmp_path):
         [*command, "--db", str(shared)], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
         text=True,
     )  # fmt: skip
+    # The second run starts with posfb already imported (a run of this study is over in
+    # about the seconds a fresh process needs to import Drake), and calls the command
+    # as soon as the first holds the store's lock.
+    go = tmp_path / "go"
+    second = subprocess.Popen(
+        [sys.executable, "-c", SECOND_RUN, str(go), *command[len(CLI):], "--db", str(shared)],
+        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+    )  # fmt: skip
     lock = shared.with_name(shared.name + ".lock")
     deadline = time.monotonic() + 60
     while time.monotonic() < deadline and not (lock.exists() and lock.read_text()):
-        time.sleep(0.1)
-    second = subprocess.run([*command, "--db", str(shared)], capture_output=True, text=True,
-                            timeout=300)  # fmt: skip
+        time.sleep(0.02)
+    go.touch()
+    _, second_err = second.communicate(timeout=300)
     first.communicate(timeout=300)
     assert first.returncode == 0
-    assert second.returncode == 2 and "another posfb run is writing it" in second.stderr
-    assert len(second.stderr.strip().splitlines()) == 1
+    assert second.returncode == 2 and "another posfb run is writing it" in second_err
+    assert len(second_err.strip().splitlines()) == 1
     reference = subprocess.run([*command, "--db", str(alone)], capture_output=True, timeout=300)
     assert reference.returncode == 0
     again = subprocess.run([*command, "--db", str(shared)], capture_output=True, timeout=300)

@@ -22,7 +22,7 @@ from matplotlib.figure import Figure
 
 from posfb.analysis.montecarlo.results import JointStats, StudyData
 from posfb.analysis.montecarlo.statistics import Interval, ecdf, running_quantiles
-from posfb.analysis.plots import save
+from posfb.analysis.plots import log_scale, save
 
 #: N is "enough" for a statistic whose 95 % interval half-width is at most this share of it.
 PRECISION = 0.10
@@ -137,7 +137,7 @@ def plot(data: StudyData, out: Path) -> None:
             colour = f"C{k}"
             axis.plot(counts, running[:, 0], color=colour, label=f"{controller} median")
             axis.plot(counts, running[:, 1], "--", color=colour, label=f"{controller} 95th pct")
-        axis.set_yscale("log")
+        log_scale(axis)
         axis.set_xlabel("finished runs (sample order)")
         axis.set_ylabel("RMS tracking error (rad)")
         axis.set_title(f"joint {joint + 1}")
@@ -152,7 +152,7 @@ def plot(data: StudyData, out: Path) -> None:
         for controller in data.controllers:
             values, probability = ecdf(data.rms_q[controller][:, joint])
             axis.step(values, probability, where="post", label=controller)
-        axis.set_xscale("log")
+        log_scale(axis, "x")
         axis.set_xlabel("RMS tracking error (rad)")
         axis.set_ylabel("share of finished runs")
         axis.set_title(f"joint {joint + 1}")

@@ -32,7 +32,7 @@ from posfb.analysis.montecarlo.results import (
 )
 from posfb.analysis.montecarlo.statistics import Interval, proportion_interval
 from posfb.analysis.montecarlo.store import ResultStore
-from posfb.analysis.plots import save
+from posfb.analysis.plots import log_scale, save
 from posfb.diagrams.scenario import Wave
 
 #: A run "saturates often" when more than this share of its control samples
@@ -71,7 +71,7 @@ def plot_distributions(data: StudyData, out: Path) -> None:
         for position, v in zip(positions, values, strict=True):
             axis.plot(position + jitter.uniform(-0.15, 0.15, v.size), v, ".", alpha=0.4)
         axis.set_xticks(positions, data.controllers)
-        axis.set_yscale("log")
+        log_scale(axis)
         axis.set_title(f"joint {joint + 1}")
         axis.set_ylabel("RMS tracking error (rad)")
         axis.grid(True, which="both", alpha=0.3)
@@ -87,7 +87,7 @@ def plot_against_payload(data: StudyData, out: Path) -> None:
             values = data.rms_q[controller][:, joint]
             ok = np.isfinite(values)
             axis.plot(data.payload[ok], values[ok], ".", alpha=0.6, label=controller)
-        axis.set_yscale("log")
+        log_scale(axis)
         axis.set_xlabel("tip payload (kg)")
         axis.set_ylabel("RMS tracking error (rad)")
         axis.set_title(f"joint {joint + 1}")
@@ -121,11 +121,12 @@ def plot_inside_outside(data: StudyData, out: Path) -> None:
                 box.set_alpha(0.6)
             axis.plot([], [], "s", color=colour, label=f"{name} ({int(np.sum(mask))} plants)")
         axis.set_xticks(range(len(data.controllers)), data.controllers)
-        axis.set_yscale("log")
+        log_scale(axis)
         axis.set_title(f"joint {joint + 1}")
         axis.set_ylabel("RMS tracking error (rad)")
         axis.grid(True, which="both", alpha=0.3)
-    axes[0].legend()
+    if axes[0].get_legend_handles_labels()[0]:
+        axes[0].legend()
     figure.suptitle("Plants inside vs outside the Assumption-1 bounds of the design", y=1.02)
     _save(figure, out, "rms_inside_outside")
 

@@ -17,11 +17,14 @@ from __future__ import annotations
 
 import itertools
 import multiprocessing
+import signal
 import sys
+import threading
 import time
 from collections import Counter
 from collections.abc import Callable, Generator, Iterator
 from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
+from concurrent.futures.process import BrokenProcessPool
 from dataclasses import dataclass
 
 from tqdm import tqdm
@@ -67,6 +70,9 @@ def _local_results(
     context.set_forkserver_preload([FORKSERVER_INIT, worker.__name__])
     queue = pending
     in_flight: set[Future] = set()
+    ctrl_c = _DeferredCtrlC()
+    previous = ctrl_c.install()
+    started = False
     pool = ProcessPoolExecutor(max_workers=workers, mp_context=context)
     try:
         while True:
@@ -76,20 +82,67 @@ def _local_results(
                     break
             if not in_flight:
                 return
+            done: set[Future] = set()
             try:
+                if started:
+                    ctrl_c.allow()
                 done, in_flight = wait(in_flight, return_when=FIRST_COMPLETED)
+                ctrl_c.allowed = False
+                started = True
             except KeyboardInterrupt:
-                yield from _drain(in_flight)
+                ctrl_c.allowed = True  # a second Ctrl-C drops the samples in flight
+                yield from _drain(done | in_flight)
                 raise
             for future in done:
                 yield future.result()
+    except BrokenProcessPool:
+        if ctrl_c.pending:  # Ctrl-C reached the forkserver before it could ignore it
+            raise KeyboardInterrupt from None
+        raise
     finally:
+        ctrl_c.uninstall(previous)
         pool.shutdown(wait=False, cancel_futures=True)
 
 
+class _DeferredCtrlC:
+    """The local pool's SIGINT handler: Ctrl-C is raised as ``KeyboardInterrupt`` only
+    inside ``wait`` once the first sample is back, and kept pending elsewhere. So a store
+    write is never cut, and the pool is never shut down while the forkserver still starts
+    its workers (they would unpickle semaphores that are gone: a traceback, and the exit
+    can hang). A handler, not a blocked signal mask: the kernel may hand SIGINT to any
+    thread (BLAS, Drake), and Python runs the handler in the main thread regardless."""
+
+    def __init__(self) -> None:
+        self.allowed = False
+        self.pending = False
+
+    def __call__(self, signum: int, frame: object) -> None:
+        if self.allowed:
+            raise KeyboardInterrupt
+        self.pending = True
+
+    def allow(self) -> None:
+        """From now on Ctrl-C raises; one that came meanwhile raises now."""
+        self.allowed = True
+        if self.pending:
+            self.pending = False
+            raise KeyboardInterrupt
+
+    def install(self) -> object:
+        """Install (from the main thread only; elsewhere Ctrl-C is not ours to handle)."""
+        if threading.current_thread() is not threading.main_thread():
+            return None
+        return signal.signal(signal.SIGINT, self)
+
+    @staticmethod
+    def uninstall(previous: object) -> None:
+        if previous is not None:
+            signal.signal(signal.SIGINT, previous)
+
+
 def _drain(in_flight: set[Future]) -> Generator[SampleResult, None, None]:
-    """After Ctrl-C: drop the queued samples, finish (and so keep) the running ones; a
-    second Ctrl-C drops those too. The workers ignore Ctrl-C themselves."""
+    """After Ctrl-C: drop the queued samples, finish (and so keep) the running and the
+    finished ones; a second Ctrl-C drops those too. The workers ignore Ctrl-C themselves."""
     running = {future for future in in_flight if not future.cancel()}
     if running:
         sys.stderr.write(

@@ -31,7 +31,7 @@ from posfb.analysis.montecarlo.statistics import (
     proportion_interval,
     spearman_ranking,
 )
-from posfb.analysis.plots import save
+from posfb.analysis.plots import log_scale, save
 
 
 @dataclass(frozen=True)
@@ -135,7 +135,7 @@ def plot(data: StudyData, found: list[LoopStability], out: Path) -> None:
             ok = np.isfinite(values) & np.isfinite(radius)
             axis.plot(radius[ok], values[ok], ".", alpha=0.6, label=entry.controller)
         axis.axvline(1.0, color="black", linestyle="--", linewidth=0.8)
-        axis.set_yscale("log")
+        log_scale(axis)
         axis.set_xlabel("spectral radius of the designed sampled loop on the plant")
         axis.set_ylabel("RMS tracking error (rad)")
         axis.set_title(f"joint {joint + 1}")

@@ -40,8 +40,6 @@ from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import ArrayLike
-from SALib.analyze import sobol as sobol_analyze
-from SALib.sample import sobol as sobol_sample
 from scipy import stats
 
 #: Largest number of array elements one bootstrap batch holds (resamples x sample size).
@@ -249,6 +247,8 @@ def saltelli_unit_design(dimensions: int, base_samples: int, seed: int) -> np.nd
     if base_samples & (base_samples - 1):
         raise ValueError(f"base_samples = {base_samples}; a power of 2 is required")
     seed = _integer("seed", seed, minimum=0)
+    from SALib.sample import sobol as sobol_sample  # imported on use: SALib is slow to import
+
     return sobol_sample.sample(
         _unit_problem([f"x{j}" for j in range(dimensions)]),
         base_samples,
@@ -297,6 +297,8 @@ def sobol_indices(
         raise ValueError(
             f"response is constant ({y[0]:g}); Sobol indices need a response that varies"
         )
+    from SALib.analyze import sobol as sobol_analyze  # imported on use, as above
+
     result = sobol_analyze.analyze(
         _unit_problem(names),
         y,
