@@ -36,6 +36,7 @@ import xml.etree.ElementTree as ET
 from pathlib import Path
 
 import numpy as np
+from pydrake.autodiffutils import InitializeAutoDiff
 from pydrake.math import RigidTransform
 from pydrake.multibody.parsing import Parser
 from pydrake.multibody.plant import MultibodyPlant
@@ -90,6 +91,7 @@ class SerialArmModel:
         self._B = np.diag(damping * self._scale)
         self._coulomb = coulomb * self._scale
         self._M0: np.ndarray | None = None
+        self._autodiff: tuple[MultibodyPlant, object] | None = None
 
     def _set_state(self, q: np.ndarray, v: np.ndarray | None = None) -> None:
         positions = np.zeros(self._plant.num_positions())
@@ -148,6 +150,38 @@ class SerialArmModel:
             total += self.M(np.array([0.0, *rest]))
             count += 1
         return total / count
+
+    def mass_matrix_derivatives(self, q: np.ndarray) -> np.ndarray:
+        """``dM*/dq`` at ``q``: ``[i, j, k] = d M*_ij / d q_k``, exact (Drake's AutoDiffXd
+        plant)."""
+        if self._autodiff is None:
+            plant = self._plant.ToAutoDiffXd()
+            self._autodiff = (plant, plant.CreateDefaultContext())
+        plant, context = self._autodiff
+        positions = np.zeros(plant.num_positions())
+        positions[self._q_index] = q
+        seeded = InitializeAutoDiff(positions)
+        plant.SetPositions(context, seeded)
+        mass = plant.CalcMassMatrix(context)[np.ix_(self._v_index, self._v_index)]
+        derivatives = np.array(
+            [[entry.derivatives()[self._q_index] for entry in row] for row in mass]
+        )
+        return self._scale[:, None, None] * derivatives
+
+    def christoffel(self, q: np.ndarray) -> np.ndarray:
+        """``[i, j, k] = c_ijk / kappa_i`` with the Christoffel symbols of the physical
+        ``M``, ``c_ijk = (dM_ij/dq_k + dM_ik/dq_j - dM_jk/dq_i) / 2``."""
+        physical = (
+            self.mass_matrix_derivatives(np.asarray(q, dtype=float))
+            * (self.motor_constant[:, None, None])
+        )
+        symbols = 0.5 * (physical + physical.transpose(0, 2, 1) - physical.transpose(2, 1, 0))
+        return self._scale[:, None, None] * symbols
+
+    def C(self, q: np.ndarray, qdot: np.ndarray) -> np.ndarray:
+        """The Coriolis/centrifugal matrix ``C*(q, q') = christoffel(q) q'`` (Christoffel
+        form; ``C*(q, q') q'`` is ``coriolis``; for the two-link arm it is Table 1's ``C*``)."""
+        return self.christoffel(q) @ np.asarray(qdot, dtype=float)
 
     def inverse_dynamics(
         self, q: np.ndarray, qdot: np.ndarray, qddot: np.ndarray, friction: bool = True

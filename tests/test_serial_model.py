@@ -149,3 +149,56 @@ def test_bad_arms_are_refused_in_one_line_naming_the_element(tmp_path, old, new,
     with pytest.raises(ValueError, match=re.escape(needle)) as error:
         SerialArmModel(_edited(tmp_path, old, new))
     assert len(str(error.value).splitlines()) == 1
+
+
+def test_the_christoffel_matrix_is_table_1s_and_gives_the_bias_term(three_link):
+    model = SerialArmModel(URDF / "two_link_arm.urdf")
+    lumped = LumpedModel(identify_urdf(str(URDF / "two_link_arm.urdf")))
+    rng = np.random.default_rng(4)
+    for _ in range(10):
+        q, v = rng.uniform(-np.pi, np.pi, 2), rng.uniform(-3, 3, 2)
+        np.testing.assert_allclose(model.C(q, v), lumped.C(q, v), atol=1e-12)
+        q3, v3 = rng.uniform(-np.pi, np.pi, 3), rng.uniform(-3, 3, 3)
+        np.testing.assert_allclose(three_link.C(q3, v3) @ v3, three_link.coriolis(q3, v3),
+                                   atol=1e-12)  # fmt: skip
+
+
+def test_sampled_assumption_1_norms_equal_the_two_link_closed_forms(tmp_path):
+    from posfb.analysis.montecarlo.coverage import uncertainty_norms as closed_form
+    from posfb.models.serial_bounds import BOUND_NAMES, uncertainty_norms
+
+    text = (URDF / "two_link_arm.urdf").read_text()
+    heavier = text.replace('<mass value="0.873"/>', '<mass value="1.1"/>')
+    heavier = heavier.replace('damping="1.45414"', 'damping="1.2"')
+    heavier = heavier.replace('value="1.93894"', 'value="1.7"')
+    heavier = heavier.replace('<origin xyz="0.2 0 0" rpy="0 0 0"/>', '<origin xyz="0.21 0 0"/>')
+    (tmp_path / "true.urdf").write_text(heavier)
+    true, nominal = tmp_path / "true.urdf", URDF / "two_link_arm.urdf"
+    sampled = uncertainty_norms(SerialArmModel(true), SerialArmModel(nominal), samples=128)
+    expected = closed_form(identify_urdf(str(true)), identify_urdf(str(nominal)))
+    assert sampled.converged()
+    for name in BOUND_NAMES:
+        assert sampled.norms[name] == pytest.approx(expected[name], rel=1e-9), name
+
+
+def test_sampled_norms_of_the_three_link_arm_bound_every_random_state(tmp_path, three_link):
+    from posfb.models.serial_bounds import uncertainty_norms
+
+    path = _edited(tmp_path, '<mass value="0.5"/>', '<mass value="0.6"/>')
+    true = SerialArmModel(path)
+    same = uncertainty_norms(three_link, SerialArmModel(URDF / "three_link_arm.urdf"), 16)
+    assert all(value == 0.0 for value in same.norms.values())
+    sampled = uncertainty_norms(true, three_link, samples=128)
+    assert sampled.converged(1e-6)
+    assert sampled.norms["delta_M1"] > 0 and sampled.norms["delta_G"] > 0
+    rng = np.random.default_rng(5)
+    M0 = (three_link.M0(), true.M0())
+    for _ in range(300):
+        q, x = rng.uniform(-np.pi, np.pi, 3), rng.normal(size=3)
+        x /= np.linalg.norm(x)
+        m1 = np.linalg.norm((three_link.M(q) - M0[0]) - (true.M(q) - M0[1]), 2)
+        c = np.linalg.norm(three_link.C(q, x) - true.C(q, x), 2)
+        g = np.linalg.norm(three_link.G(q) - true.G(q))
+        assert m1 <= sampled.norms["delta_M1"] * (1 + 1e-9)
+        assert c <= sampled.norms["delta_C"] * (1 + 1e-9)
+        assert g <= sampled.norms["delta_G"] * (1 + 1e-9)

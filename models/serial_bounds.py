@@ -1,0 +1,146 @@
+"""Assumption 1's constants for any serial arm, by sampling the workspace (issue 13).
+
+Assumption 1 (Sec. 2) bounds the differences between a nominal model ``*`` and
+the true arm, both as ``models.serial_model.SerialArmModel``::
+
+    ||dM0|| <= D_M0,  ||dM1(q)|| <= D_M1,  ||dC(q, x)|| <= D_C ||x||,
+    ||dG(q)|| <= D_G,  ||dB|| <= D_B,  ||dF(q')|| <= D_F     for all q, q', x
+
+with ``M1 = M - M0`` and ``C`` in Christoffel form (``SerialArmModel.C``). For the
+two-link arm ``analysis.montecarlo.coverage`` has them in closed form; for any
+other arm:
+
+* ``dM0``, ``dB`` (spectral norms of constant matrices) and ``dF`` (the largest
+  ``||diag(df) s||`` over ``|s_i| = 1``: ``||df||``) are exact;
+* ``dM1``, ``dG`` and ``dC`` are maxima over the workspace: ``samples`` points of a
+  scrambled Sobol' sequence over every joint angle, then a local search
+  (Nelder-Mead) from the ``STARTS`` best points; for ``dC`` the largest gain over the
+  direction ``x`` at each ``q`` is ``tensor_norm``'s alternating maximisation.
+  ``coarse`` repeats this with the first half of the points: where the two agree
+  (``converged``) the maximum was found from two starting sets.
+
+A sampled maximum is a lower bound of the true one; the local search makes it
+exact when the best sample lies in the global maximum's basin, which the
+convergence check and the two-link test (against the closed forms) support.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.optimize
+from scipy.stats import qmc
+
+from posfb.models.serial_model import SerialArmModel
+
+#: The constants, in the paper's order (the names of ``analysis.montecarlo.coverage``).
+BOUND_NAMES = ("delta_M0", "delta_M1", "delta_C", "delta_G", "delta_B", "delta_F")
+
+
+@dataclass(frozen=True)
+class SampledNorms:
+    """``norms[name]`` with ``samples`` workspace points; ``coarse`` with half of them."""
+
+    norms: dict[str, float]
+    coarse: dict[str, float]
+    samples: int
+
+    def converged(self, tolerance: float = 1e-6) -> bool:
+        """Whether both point sets found the same maxima (relative ``tolerance``)."""
+        return all(
+            abs(self.norms[name] - self.coarse[name]) <= tolerance * max(self.norms[name], 1e-300)
+            for name in BOUND_NAMES
+        )
+
+
+#: Starting points of the local search: the best samples.
+STARTS = 3
+
+
+def _maximum(function: Callable[[np.ndarray], float], points: np.ndarray) -> float:
+    """The largest ``function`` over ``points``, refined by Nelder-Mead from the
+    ``STARTS`` best."""
+    values = np.array([function(point) for point in points])
+    best = float(values.max())
+    for start in points[np.argsort(values)[::-1][:STARTS]]:
+        result = scipy.optimize.minimize(
+            lambda point: -function(point), start, method="Nelder-Mead",
+            options={"xatol": 1e-10, "fatol": 1e-15, "maxiter": 4000},
+        )  # fmt: skip
+        best = max(best, -float(result.fun))
+    return best
+
+
+def tensor_norm(tensor: np.ndarray, iterations: int = 100) -> float:
+    """``max_{||x|| = 1} ||tensor @ x||_2`` for ``tensor[i, j, k]`` (``C*(q, x)``'s
+    largest gain): alternating maximisation (the top singular pair ``(u, v)`` of
+    ``tensor @ x``, then ``x`` along ``u^T tensor v``), which never decreases the value,
+    from every unit vector and their normalised sum."""
+    n = tensor.shape[2]
+    starts = [*np.eye(n), np.ones(n) / np.sqrt(n)]
+    best = 0.0
+    for x in starts:
+        value = 0.0
+        for _ in range(iterations):
+            left, singular, right = np.linalg.svd(tensor @ x)
+            gradient = np.einsum("i,ijk,j->k", left[:, 0], tensor, right[0])
+            length = float(np.linalg.norm(gradient))
+            if length == 0.0 or singular[0] - value <= 1e-15 * max(singular[0], 1.0):
+                value = max(value, float(singular[0]))
+                break
+            value, x = float(singular[0]), gradient / length
+        best = max(best, value, float(np.linalg.norm(tensor @ x, 2)))
+    return best
+
+
+def _workspace_maxima(
+    true: SerialArmModel, nominal: SerialArmModel, angles: np.ndarray
+) -> dict[str, float]:
+    """``dM1``, ``dG``, ``dC`` maximised over the joint angles ``angles``."""
+    M0_true, M0_nominal = true.M0(), nominal.M0()
+
+    def m1(q: np.ndarray) -> float:
+        difference = (nominal.M(q) - M0_nominal) - (true.M(q) - M0_true)
+        return float(np.linalg.norm(difference, 2))
+
+    def gravity(q: np.ndarray) -> float:
+        return float(np.linalg.norm(nominal.G(q) - true.G(q)))
+
+    def coriolis(q: np.ndarray) -> float:
+        return tensor_norm(nominal.christoffel(q) - true.christoffel(q))
+
+    return {
+        "delta_M1": _maximum(m1, angles),
+        "delta_C": _maximum(coriolis, angles),
+        "delta_G": _maximum(gravity, angles),
+    }
+
+
+def uncertainty_norms(
+    true: SerialArmModel, nominal: SerialArmModel, samples: int = 256, seed: int = 0
+) -> SampledNorms:
+    """Assumption 1's smallest constants for ``true`` against ``nominal`` (module
+    docstring); ``samples`` (a power of 2) workspace points."""
+    if true.size != nominal.size:
+        raise ValueError(
+            f"the true arm has {true.size} joints and the nominal model {nominal.size}; "
+            "the same number is required"
+        )
+    if samples < 2 or samples & (samples - 1):
+        raise ValueError(f"samples = {samples!r}; a power of 2 >= 2 is required")
+    exact = {
+        "delta_M0": float(np.linalg.norm(nominal.M0() - true.M0(), 2)),
+        "delta_B": float(np.linalg.norm(nominal.B() - true.B(), 2)),
+        "delta_F": float(np.linalg.norm(nominal.coulomb_levels() - true.coulomb_levels())),
+    }
+    angles = (
+        2.0
+        * np.pi
+        * qmc.Sobol(true.size, scramble=True, rng=np.random.default_rng(seed)).random(samples)
+    )
+    fine = {**exact, **_workspace_maxima(true, nominal, angles)}
+    coarse = {**exact, **_workspace_maxima(true, nominal, angles[: samples // 2])}
+    order = {name: fine[name] for name in BOUND_NAMES}
+    return SampledNorms(order, {name: coarse[name] for name in BOUND_NAMES}, samples)
