@@ -202,3 +202,30 @@ def test_sampled_norms_of_the_three_link_arm_bound_every_random_state(tmp_path, 
         assert m1 <= sampled.norms["delta_M1"] * (1 + 1e-9)
         assert c <= sampled.norms["delta_C"] * (1 + 1e-9)
         assert g <= sampled.norms["delta_G"] * (1 + 1e-9)
+
+
+def test_the_linear_design_is_sized_by_the_arm(three_link):
+    """Eq. 5-6, 11, 13-15 and the sampled-data check on the three-link arm's M0*, B*:
+    a 9-state augmented system, a stabilising LQR, and a sampled loop whose spectral
+    radius tends to exp(T_s max Re s) of the continuous loop as T_s -> 0."""
+    from posfb.models.design.augmented import augmented_system, solve_lqr
+    from posfb.models.design.closed_loop import (
+        continuous_closed_loop,
+        sampled_data_closed_loop,
+        spectral_radius,
+    )
+    from posfb.models.design.realisation import linear_control_filter
+
+    M0, B = three_link.M0(), three_link.B()
+    system = augmented_system(M0, B, np.array([50.0, 50.0, 50.0]))
+    assert system.A_a.shape == (9, 9) and system.B_a1.shape == (9, 3)
+    lqr = solve_lqr(system, np.diag([1e4] * 3 + [10.0] * 3 + [1.0] * 3), np.eye(3))
+    assert lqr.K.shape == (3, 9)
+    assert np.linalg.eigvals(system.A_a - system.B_a1 @ lqr.K).real.max() < 0
+    lc = linear_control_filter(lqr.K1, lqr.K2, lqr.K3, system.A_eta)
+    slowest = np.linalg.eigvals(continuous_closed_loop(M0, B, lc, np.eye(3))).real.max()
+    assert slowest < 0
+    for T in (1e-4, 1e-5):
+        radius = spectral_radius(sampled_data_closed_loop(M0, B, lc.discretise(T), np.eye(3), T))
+        assert radius < 1
+        assert radius == pytest.approx(np.exp(slowest * T), abs=T**2 * abs(slowest))  # error O(T^2)

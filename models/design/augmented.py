@@ -2,6 +2,8 @@
 and the input direction of the nonlinear torque (Eq. 20).
 
 The state is ``x~ = [q~, q~', eta~]`` with ``eta~ = tau_LC - tau_d`` (Eq. 9-10).
+Everything is sized by the number of joints ``n = len(M0)``: the augmented system
+has ``3 n`` states (the paper's arm: 6).
 """
 
 from __future__ import annotations
@@ -10,10 +12,6 @@ from dataclasses import dataclass
 
 import numpy as np
 import scipy.linalg
-
-from posfb.models.design.config import JOINTS
-
-_N = JOINTS
 
 
 @dataclass(frozen=True, eq=False)
@@ -31,7 +29,8 @@ def augmented_system(M0: np.ndarray, B: np.ndarray, lambdas: np.ndarray) -> Augm
     """Eq. 11 for the nominal linear part ``M0* q'' + B* q' = tau_LC`` (Eq. 2) cascaded
     with ``Lambda(s) = diag(1/(s + lambda_i))`` (Eq. 5)."""
     M0_inv = np.linalg.inv(M0)
-    zero, eye = np.zeros((_N, _N)), np.eye(_N)
+    n = len(M0)
+    zero, eye = np.zeros((n, n)), np.eye(n)
     A_eta = -np.diag(lambdas)
     A_a = np.block([[zero, eye, zero], [zero, -M0_inv @ B, M0_inv], [zero, zero, A_eta]])
     return AugmentedSystem(
@@ -43,9 +42,10 @@ def augmented_system(M0: np.ndarray, B: np.ndarray, lambdas: np.ndarray) -> Augm
 
 
 def column_block(matrix: np.ndarray, index: int) -> np.ndarray:
-    """The ``index``-th ``n``-column block of a ``[X1 X2 X3]`` matrix (``K`` of Eq. 14,
-    ``E`` of Eq. 20)."""
-    return matrix[:, index * _N : (index + 1) * _N]
+    """The ``index``-th ``n``-column block of a ``[X1 X2 X3]`` matrix with ``3 n``
+    columns (``K`` of Eq. 14, ``E`` of Eq. 20)."""
+    n = matrix.shape[1] // 3
+    return matrix[:, index * n : (index + 1) * n]
 
 
 class GainBlocks:
@@ -92,5 +92,4 @@ def solve_lqr(system: AugmentedSystem, Q: np.ndarray, R: np.ndarray) -> LqrSolut
 def nonlinear_input_matrix(P: np.ndarray, M0: np.ndarray) -> np.ndarray:
     """``E = (M0*)^-T P2^T = [E1 E2 E3]`` with ``P = [P1 P2 P3]`` (Eq. 20), so that the
     SPR filter's input is ``z = E x~``."""
-    P2 = P[:, _N : 2 * _N]
-    return np.linalg.solve(M0.T, P2.T)
+    return np.linalg.solve(M0.T, column_block(P, 1).T)

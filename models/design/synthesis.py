@@ -36,7 +36,7 @@ from posfb.models.design.closed_loop import (
     sampled_data_closed_loop,
     spectral_radius,
 )
-from posfb.models.design.config import JOINTS, ControllerConfig
+from posfb.models.design.config import ControllerConfig
 from posfb.models.design.realisation import (
     DiscreteFilter,
     linear_control_filter,
@@ -46,8 +46,6 @@ from posfb.models.design.realisation import (
 )
 from posfb.models.design.spr import SprCertificate, spr_certificate
 from posfb.models.lumped import LumpedModel, LumpedParameters
-
-_N = JOINTS
 
 #: Checks whose failure makes ``tau_LC`` (Eq. 13) unusable.
 LINEAR_TORQUE_CHECKS = ("riccati",)
@@ -219,14 +217,14 @@ def _loop_radii(
     filter outputs ``[eta~, phi, p, pbar]`` give ``u = eta~ - alpha* phi`` (Eq. 13, 19 with
     ``alpha = alpha*``); the bound filter runs open loop, so its poles ``abar`` are in the
     spectrum too."""
-    outputs = proposed_filter.C.shape[0]
-    gain = np.hstack([np.eye(_N), -alpha_star * np.eye(_N), np.zeros((_N, outputs - 2 * _N))])
+    n, outputs = len(M0), proposed_filter.C.shape[0]
+    gain = np.hstack([np.eye(n), -alpha_star * np.eye(n), np.zeros((n, outputs - 2 * n))])
     return {
         "proposed": spectral_radius(
             sampled_data_closed_loop(M0, B, proposed_filter, gain, sample_time)
         ),
         "lin_lc": spectral_radius(
-            sampled_data_closed_loop(M0, B, lin_lc_filter, np.eye(_N), sample_time)
+            sampled_data_closed_loop(M0, B, lin_lc_filter, np.eye(n), sample_time)
         ),
     }
 
@@ -269,9 +267,10 @@ def compute_design(config: ControllerConfig | None = None) -> Design:
     nc = nonlinear_control_filter(
         lqr.K1, lqr.K2, lqr.K3, augmented.A_eta, E, A_zeta, B_zeta, C_zeta
     )
-    nc_gain = np.hstack([np.eye(_N), -nonlinear.alpha_star * np.eye(_N)])
+    n = len(M0)
+    nc_gain = np.hstack([np.eye(n), -nonlinear.alpha_star * np.eye(n)])
     lin_lc_filter = lc.discretise(T, method)
-    proposed_filter = stack(nc, velocity_bound_filter(nonlinear.filter_a, _N)).discretise(T, method)
+    proposed_filter = stack(nc, velocity_bound_filter(nonlinear.filter_a, n)).discretise(T, method)
     radii = _loop_radii(M0, B, proposed_filter, lin_lc_filter, nonlinear.alpha_star, T)
     continuous_poles = _sorted_poles(augmented.A_a - augmented.B_a1 @ lqr.K)
     poles_with_nc = _sorted_poles(continuous_closed_loop(M0, B, nc, nc_gain))
