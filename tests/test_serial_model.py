@@ -229,3 +229,104 @@ def test_the_linear_design_is_sized_by_the_arm(three_link):
         radius = spectral_radius(sampled_data_closed_loop(M0, B, lc.discretise(T), np.eye(3), T))
         assert radius < 1
         assert radius == pytest.approx(np.exp(slowest * T), abs=T**2 * abs(slowest))  # error O(T^2)
+
+
+#: The six-joint arm as typed from its table (``urdf/six_joint_arm.urdf`` comments):
+#: joint origin in the parent link, origin roll-pitch-yaw, axis; link mass, cylinder
+#: radius and length along the link's z axis (centre of mass at half the length);
+#: gear ratio, rotor inertia, damping, Coulomb level, motor constant.
+HALF_PI = 1.5707963267948966
+SIX_JOINTS = [
+    ((0, 0, 0.089159), (0, 0, 0), (0, 0, 1)),
+    ((0, 0.13585, 0), (0, HALF_PI, 0), (0, 1, 0)),
+    ((0, -0.1197, 0.425), (0, 0, 0), (0, 1, 0)),
+    ((0, 0, 0.39225), (0, HALF_PI, 0), (0, 1, 0)),
+    ((0, 0.093, 0), (0, 0, 0), (0, 0, 1)),
+    ((0, 0, 0.09465), (0, 0, 0), (0, 1, 0)),
+]
+SIX_LINKS = [
+    (3.7, 0.06, 0.15), (8.393, 0.054, 0.425), (2.275, 0.04, 0.39225),
+    (1.219, 0.04, 0.12), (1.219, 0.04, 0.12), (0.1879, 0.0375, 0.0345),
+]  # fmt: skip
+SIX_MOTORS = [
+    (101, 6.0e-5, 20.0, 10.0, 12.0), (101, 6.0e-5, 20.0, 10.0, 12.0),
+    (101, 6.0e-5, 15.0, 8.0, 12.0), (101, 1.5e-5, 5.0, 2.0, 3.0),
+    (101, 1.5e-5, 5.0, 2.0, 3.0), (101, 1.5e-5, 5.0, 2.0, 3.0),
+]  # fmt: skip
+
+
+def _rpy(roll: float, pitch: float, yaw: float) -> np.ndarray:
+    cr, sr, cp, sp, cy, sy = (f(a) for a in (roll, pitch, yaw) for f in (np.cos, np.sin))
+    return np.array(
+        [
+            [cy * cp, cy * sp * sr - sy * cr, cy * sp * cr + sy * sr],
+            [sy * cp, sy * sp * sr + cy * cr, sy * sp * cr - cy * sr],
+            [-sp, cp * sr, cp * cr],
+        ]
+    )
+
+
+def _about(axis: np.ndarray, angle: float) -> np.ndarray:
+    """Rodrigues' rotation by ``angle`` about the unit ``axis``."""
+    k = np.array([[0, -axis[2], axis[1]], [axis[2], 0, -axis[0]], [-axis[1], axis[0], 0]])
+    return np.eye(3) + np.sin(angle) * k + (1 - np.cos(angle)) * k @ k
+
+
+def spatial_newton_euler(q: np.ndarray, v: np.ndarray, a: np.ndarray) -> np.ndarray:
+    """Joint voltages of the six-joint arm by recursive Newton-Euler in world
+    coordinates, from the tables above (no Drake): gravity as an upward base
+    acceleration, then the motor stage divided by the motor constants."""
+    rotation, origin = np.eye(3), np.zeros(3)
+    omega, alpha, acceleration = np.zeros(3), np.zeros(3), np.array([0.0, 0.0, GRAVITY])
+    frames = []
+    for (xyz, rpy, axis), (mass, radius, length), qi, vi, ai in zip(
+        SIX_JOINTS, SIX_LINKS, q, v, a, strict=True
+    ):
+        offset = rotation @ np.array(xyz, dtype=float)
+        acceleration = (
+            acceleration + np.cross(alpha, offset) + np.cross(omega, np.cross(omega, offset))
+        )
+        origin = origin + offset
+        rotation = rotation @ _rpy(*rpy)
+        z = rotation @ np.array(axis, dtype=float)
+        rotation = rotation @ _about(np.array(axis, dtype=float), qi)
+        alpha = alpha + z * ai + np.cross(omega, z * vi)
+        omega = omega + z * vi
+        com = rotation @ np.array([0.0, 0.0, length / 2])
+        com_acceleration = (
+            acceleration + np.cross(alpha, com) + np.cross(omega, np.cross(omega, com))
+        )
+        across = mass * (3 * radius**2 + length**2) / 12
+        inertia = rotation @ np.diag([across, across, mass * radius**2 / 2]) @ rotation.T
+        frames.append((origin, z, com, mass, com_acceleration, inertia, omega, alpha))
+    torque = np.zeros(len(q))
+    force_next, moment_next, origin_next = np.zeros(3), np.zeros(3), None
+    for i in reversed(range(len(q))):
+        origin, z, com, mass, com_acceleration, inertia, omega, alpha = frames[i]
+        inertial_force = mass * com_acceleration
+        moment = (
+            inertia @ alpha
+            + np.cross(omega, inertia @ omega)
+            + np.cross(com, inertial_force)
+            + moment_next
+        )
+        if origin_next is not None:
+            moment = moment + np.cross(origin_next - origin, force_next)
+        force_next = inertial_force + force_next
+        moment_next, origin_next = moment, origin
+        torque[i] = z @ moment
+    gear, rotor, damping, coulomb, kappa = np.array(SIX_MOTORS, dtype=float).T
+    torque += rotor * gear**2 * a + damping * v + coulomb * np.sign(v)
+    return torque / kappa
+
+
+def test_a_spatial_six_joint_arm_agrees_with_an_independent_newton_euler():
+    model = SerialArmModel(URDF / "six_joint_arm.urdf")
+    assert model.size == 6
+    rng = np.random.default_rng(6)
+    for _ in range(30):
+        q, v, a = rng.uniform(-np.pi, np.pi, 6), rng.uniform(-2, 2, 6), rng.uniform(-5, 5, 6)
+        expected = spatial_newton_euler(q, v, a)
+        got = model.inverse_dynamics(q, v, a)
+        np.testing.assert_allclose(got, expected, rtol=1e-9, atol=1e-9 * np.abs(expected).max())
+    np.testing.assert_allclose(model.M0(), model.mean_mass_matrix(6), atol=1e-13)
