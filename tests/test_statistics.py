@@ -365,3 +365,21 @@ def test_running_quantiles_with_too_few_values_and_bad_arguments() -> None:
         running_quantiles([1.0], [])
     with pytest.raises(ValueError, match="min_count = 0"):
         running_quantiles([1.0], [0.5], min_count=0)
+
+
+def test_large_samples_get_a_fisher_interval_that_covers_the_population_rho():
+    """Above BOOTSTRAP_ROWS rows the interval is Fisher-z with Bonett & Wright's variance:
+    on bivariate normal data (population Spearman 6/pi asin(r/2)) it covers the truth at
+    about its nominal rate (seeded, 200 data sets), in milliseconds."""
+    from posfb.analysis.montecarlo.statistics import BOOTSTRAP_ROWS
+
+    r, n = 0.6, BOOTSTRAP_ROWS + 500
+    truth = 6 / np.pi * np.arcsin(r / 2)
+    rng = np.random.default_rng(11)
+    covered = 0
+    for _ in range(200):
+        x = rng.normal(size=n)
+        y = r * x + np.sqrt(1 - r * r) * rng.normal(size=n)
+        (entry,) = spearman_ranking({"x": x}, y)
+        covered += entry.low <= truth <= entry.high
+    assert 0.90 <= covered / 200 <= 0.99

@@ -45,6 +45,9 @@ from scipy import stats
 #: Largest number of array elements one bootstrap batch holds (resamples x sample size).
 _BATCH_ELEMENTS = 1 << 20
 
+#: Above this many rows ``spearman_ranking`` uses the Fisher-z (Bonett-Wright) interval.
+BOOTSTRAP_ROWS = 2000
+
 #: Largest dimension ``saltelli_unit_design`` accepts: the design draws a Sobol' sequence of
 #: 2 d dimensions, and SciPy's direction numbers (Joe & Kuo 2008) stop at 21201.
 _MAX_SALTELLI_DIMENSIONS = 21201 // 2
@@ -88,6 +91,7 @@ class SobolIndex:
     first_conf: float
     total: float
     total_conf: float
+
 
 
 def quantile_interval(
@@ -187,7 +191,9 @@ def spearman_ranking(
     Each parameter is paired with the response over the rows where both are finite. ``rho`` and
     ``p_value`` (two-sided, t approximation) come from ``scipy.stats.spearmanr``; ``[low, high]``
     is a paired percentile bootstrap (rows resampled together, ``resamples`` times, from
-    ``default_rng(seed)`` afresh for each parameter). A
+    ``default_rng(seed)`` afresh for each parameter) up to ``BOOTSTRAP_ROWS`` rows, and above
+    that the Fisher-z interval with Bonett & Wright's (2000) variance ``(1 + rho^2 / 2) / (n - 3)``
+    (accurate at such sizes, where the bootstrap would cost minutes per study). A
     resample in which either column is constant has no rho and is left out of the percentiles.
     A parameter with fewer than 3 such rows, or for which the parameter or the response is
     constant over them, has no rank correlation and is left out. The list is sorted by
@@ -214,7 +220,10 @@ def spearman_ranking(
         if xs.size < 3 or np.ptp(xs) == 0 or np.ptp(ys) == 0:
             continue
         result = stats.spearmanr(xs, ys)
-        low, high = _bootstrap_spearman(xs, ys, confidence, resamples, seed)
+        if xs.size <= BOOTSTRAP_ROWS:
+            low, high = _bootstrap_spearman(xs, ys, confidence, resamples, seed)
+        else:
+            low, high = _fisher_spearman(float(result.statistic), xs.size, confidence)
         ranking.append(
             RankCorrelation(
                 parameter=name,
@@ -370,6 +379,13 @@ def _bootstrap_spearman(
     tail = (1.0 - confidence) / 2.0
     low, high = np.quantile(rhos, [tail, 1.0 - tail])
     return float(low), float(high)
+
+
+def _fisher_spearman(rho: float, rows: int, confidence: float) -> tuple[float, float]:
+    """Fisher-z interval of Spearman's rho with Bonett & Wright's (2000) standard error."""
+    z = float(np.arctanh(np.clip(rho, -1.0 + 1e-15, 1.0 - 1e-15)))
+    half = stats.norm.ppf(0.5 + confidence / 2.0) * np.sqrt((1.0 + rho * rho / 2.0) / (rows - 3))
+    return float(np.tanh(z - half)), float(np.tanh(z + half))
 
 
 def _rank_correlation(x: np.ndarray, y: np.ndarray) -> np.ndarray:
