@@ -121,3 +121,31 @@ def log_scale(axis: Axes, which: str = "y", empty: str = "no finished runs") -> 
         getattr(axis, f"set_{which}scale")("log")
     else:
         axis.text(0.5, 0.5, empty, transform=axis.transAxes, ha="center", va="center")
+
+
+#: Resolution (dpi) of the Monte-Carlo report's figures.
+REPORT_DPI = 120
+
+
+def joint_panels(sharey: bool = True, width: float = 10.0) -> tuple[Figure, np.ndarray]:
+    """A figure (no pyplot state, no GUI backend) with one panel per joint."""
+    figure = Figure(figsize=(width, 4))
+    return figure, figure.subplots(1, 2, sharey=sharey)
+
+
+def label_joint_panel(
+    axis: Axes, joint: int, ylabel: str, xlabel: str | None = None, log: str = "y"
+) -> None:
+    """Finish the panel of ``joint`` (0-based): a log scale on ``log`` (``log_scale``),
+    the axis labels, the title ``joint <n>`` and a grid."""
+    log_scale(axis, log)
+    if xlabel is not None:
+        axis.set_xlabel(xlabel)
+    axis.set_ylabel(ylabel)
+    axis.set_title(f"joint {joint + 1}")
+    axis.grid(True, which="both", alpha=0.3)
+
+
+def save_report_figure(figure: Figure, directory: Path, stem: str) -> list[Path]:
+    """``save`` at ``REPORT_DPI`` with a tight bounding box (the report's figures)."""
+    return save(figure, directory, stem, dpi=REPORT_DPI, tight=True)

@@ -18,11 +18,10 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
-from matplotlib.figure import Figure
 
 from posfb.analysis.montecarlo.results import JointStats, StudyData
 from posfb.analysis.montecarlo.statistics import Interval, ecdf, running_quantiles
-from posfb.analysis.plots import log_scale, save
+from posfb.analysis.plots import joint_panels, label_joint_panel, save_report_figure
 
 #: N is "enough" for a statistic whose 95 % interval half-width is at most this share of it.
 PRECISION = 0.10
@@ -88,8 +87,7 @@ def _percent(value: float) -> str:
 def markdown(found: list[Convergence], samples: int) -> list[str]:
     """The section's Markdown lines."""
     enough = [
-        entry.median_precision <= PRECISION and entry.p95_precision <= PRECISION
-        for entry in found
+        entry.median_precision <= PRECISION and entry.p95_precision <= PRECISION for entry in found
     ]
     worst = max((e.p95_precision for e in found if np.isfinite(e.p95_precision)), default=np.nan)
     verdict = (
@@ -129,34 +127,26 @@ def _samples_needed(precision: float, samples: int) -> str:
 
 def plot(data: StudyData, out: Path) -> None:
     """Write ``convergence`` and ``ecdf`` (PNG and SVG) into ``out``."""
-    figure = Figure(figsize=(10, 4))
-    axes = figure.subplots(1, 2)
+    figure, axes = joint_panels(sharey=False)
     for joint, axis in enumerate(axes):
         for k, controller in enumerate(data.controllers):
             counts, running = running_quantiles(data.rms_q[controller][:, joint], QUANTILES)
             colour = f"C{k}"
             axis.plot(counts, running[:, 0], color=colour, label=f"{controller} median")
             axis.plot(counts, running[:, 1], "--", color=colour, label=f"{controller} 95th pct")
-        log_scale(axis)
-        axis.set_xlabel("finished runs (sample order)")
-        axis.set_ylabel("RMS tracking error (rad)")
-        axis.set_title(f"joint {joint + 1}")
-        axis.grid(True, which="both", alpha=0.3)
+        label_joint_panel(axis, joint, "RMS tracking error (rad)", "finished runs (sample order)")
     axes[0].legend(fontsize=7)
     figure.suptitle("Running median and 95th percentile: did the statistics settle?", y=1.02)
-    save(figure, out, "convergence", dpi=120, tight=True)
+    save_report_figure(figure, out, "convergence")
 
-    figure = Figure(figsize=(10, 4))
-    axes = figure.subplots(1, 2, sharey=True)
+    figure, axes = joint_panels()
     for joint, axis in enumerate(axes):
         for controller in data.controllers:
             values, probability = ecdf(data.rms_q[controller][:, joint])
             axis.step(values, probability, where="post", label=controller)
-        log_scale(axis, "x")
-        axis.set_xlabel("RMS tracking error (rad)")
-        axis.set_ylabel("share of finished runs")
-        axis.set_title(f"joint {joint + 1}")
-        axis.grid(True, which="both", alpha=0.3)
+        label_joint_panel(
+            axis, joint, "share of finished runs", "RMS tracking error (rad)", log="x"
+        )
     axes[0].legend()
     figure.suptitle("Empirical distribution of the RMS error per controller", y=1.02)
-    save(figure, out, "ecdf", dpi=120, tight=True)
+    save_report_figure(figure, out, "ecdf")

@@ -17,7 +17,6 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
-from matplotlib.figure import Figure
 
 from posfb.analysis.montecarlo import convergence, sensitivity, stability
 from posfb.analysis.montecarlo.records import STATUSES
@@ -32,7 +31,7 @@ from posfb.analysis.montecarlo.results import (
 )
 from posfb.analysis.montecarlo.statistics import Interval, proportion_interval
 from posfb.analysis.montecarlo.store import ResultStore
-from posfb.analysis.plots import log_scale, save
+from posfb.analysis.plots import joint_panels, label_joint_panel, save_report_figure
 from posfb.diagrams.scenario import Wave
 
 #: A run "saturates often" when more than this share of its control samples
@@ -47,19 +46,9 @@ FIGURES = (
 )  # fmt: skip
 
 
-def _save(figure: Figure, out: Path, name: str) -> None:
-    save(figure, out, name, dpi=120, tight=True)
-
-
-def _two_joint_axes() -> tuple[Figure, np.ndarray]:
-    """A figure (no pyplot state, no GUI backend) with one panel per joint."""
-    figure = Figure(figsize=(10, 4))
-    return figure, figure.subplots(1, 2, sharey=True)
-
-
 def plot_distributions(data: StudyData, out: Path) -> None:
     """Box plots (with every sample as a dot) of the RMS error per controller and joint."""
-    figure, axes = _two_joint_axes()
+    figure, axes = joint_panels()
     everything = np.ones(len(data.samples), dtype=bool)
     for joint, axis in enumerate(axes):
         values = [ok_values(data, c, joint, everything) for c in data.controllers]
@@ -71,35 +60,28 @@ def plot_distributions(data: StudyData, out: Path) -> None:
         for position, v in zip(positions, values, strict=True):
             axis.plot(position + jitter.uniform(-0.15, 0.15, v.size), v, ".", alpha=0.4)
         axis.set_xticks(positions, data.controllers)
-        log_scale(axis)
-        axis.set_title(f"joint {joint + 1}")
-        axis.set_ylabel("RMS tracking error (rad)")
-        axis.grid(True, which="both", alpha=0.3)
+        label_joint_panel(axis, joint, "RMS tracking error (rad)")
     figure.suptitle("RMS tracking error over the sampled plants (runs that finished)", y=1.02)
-    _save(figure, out, "rms_distributions")
+    save_report_figure(figure, out, "rms_distributions")
 
 
 def plot_against_payload(data: StudyData, out: Path) -> None:
     """RMS error against the sampled tip payload, per joint, one colour per controller."""
-    figure, axes = _two_joint_axes()
+    figure, axes = joint_panels()
     for joint, axis in enumerate(axes):
         for controller in data.controllers:
             values = data.rms_q[controller][:, joint]
             ok = np.isfinite(values)
             axis.plot(data.payload[ok], values[ok], ".", alpha=0.6, label=controller)
-        log_scale(axis)
-        axis.set_xlabel("tip payload (kg)")
-        axis.set_ylabel("RMS tracking error (rad)")
-        axis.set_title(f"joint {joint + 1}")
-        axis.grid(True, which="both", alpha=0.3)
+        label_joint_panel(axis, joint, "RMS tracking error (rad)", "tip payload (kg)")
     axes[0].legend()
-    _save(figure, out, "rms_vs_payload")
+    save_report_figure(figure, out, "rms_vs_payload")
 
 
 def plot_inside_outside(data: StudyData, out: Path) -> None:
     """RMS error per controller for plants inside (blue) and outside (orange) the
     Assumption-1 bounds."""
-    figure, axes = _two_joint_axes()
+    figure, axes = joint_panels()
     groups = ((data.inside, "inside", "tab:blue"), (~data.inside, "outside", "tab:orange"))
     for joint, axis in enumerate(axes):
         for offset, (mask, name, colour) in zip((-0.2, 0.2), groups, strict=True):
@@ -121,14 +103,11 @@ def plot_inside_outside(data: StudyData, out: Path) -> None:
                 box.set_alpha(0.6)
             axis.plot([], [], "s", color=colour, label=f"{name} ({int(np.sum(mask))} plants)")
         axis.set_xticks(range(len(data.controllers)), data.controllers)
-        log_scale(axis)
-        axis.set_title(f"joint {joint + 1}")
-        axis.set_ylabel("RMS tracking error (rad)")
-        axis.grid(True, which="both", alpha=0.3)
+        label_joint_panel(axis, joint, "RMS tracking error (rad)")
     if axes[0].get_legend_handles_labels()[0]:
         axes[0].legend()
     figure.suptitle("Plants inside vs outside the Assumption-1 bounds of the design", y=1.02)
-    _save(figure, out, "rms_inside_outside")
+    save_report_figure(figure, out, "rms_inside_outside")
 
 
 def _number(value: float) -> str:
@@ -143,9 +122,7 @@ def _share(interval: Interval) -> str:
     """A proportion and its interval in percent."""
     if not np.isfinite(interval.estimate):
         return "-"
-    return (
-        f"{100 * interval.estimate:.1f} % [{100 * interval.low:.1f}, {100 * interval.high:.1f}]"
-    )
+    return f"{100 * interval.estimate:.1f} % [{100 * interval.low:.1f}, {100 * interval.high:.1f}]"
 
 
 @dataclass(frozen=True)

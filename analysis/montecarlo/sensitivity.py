@@ -31,7 +31,7 @@ from posfb.analysis.montecarlo.statistics import (
     sobol_indices,
     spearman_ranking,
 )
-from posfb.analysis.plots import save
+from posfb.analysis.plots import save_report_figure
 
 #: Parameters shown per (controller, joint) in the table and the figure.
 TOP = 6
@@ -156,4 +156,4 @@ def plot(found: list[Sensitivity], controllers: tuple[str, ...], out: Path) -> N
     for axis in axes[-1]:
         axis.set_xlabel("Spearman rho with the RMS error (95 % CI)")
     figure.suptitle("What drives the tracking error")
-    save(figure, out, "sensitivity", dpi=120, tight=True)
+    save_report_figure(figure, out, "sensitivity")

@@ -21,7 +21,6 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
-from matplotlib.figure import Figure
 
 from posfb.analysis.montecarlo.results import StudyData, ok_values
 from posfb.analysis.montecarlo.statistics import (
@@ -31,7 +30,7 @@ from posfb.analysis.montecarlo.statistics import (
     proportion_interval,
     spearman_ranking,
 )
-from posfb.analysis.plots import log_scale, save
+from posfb.analysis.plots import joint_panels, label_joint_panel, save_report_figure
 
 
 @dataclass(frozen=True)
@@ -126,8 +125,7 @@ def markdown(found: list[LoopStability]) -> list[str]:
 
 def plot(data: StudyData, found: list[LoopStability], out: Path) -> None:
     """RMS error against the loop's spectral radius, per joint, one colour per controller."""
-    figure = Figure(figsize=(11, 4))
-    axes = figure.subplots(1, 2, sharey=True)
+    figure, axes = joint_panels(width=11.0)
     for joint, axis in enumerate(axes):
         for entry in found:
             radius = data.radius[entry.controller]
@@ -135,11 +133,10 @@ def plot(data: StudyData, found: list[LoopStability], out: Path) -> None:
             ok = np.isfinite(values) & np.isfinite(radius)
             axis.plot(radius[ok], values[ok], ".", alpha=0.6, label=entry.controller)
         axis.axvline(1.0, color="black", linestyle="--", linewidth=0.8)
-        log_scale(axis)
-        axis.set_xlabel("spectral radius of the designed sampled loop on the plant")
-        axis.set_ylabel("RMS tracking error (rad)")
-        axis.set_title(f"joint {joint + 1}")
-        axis.grid(True, which="both", alpha=0.3)
+        label_joint_panel(
+            axis, joint, "RMS tracking error (rad)",
+            "spectral radius of the designed sampled loop on the plant",
+        )  # fmt: skip
     axes[0].legend()
     figure.suptitle("Error against per-sample sampled-data stability (rho >= 1: unstable)", y=1.02)
-    save(figure, out, "rms_vs_radius", dpi=120, tight=True)
+    save_report_figure(figure, out, "rms_vs_radius")
