@@ -32,7 +32,6 @@ chain of revolute/continuous joints, each with its motor stage.
 from __future__ import annotations
 
 import itertools
-import xml.etree.ElementTree as ET
 from pathlib import Path
 
 import numpy as np
@@ -41,28 +40,10 @@ from pydrake.math import RigidTransform
 from pydrake.multibody.parsing import Parser
 from pydrake.multibody.plant import MultibodyPlant
 
-from posfb.models.urdf_check import POSFB_NS, check_serial_urdf
+from posfb.models.urdf_check import check_serial_urdf
 
 #: Angles per joint of the grid that averages ``M*(q)`` into ``M0*`` (module docstring).
 MEAN_GRID = 4
-
-
-def _motor_stage(urdf: Path, joints: tuple[str, ...]) -> tuple[np.ndarray, np.ndarray]:
-    """Motor constants and Coulomb levels of ``joints`` from posfb's URDF elements (the
-    check has made sure each exists and is valid)."""
-    root = ET.parse(urdf).getroot()
-    coulomb, motor = {}, {}
-    for joint in root.iter("joint"):
-        element = joint.find(f"{{{POSFB_NS}}}coulomb_friction")
-        if element is not None:
-            coulomb[joint.get("name")] = float(element.get("value"))
-    for transmission in root.iter("transmission"):
-        driven, actuator = transmission.find("joint"), transmission.find("actuator")
-        if driven is not None and actuator is not None:
-            element = actuator.find(f"{{{POSFB_NS}}}motor_constant")
-            if element is not None:
-                motor[driven.get("name")] = float(element.get("value"))
-    return np.array([motor[j] for j in joints]), np.array([coulomb[j] for j in joints])
 
 
 class SerialArmModel:
@@ -84,7 +65,7 @@ class SerialArmModel:
         # Position and velocity index of each arm joint (Drake orders them its own way).
         self._q_index = [plant.GetJointByName(j).position_start() for j in self.joints]
         self._v_index = [plant.GetJointByName(j).velocity_start() for j in self.joints]
-        kappa, coulomb = _motor_stage(self.urdf, self.joints)
+        kappa, coulomb = np.array(chain.motor_constant), np.array(chain.coulomb)
         self.motor_constant = kappa
         self._scale = 1.0 / kappa
         damping = np.array([plant.GetJointByName(j).default_damping() for j in self.joints])

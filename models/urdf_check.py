@@ -389,12 +389,13 @@ def _actuator(robot: ET.Element, joint: str) -> ET.Element | None:
     return None
 
 
-def _check_drive(robot: ET.Element, joint: _Joint) -> None:
+def _check_drive(robot: ET.Element, joint: _Joint) -> tuple[float, float]:
     """Coulomb level, damping and the actuator's motor constant, rotor inertia
-    and gear ratio of one arm joint."""
+    and gear ratio of one arm joint; returns its Coulomb level (N m) and motor
+    constant (N m/V)."""
     label = f"joint {joint.name!r}"
-    coulomb = joint.element.find(f"{{{POSFB_NS}}}coulomb_friction")
-    _scalar(_value(coulomb), f"{label} posfb:coulomb_friction value", False, "N m")
+    element = joint.element.find(f"{{{POSFB_NS}}}coulomb_friction")
+    coulomb = _scalar(_value(element), f"{label} posfb:coulomb_friction value", False, "N m")
     dynamics = joint.element.find("dynamics")
     if dynamics is not None and "damping" in dynamics.attrib:
         _scalar(dynamics.get("damping"), f"{label} dynamics damping", False, "N m s/rad")
@@ -406,7 +407,7 @@ def _check_drive(robot: ET.Element, joint: _Joint) -> None:
         )
     name = f"actuator {actuator.get('name')!r}"
     motor = actuator.find(f"{{{POSFB_NS}}}motor_constant")
-    _scalar(_value(motor), f"{name} posfb:motor_constant value", True, "N m/V")
+    motor_constant = _scalar(_value(motor), f"{name} posfb:motor_constant value", True, "N m/V")
     for tag, positive, unit in (
         ("rotor_inertia", False, "kg m^2"),
         ("gear_ratio", True, "dimensionless"),
@@ -414,6 +415,7 @@ def _check_drive(robot: ET.Element, joint: _Joint) -> None:
         element = actuator.find(f"{{{DRAKE_NS}}}{tag}")
         if element is not None:
             _scalar(_value(element), f"{name} drake:{tag} value", positive, unit)
+    return coulomb, motor_constant
 
 
 # --- masses and inertias ------------------------------------------------------
@@ -608,10 +610,13 @@ def _check_link2_inertia(arm: _Arm, bodies: list[_Body]) -> None:
 
 @dataclass(frozen=True)
 class SerialChain:
-    """A checked serial arm: its ``base`` link and arm ``joints`` from the base to the tip."""
+    """A checked serial arm: its ``base`` link, the arm ``joints`` from the base to the tip
+    and, per joint, the Coulomb level (N m) and motor constant (N m/V) of its motor stage."""
 
     base: str
     joints: tuple[str, ...]
+    coulomb: tuple[float, ...]
+    motor_constant: tuple[float, ...]
 
 
 def check_serial_urdf(path: str | Path) -> SerialChain:
@@ -632,12 +637,12 @@ def check_serial_urdf(path: str | Path) -> SerialChain:
         links, joints, root, parent_joint = _read_tree(robot, SERIAL_JOINTS)
         _world_poses(root, links, parent_joint)  # refuses loops
         chain = _serial_chain(root, joints, parent_joint)
-        for joint in chain:
-            _check_drive(robot, joint)
+        drives = [_check_drive(robot, joint) for joint in chain]
         _check_moving_masses(links, chain, parent_joint)
     except ValueError as error:
         raise ValueError(f"URDF {path}: {error}") from None
-    return SerialChain(root, tuple(joint.name for joint in chain))
+    coulomb, motor_constant = zip(*drives, strict=True)
+    return SerialChain(root, tuple(joint.name for joint in chain), coulomb, motor_constant)
 
 
 def _serial_chain(
