@@ -75,6 +75,19 @@ def planar_newton_euler(q: np.ndarray, v: np.ndarray, a: np.ndarray) -> np.ndarr
     return torque / KAPPA
 
 
+def _assert_inverse_dynamics(model, reference, states: int, speed: float, seed: int) -> None:
+    """``model``'s inverse dynamics equal ``reference(q, v, a)`` to 1e-9 relative at
+    ``states`` random states (velocities up to ``speed``, accelerations up to 3x it)."""
+    rng = np.random.default_rng(seed)
+    n = model.size
+    for _ in range(states):
+        q, v = rng.uniform(-np.pi, np.pi, n), rng.uniform(-speed, speed, n)
+        a = rng.uniform(-3 * speed, 3 * speed, n)
+        expected = reference(q, v, a)
+        got = model.inverse_dynamics(q, v, a)
+        np.testing.assert_allclose(got, expected, rtol=1e-9, atol=1e-9 * np.abs(expected).max())
+
+
 @pytest.fixture(scope="module")
 def three_link():
     return SerialArmModel(URDF / "three_link_arm.urdf")
@@ -100,12 +113,7 @@ def test_the_paper_arm_equals_the_table_1_model_of_its_identified_theta():
 
 def test_three_link_dynamics_agree_with_an_independent_newton_euler(three_link):
     assert three_link.joints == ("joint1", "joint2", "joint3")
-    rng = np.random.default_rng(2)
-    for _ in range(50):
-        q, v, a = rng.uniform(-np.pi, np.pi, 3), rng.uniform(-3, 3, 3), rng.uniform(-9, 9, 3)
-        expected = planar_newton_euler(q, v, a)
-        got = three_link.inverse_dynamics(q, v, a)
-        np.testing.assert_allclose(got, expected, rtol=1e-9, atol=1e-9 * np.abs(expected).max())
+    _assert_inverse_dynamics(three_link, planar_newton_euler, states=50, speed=3, seed=2)
 
 
 def test_m0_is_the_exact_mean_of_the_mass_matrix_over_joint_turns(three_link):
@@ -323,10 +331,5 @@ def spatial_newton_euler(q: np.ndarray, v: np.ndarray, a: np.ndarray) -> np.ndar
 def test_a_spatial_six_joint_arm_agrees_with_an_independent_newton_euler():
     model = SerialArmModel(URDF / "six_joint_arm.urdf")
     assert model.size == 6
-    rng = np.random.default_rng(6)
-    for _ in range(30):
-        q, v, a = rng.uniform(-np.pi, np.pi, 6), rng.uniform(-2, 2, 6), rng.uniform(-5, 5, 6)
-        expected = spatial_newton_euler(q, v, a)
-        got = model.inverse_dynamics(q, v, a)
-        np.testing.assert_allclose(got, expected, rtol=1e-9, atol=1e-9 * np.abs(expected).max())
+    _assert_inverse_dynamics(model, spatial_newton_euler, states=30, speed=2, seed=6)
     np.testing.assert_allclose(model.M0(), model.mean_mass_matrix(6), atol=1e-13)
