@@ -45,6 +45,10 @@ FILES = {
     "syntax.yaml": "timing: {duration: 1\n",
     "dup_study.yaml": "seed: 1\nseed: 2\n",
     "bad_draw.yaml": STUDY + "draws:\n  timing.sampel_time: !Deterministic {value: 0.01}\n",
+    "old_name.yaml": STUDY + "parameters:\n  payload_mass: !Uniform {low: 0.0, high: 0.5}\n",
+    "bad_design.yaml": STUDY + "sampling: lhs\n",
+    "bad_saltelli.yaml": STUDY.replace("samples: 2", "samples: 5")
+    + "sampling: saltelli\nparameters:\n  payload_mass: !Uniform {min: 0.0, max: 0.5}\n",
     "bad_csv.csv": "time,q1,q2\n0,0,0\n1,x,0\n2,0,0\n3,0,0\n",
     "two_columns.csv": "0,0\n1,0\n2,0\n3,0\n",
     "backwards.csv": "0,0,0\n2,0,0\n1,0,0\n3,0,0\n",
@@ -149,6 +153,40 @@ CASES = {
     ),
     "zero samples": Case(
         ("montecarlo", "run", "{tmp}/study.yaml", "--db", "{tmp}/s", "--samples", "0"), "samples"
+    ),
+    "former distribution spelling": Case(
+        ("montecarlo", "run", "{tmp}/old_name.yaml", "--db", "{tmp}/s"), "is now spelled 'min'"
+    ),
+    "unknown sampling design": Case(
+        ("montecarlo", "run", "{tmp}/bad_design.yaml", "--db", "{tmp}/s"), "sampling = 'lhs'"
+    ),
+    "saltelli sample count": Case(
+        ("montecarlo", "run", "{tmp}/bad_saltelli.yaml", "--db", "{tmp}/s"), "power of 2"
+    ),
+    "export to an unknown format": Case(
+        ("montecarlo", "export", "--db", "{tmp}/none.sqlite", "--out", "{tmp}/rows.xlsx"),
+        "a file ending in one of .parquet, .csv",
+    ),
+    "export of a missing store": Case(
+        ("montecarlo", "export", "--db", "{tmp}/none.sqlite", "--out", "{tmp}/rows.csv"),
+        "do not exist",
+    ),
+    "export of a foreign store": Case(
+        ("montecarlo", "export", "--db", "{tmp}/foreign.sqlite", "--out", "{tmp}/rows.csv"),
+        "another application", ("foreign.sqlite",),
+    ),
+    "replay of a missing store": Case(
+        ("montecarlo", "replay", "--db", "{tmp}/none.sqlite", "--sample", "0", "--out", "{tmp}/r"),
+        "do not exist",
+    ),
+    "replay into a file": Case(
+        ("montecarlo", "replay", "--db", "{tmp}/none.sqlite", "--sample", "0", "--out",
+         "{tmp}/a_file"),
+        "a folder is required",
+    ),  # fmt: skip
+    "replay of a negative sample": Case(
+        ("montecarlo", "replay", "--db", "{tmp}/none.sqlite", "--sample", "-1", "--out", "{tmp}/r"),
+        "--sample",
     ),
     "zero workers": Case(
         ("montecarlo", "run", "{tmp}/study.yaml", "--db", "{tmp}/s", "--workers", "0"), "workers"
