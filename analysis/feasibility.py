@@ -8,7 +8,7 @@ from __future__ import annotations
 import numpy as np
 
 from posfb.diagrams.resolve import ResolvedScenario
-from posfb.models.lumped import LumpedModel
+from posfb.models.nominal import nominal_model
 from posfb.models.plant import build_arm_diagram
 
 
@@ -18,7 +18,7 @@ def trajectory_warnings(resolved: ResolvedScenario) -> list[str]:
     times = np.arange(config.samples + 1) * config.sample_time
     samples = [config.trajectory.evaluate(float(t)) for t in times]
     positions = np.array([q for q, _, _ in samples])
-    model = LumpedModel(config.design.nominal)
+    model = nominal_model(config.design.nominal)
     voltages = np.array([model.inverse_dynamics(*sample) for sample in samples])
     warnings = []
     for j, limit in enumerate(config.voltage_limit):

@@ -89,7 +89,7 @@ from pydrake.systems.primitives import (
 from posfb.diagrams.encoder import DEFAULT_ENCODER_COUNTS, Encoder, per_joint_counts
 from posfb.models.controllers import CONTROLLER_KINDS, ControllerConfig, make_controller
 from posfb.models.plant import Arm, ArmParameters, PlantConfig, add_arm, apply_parameters
-from posfb.models.trajectory import JOINTS, Trajectory, WaveTrajectory, sampled_source
+from posfb.models.trajectory import Trajectory, WaveTrajectory, sampled_source
 from posfb.models.validation import (
     per_joint,
     require_finite,
@@ -119,8 +119,8 @@ def default_simulator() -> SimulatorConfig:
     )
 
 
-def _per_joint(name: str, value: float | Sequence[float]) -> tuple[float, ...]:
-    values = per_joint(name, value, JOINTS)
+def _per_joint(name: str, value: float | Sequence[float], joints: int) -> tuple[float, ...]:
+    values = per_joint(name, value, joints)
     return tuple(require_finite(f"{name}[{j}]", v) for j, v in enumerate(values))
 
 
@@ -187,17 +187,23 @@ class ClosedLoopConfig:
             )
         if not callable(getattr(self.trajectory, "evaluate", None)):
             raise ValueError(f"trajectory = {self.trajectory!r} has no evaluate(t)")
+        n = self.joints
+        if self.trajectory.joints != n:
+            raise ValueError(
+                f"trajectory drives {self.trajectory.joints} joints; the nominal model has "
+                f"{n}: one trajectory entry per joint is required"
+            )
         set_field = partial(object.__setattr__, self)
-        set_field("encoder_counts", per_joint_counts("encoder_counts", self.encoder_counts, JOINTS))
-        set_field("zero_offset", _per_joint("zero_offset", self.zero_offset))
-        set_field("noise_std", _per_joint("noise_std", self.noise_std))
+        set_field("encoder_counts", per_joint_counts("encoder_counts", self.encoder_counts, n))
+        set_field("zero_offset", _per_joint("zero_offset", self.zero_offset, n))
+        set_field("noise_std", _per_joint("noise_std", self.noise_std, n))
         for j, std in enumerate(self.noise_std):
             require_nonnegative(f"noise_std[{j}]", std)
         for name in ("noise_seed", "delay_samples"):
             value = getattr(self, name)
             if isinstance(value, bool) or not isinstance(value, int | np.integer) or value < 0:
                 raise ValueError(f"{name} = {value!r}; an integer >= 0 is required")
-        set_field("voltage_limit", _per_joint("voltage_limit", self.voltage_limit))
+        set_field("voltage_limit", _per_joint("voltage_limit", self.voltage_limit, n))
         for j, limit in enumerate(self.voltage_limit):
             require_positive(f"voltage_limit[{j}]", limit)
         require_positive("divergence_bound", self.divergence_bound)
@@ -222,6 +228,11 @@ class ClosedLoopConfig:
             raise ValueError(
                 f"start_time = {simulator.start_time!r}; 0 is required (a run starts at t = 0)"
             )
+
+    @property
+    def joints(self) -> int:
+        """``n``: the number of joints (the design's nominal model's)."""
+        return self.design.joints
 
     @property
     def sample_time(self) -> float:
@@ -313,12 +324,13 @@ def _add_sensor(
     builder: DiagramBuilder, config: ClosedLoopConfig, arm: Arm
 ) -> tuple[Encoder, OutputPort, DiscreteTimeDelay | None, RandomSource | None]:
     """true q -> encoder (offset, quantiser, noise) -> delay: the measured-position port."""
-    encoder = builder.AddSystem(Encoder(JOINTS, config.encoder_counts, noisy=config.noisy))
+    n = arm.size
+    encoder = builder.AddSystem(Encoder(n, config.encoder_counts, noisy=config.noisy))
     builder.Connect(arm.position_output_port(), encoder.GetInputPort("q"))
     noise_source = None
     if config.noisy:
         noise_source = builder.AddSystem(
-            RandomSource(RandomDistribution.kGaussian, JOINTS, config.sample_time)
+            RandomSource(RandomDistribution.kGaussian, n, config.sample_time)
         )
         noise_source.set_name("encoder_noise")
         builder.Connect(noise_source.get_output_port(0), encoder.GetInputPort("unit_noise"))
@@ -327,7 +339,7 @@ def _add_sensor(
     if config.delay_samples > 0:
         delay = builder.AddSystem(
             # Read at t_k before its own update, a delay of n steps lags n + 1 periods.
-            DiscreteTimeDelay(config.sample_time, config.delay_samples - 1, JOINTS)
+            DiscreteTimeDelay(config.sample_time, config.delay_samples - 1, n)
         )
         delay.set_name("sensor_delay")
         builder.Connect(measured, delay.get_input_port())
@@ -362,6 +374,11 @@ def build_closed_loop(config: ClosedLoopConfig, meshcat: Meshcat | None = None) 
     ``meshcat``, a ``MeshcatVisualizer`` of the arm is added (for recordings)."""
     builder = DiagramBuilder()
     arm = add_arm(builder, config.plant)
+    if arm.size != config.joints:
+        raise ValueError(
+            f"plant.urdf = {config.plant.urdf!r} has {arm.size} joints; the nominal model "
+            f"has {config.joints}: the same number is required"
+        )
     # Two samples past the last one read (t_{N0+1}): a sample is exact at its own start.
     trajectory = builder.AddSystem(
         sampled_source(config.trajectory, config.sample_time, config.samples + 3)
@@ -451,11 +468,11 @@ class ClosedLoopRunner:
         plant = loop.arm.plant
         plant_context = plant.GetMyMutableContextFromRoot(context)
         plant.SetPositions(plant_context, config.trajectory.evaluate(0.0)[0])
-        plant.SetVelocities(plant_context, np.zeros(JOINTS))
+        plant.SetVelocities(plant_context, np.zeros(config.joints))
         first = loop.encoder.GetOutputPort("q_measured").Eval(encoder_context)
         if loop.delay is not None:
             delay_context = loop.delay.GetMyMutableContextFromRoot(context)
-            buffer = delay_context.get_discrete_state_vector().size() // JOINTS
+            buffer = delay_context.get_discrete_state_vector().size() // config.joints
             delay_context.SetDiscreteState(np.tile(first, buffer))
         # The holds start at the first sample (they take it again at t = 0).
         loop.encoder_hold.SetVectorState(
@@ -553,7 +570,7 @@ class ClosedLoopRunner:
         count = min(rows - 1, self.config.samples + 1)
         kept = max(count, min(rows, 1))
         q_true, q_measured = data["q_true"][:kept], data["q_measured"][:kept]
-        q_desired = data["desired"][:kept, :JOINTS]
+        q_desired = data["desired"][:kept, : self.config.joints]
         shifted = {}
         for name in ("u_commanded", "u_applied", "internals"):
             values = data[name][1 : count + 1]

@@ -20,7 +20,7 @@ import pandas as pd
 
 from posfb.diagrams.closed_loop import ClosedLoopConfig, ClosedLoopResult, ClosedLoopRunner
 from posfb.diagrams.scenario import (
-    SHIPPED_URDF,
+    SHIPPED_PREFIX,
     ControllerSettings,
     CsvFile,
     FilterH,
@@ -32,9 +32,12 @@ from posfb.diagrams.scenario import (
     Table1,
     Theta,
     TrajectorySettings,
+    UrdfModel,
     Wave,
     Waypoints,
     apply_setting,
+    resolve_path,
+    scenario_joints,
 )
 from posfb.diagrams.yaml_schema import load_typed, read_text
 from posfb.models.controllers import CONTROLLER_KINDS
@@ -47,21 +50,19 @@ from posfb.models.design.config import (
 )
 from posfb.models.identify import identify_urdf
 from posfb.models.lumped import TABLE1, LumpedParameters
+from posfb.models.nominal import NominalModel as NominalForm
+from posfb.models.nominal import UrdfNominal, joint_count
 from posfb.models.plant import (
-    DEFAULT_URDF,
     JOINT_PARAMETERS,
-    PAYLOAD_BODY,
     ArmParameters,
     PlantConfig,
 )
 from posfb.models.trajectory import (
-    JOINTS,
     JointWave,
     SplineTrajectory,
     Trajectory,
     WaveTrajectory,
 )
-from posfb.models.urdf_check import check_arm_urdf
 from posfb.models.validation import per_joint
 
 
@@ -84,25 +85,22 @@ def load_scenario(path: str | Path | None = None, settings: Iterable[str] = ()) 
         scenario = load_typed(Scenario, text, f"scenario {file}", empty_ok=True)
         loaded = LoadedScenario(scenario, file.resolve().parent)
     for setting in settings:
-        loaded.scenario = apply_setting(loaded.scenario, setting)
+        loaded.scenario = apply_setting(loaded.scenario, setting, loaded.base_dir)
     resolve(loaded)
     return loaded
 
 
 
-def h_matrices(settings: FilterH) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """``(A_zeta, B_zeta, C_zeta)`` of either form of ``H(s)``."""
+def h_matrices(settings: FilterH, joints: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``(A_zeta, B_zeta, C_zeta)`` of either form of ``H(s)`` (one ``gamma`` broadcasts
+    to the ``joints`` joints)."""
     if isinstance(settings, StateSpaceH):
         return tuple(np.asarray(m, dtype=float) for m in (settings.A_zeta, settings.B_zeta,
                                                           settings.C_zeta))  # fmt: skip
-    gamma = np.asarray(settings.gamma, dtype=float)
-    if gamma.shape != (JOINTS,):
-        raise ValueError(
-            f"H.gamma = {settings.gamma!r}; {JOINTS} values (one per joint) are required"
-        )
+    gamma = np.asarray(per_joint("H.gamma", settings.gamma, joints), dtype=float)
     if not np.all(np.isfinite(gamma)) or np.any(gamma <= 0.0):
         raise ValueError(f"H.gamma = {settings.gamma!r}; finite values > 0 are required")
-    return -np.diag(gamma), np.diag(gamma), np.eye(JOINTS)
+    return -np.diag(gamma), np.diag(gamma), np.eye(gamma.size)
 
 
 
@@ -122,6 +120,7 @@ _SECTIONS = {
     "noise_seed": "sensor",
     "delay_samples": "sensor",
     "voltage_limit": "actuator",
+    "trajectory": "trajectory",
     "controller": "controller.kind",
     "payload_mass": "plant",
     "friction_velocity": "plant",
@@ -138,25 +137,17 @@ def _with_key(error: ValueError, default: str) -> ValueError:
     return ValueError(f"{section}.{message}")
 
 
-def resolve_path(text: str, base_dir: Path) -> Path:
-    """A scenario path: the shipped arm, absolute, or relative to ``base_dir``."""
-    if text == SHIPPED_URDF:
-        return DEFAULT_URDF
-    path = Path(text).expanduser()
-    return path if path.is_absolute() else base_dir / path
-
-
 def with_absolute_paths(loaded: LoadedScenario) -> Scenario:
     """A copy of the scenario whose file paths no longer depend on its folder."""
     scenario = copy.deepcopy(loaded.scenario)
 
     def absolute(text: str) -> str:
-        if not text or text == SHIPPED_URDF:
+        if not text or text.startswith(SHIPPED_PREFIX):
             return text
         return str(resolve_path(text, loaded.base_dir))
 
     scenario.plant.urdf = absolute(scenario.plant.urdf)
-    if isinstance(scenario.nominal_model, IdentifiedFromUrdf):
+    if isinstance(scenario.nominal_model, IdentifiedFromUrdf | UrdfModel):
         scenario.nominal_model.urdf = absolute(scenario.nominal_model.urdf)
     if isinstance(scenario.trajectory, CsvFile):
         scenario.trajectory.path = absolute(scenario.trajectory.path)
@@ -164,7 +155,7 @@ def with_absolute_paths(loaded: LoadedScenario) -> Scenario:
 
 
 def read_csv_trajectory(path: Path) -> SplineTrajectory:
-    """Columns time (s), q1, q2 (rad) of a CSV file, header row optional."""
+    """Columns time (s), q1 .. qn (rad) of a CSV file, header row optional."""
     source = f"trajectory.path {path}"
     if path.is_dir():
         raise ValueError(f"{source} is a directory; a CSV file is required")
@@ -177,9 +168,10 @@ def read_csv_trajectory(path: Path) -> SplineTrajectory:
     numbers = table.apply(pd.to_numeric, errors="coerce")
     if len(numbers) and numbers.iloc[0].isna().all():
         numbers = numbers.iloc[1:]  # a header row
-    if numbers.shape[1] != 1 + JOINTS:
+    if numbers.shape[1] < 2:
         raise ValueError(
-            f"{source} has {numbers.shape[1]} columns; {1 + JOINTS} (time, q1, q2) are required"
+            f"{source} has {numbers.shape[1]} columns; time and one column per joint "
+            "(time, q1, .., qn) are required"
         )
     if numbers.isna().to_numpy().any():
         row = int(np.argmax(numbers.isna().to_numpy().any(axis=1)))
@@ -203,25 +195,34 @@ def make_trajectory(settings: TrajectorySettings, base_dir: Path) -> Trajectory:
     return read_csv_trajectory(resolve_path(settings.path, base_dir))
 
 
-def make_nominal(settings: NominalModel, base_dir: Path) -> LumpedParameters:
+def make_nominal(settings: NominalModel, base_dir: Path) -> NominalForm:
     """The model the controllers are designed from."""
     if isinstance(settings, Table1):
         return TABLE1
+    if isinstance(settings, UrdfModel):
+        return UrdfNominal(str(resolve_path(settings.urdf, base_dir)))
     if isinstance(settings, Theta):
         return LumpedParameters(**dataclasses.asdict(settings))
     return identify_urdf(str(resolve_path(settings.urdf, base_dir)), settings.payload_mass)
 
 
 def make_design(
-    settings: ControllerSettings, nominal: LumpedParameters, sample_time: float
+    settings: ControllerSettings, nominal: NominalForm, sample_time: float
 ) -> ControllerConfig:
-    """The frozen ``ControllerConfig`` of the controller settings."""
+    """The frozen ``ControllerConfig`` of the controller settings; the per-joint lists
+    (``lambdas``, ``H.gamma``, ``Kp``, ``Kv``, ``KI``) take one value for every joint of
+    ``nominal`` or one per joint."""
+    joints = joint_count(nominal)
+
+    def vector(name: str) -> tuple[float, ...]:
+        return tuple(per_joint(name, getattr(settings, name), joints))
+
     bounds = dataclasses.asdict(settings.bounds)
-    A_zeta, B_zeta, C_zeta = h_matrices(settings.H)
+    A_zeta, B_zeta, C_zeta = h_matrices(settings.H, joints)
     return ControllerConfig(
         nominal=nominal,
         sample_time=sample_time,
-        lqr=LqrWeights(Q1=settings.Q1, Q2=settings.Q2, R=settings.R, lambdas=settings.lambdas),
+        lqr=LqrWeights(Q1=settings.Q1, Q2=settings.Q2, R=settings.R, lambdas=vector("lambdas")),
         nonlinear=NonlinearTorqueConfig(
             alpha_star=settings.alpha_star,
             K_alpha=settings.K_alpha,
@@ -232,7 +233,7 @@ def make_design(
             filter_a=settings.filter_a,
         ),
         bounds=UncertaintyBounds(**bounds),
-        pid=PidGains(Kp=settings.Kp, Kv=settings.Kv, KI=settings.KI),
+        pid=PidGains(Kp=vector("Kp"), Kv=vector("Kv"), KI=vector("KI")),
         discretisation=settings.discretisation,
     )
 
@@ -253,13 +254,13 @@ class ResolvedScenario:
             raise _with_key(error, "plant.parameters") from None
 
 
-def _overrides(settings: ParameterOverrides) -> dict[str, tuple[float, ...]]:
+def _overrides(settings: ParameterOverrides, joints: int) -> dict[str, tuple[float, ...]]:
     overrides = {}
     for name in JOINT_PARAMETERS:
         values = getattr(settings, name)
         if values is None:
             continue
-        values = per_joint(f"plant.parameters.{name}", values, JOINTS)
+        values = per_joint(f"plant.parameters.{name}", values, joints)
         overrides[name] = tuple(float(v) for v in values)
     return overrides
 
@@ -272,10 +273,16 @@ def resolve(loaded: LoadedScenario) -> ResolvedScenario:
         raise ValueError(
             f"controller.kind = {settings.kind!r}; one of {', '.join(CONTROLLER_KINDS)} is required"
         )
+    joints = scenario_joints(scenario, base)
     try:
         nominal = make_nominal(scenario.nominal_model, base)
     except (ValueError, FileNotFoundError) as error:
         raise ValueError(f"nominal_model: {error}") from None
+    if joint_count(nominal) != joints:
+        raise ValueError(
+            f"nominal_model has {joint_count(nominal)} joints and plant.urdf = "
+            f"{scenario.plant.urdf!r} has {joints}; the same number is required"
+        )
     try:
         design = make_design(settings, nominal, scenario.timing.sample_time)
     except ValueError as error:
@@ -301,15 +308,11 @@ def resolve(loaded: LoadedScenario) -> ResolvedScenario:
             simulator=scenario.timing.simulator,
         )
         # The payload and overrides are checked against ArmParameters' own rules.
-        overrides = _overrides(plant.parameters)
-        probe = ArmParameters(**{n: (1.0, 1.0) for n in JOINT_PARAMETERS})
+        overrides = _overrides(plant.parameters, joints)
+        probe = ArmParameters(**{name: (1.0,) * joints for name in JOINT_PARAMETERS})
         replace(probe, **overrides, payload_mass=plant.payload_mass)
     except ValueError as error:
         raise _with_key(error, "plant.parameters") from None
-    try:
-        check_arm_urdf(urdf, payload_link=PAYLOAD_BODY)
-    except (ValueError, FileNotFoundError) as error:
-        raise ValueError(f"plant.urdf = {plant.urdf!r}: {error}") from None
     return ResolvedScenario(config, float(plant.payload_mass), overrides)
 
 

@@ -8,14 +8,18 @@ the code defines it (``ControllerConfig``, ``ClosedLoopConfig``, ``PlantConfig``
 ``LumpedParameters``, ``models.trajectory.PAPER_TRAJECTORY``)::
 
     plant:          URDF, tip payload, physical parameter overrides (Monte-Carlo names)
-    nominal_model:  what the controllers believe: !Table1 {}, !IdentifiedFromUrdf, !Theta
+    nominal_model:  what the controllers believe: !Table1 {}, !IdentifiedFromUrdf, !Theta,
+                    !UrdfModel (any serial arm, computed by Drake)
     trajectory:     !Wave {joints: [...]}, !Waypoints {times, positions}, !CsvFile {path}
     timing:         sample_time, duration, divergence_bound, simulator (SimulatorConfig)
     sensor:         encoder_counts, zero_offset, noise_std, noise_seed, delay_samples
     actuator:       voltage_limit
     controller:     kind, discretisation and every design input of Sec. 3 and 4.2
 
-Per-joint lists take one value (both joints) or two. This module holds the tree
+The number of joints ``n`` is the plant URDF's; per-joint lists take one value
+(all joints) or ``n``. The paper's two-joint defaults that have no one-value form
+(the LQR weights, ``H``, the PID gains, the trajectory) must be given for any
+other arm. This module holds the tree
 and its text forms (``dump_scenario``, ``apply_setting`` for ``--set``,
 ``get_setting``); ``diagrams.resolve`` loads a file, validates a scenario into
 the frozen ``ClosedLoopConfig`` the runner builds from, and runs it.
@@ -28,6 +32,7 @@ import dataclasses
 import re
 import typing
 from dataclasses import dataclass, field, fields
+from pathlib import Path
 
 import numpy as np
 import yaml
@@ -51,16 +56,28 @@ from posfb.models.design.config import (
 )
 from posfb.models.lumped import TABLE1
 from posfb.models.plant import (
+    DEFAULT_URDF,
     ArmParameters,
     PlantConfig,
 )
-from posfb.models.trajectory import (
-    JOINTS,
-    PAPER_TRAJECTORY,
-)
+from posfb.models.trajectory import PAPER_TRAJECTORY
+from posfb.models.urdf_check import check_serial_urdf
 
-#: How a scenario names the arm shipped with posfb.
-SHIPPED_URDF = "package://posfb/two_link_arm.urdf"
+#: How a scenario names the arms shipped with posfb (``urdf/``): this prefix and the
+#: file name.
+SHIPPED_PREFIX = "package://posfb/"
+
+#: The paper's arm, as a scenario names it.
+SHIPPED_URDF = f"{SHIPPED_PREFIX}{DEFAULT_URDF.name}"
+
+
+def resolve_path(text: str, base_dir: Path) -> Path:
+    """A scenario path: a shipped arm (``package://posfb/NAME``), absolute, or relative
+    to ``base_dir``."""
+    if text.startswith(SHIPPED_PREFIX):
+        return DEFAULT_URDF.parent / text.removeprefix(SHIPPED_PREFIX)
+    path = Path(text).expanduser()
+    return path if path.is_absolute() else base_dir / path
 
 
 
@@ -142,7 +159,15 @@ class Theta:
     l1: float = TABLE1.l1
 
 
-NominalModel = Table1 | IdentifiedFromUrdf | Theta
+@dataclass
+class UrdfModel:
+    """``M*, C*, G*, B*, F*`` computed by Drake from a nominal URDF (any serial arm,
+    ``models.serial_model``); ``M0*`` is the mean of ``M*(q)`` over the joint angles."""
+
+    urdf: str = SHIPPED_URDF
+
+
+NominalModel = Table1 | IdentifiedFromUrdf | Theta | UrdfModel
 
 
 # --- trajectory --------------------------------------------------------------------
@@ -220,9 +245,9 @@ class Sensor:
     """Joint encoders: counts per revolution (0: ideal), zero offset (rad), additive
     Gaussian noise (rad, from ``noise_seed``) and a delay of whole samples."""
 
-    encoder_counts: list[int] = field(default_factory=lambda: [DEFAULT_ENCODER_COUNTS] * JOINTS)
-    zero_offset: list[float] = field(default_factory=lambda: [0.0] * JOINTS)
-    noise_std: list[float] = field(default_factory=lambda: [0.0] * JOINTS)
+    encoder_counts: list[int] = field(default_factory=lambda: [DEFAULT_ENCODER_COUNTS])
+    zero_offset: list[float] = field(default_factory=lambda: [0.0])
+    noise_std: list[float] = field(default_factory=lambda: [0.0])
     noise_seed: int = 0
     delay_samples: int = 0
 
@@ -231,7 +256,7 @@ class Sensor:
 class Actuator:
     """Armature-voltage saturation (V) per joint."""
 
-    voltage_limit: list[float] = field(default_factory=lambda: [VOLTAGE_LIMIT] * JOINTS)
+    voltage_limit: list[float] = field(default_factory=lambda: [VOLTAGE_LIMIT])
 
 
 # --- controller ---------------------------------------------------------------------
@@ -416,12 +441,24 @@ def get_setting(scenario: Scenario, key: str) -> object:
     return value[index] if index < len(value) else value[0]
 
 
-def apply_setting(scenario: Scenario, setting: str) -> Scenario:
+def scenario_joints(scenario: Scenario, base_dir: Path) -> int:
+    """``n``: the number of joints of the scenario's plant URDF (relative paths from
+    ``base_dir``)."""
+    urdf = resolve_path(scenario.plant.urdf, base_dir)
+    try:
+        return len(check_serial_urdf(urdf).joints)
+    except (ValueError, FileNotFoundError) as error:
+        raise ValueError(f"plant.urdf = {scenario.plant.urdf!r}: {error}") from None
+
+
+def apply_setting(scenario: Scenario, setting: str, base_dir: Path | None = None) -> Scenario:
     """A copy of ``scenario`` with ``KEY=VALUE`` applied: ``KEY`` is a dotted path
     (``timing.sample_time``, ``sensor.encoder_counts[1]``, ``trajectory.joints[0].frequency``),
     ``VALUE`` YAML (``0.005``, ``[4096, 2048]``, ``lin_lc``, or a whole section such as
     ``!Theta {theta6: 0}`` for ``nominal_model``). A single number given to a per-joint
-    list applies to both joints."""
+    list applies to all joints; indexing a one-value list first repeats it once per
+    joint of the plant URDF (relative paths from ``base_dir``, default the working
+    folder)."""
     key, equals, text = setting.partition("=")
     key, text = key.strip(), text.strip()
     if not equals or not key:
@@ -431,7 +468,8 @@ def apply_setting(scenario: Scenario, setting: str) -> Scenario:
     schema = type(parent)
     if index is not None:
         items = list(getattr(parent, name))
-        items = items * JOINTS if len(items) == 1 else items
+        if len(items) == 1:
+            items = items * scenario_joints(result, Path.cwd() if base_dir is None else base_dir)
         rendered = [yaml.safe_dump(item, default_flow_style=True).strip() for item in items]
         rendered = [r.removesuffix("\n...").strip() for r in rendered]
         rendered[index] = text

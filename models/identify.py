@@ -25,7 +25,7 @@ from pydrake.systems.framework import Context
 
 from posfb.models.lumped import LumpedParameters
 from posfb.models.plant import (
-    JOINTS,
+    PAYLOAD_BODY,
     Arm,
     PlantConfig,
     apply_parameters,
@@ -33,10 +33,17 @@ from posfb.models.plant import (
     read_parameters,
     require_payload_mass,
 )
+from posfb.models.urdf_check import check_arm_urdf
 
 
 def identify(arm: Arm, root_context: Context) -> LumpedParameters:
-    """The lumped parameters of the plant in ``root_context`` (a diagram Context)."""
+    """The lumped parameters of the plant in ``root_context`` (a diagram Context); the
+    theta model is the two-link arm's, so other arms are refused."""
+    if arm.size != 2:
+        raise ValueError(
+            f"{arm.config.urdf} has {arm.size} joints; the theta model of Table 1 is "
+            "identified for two-joint arms only (use a URDF nominal model instead)"
+        )
     plant = arm.plant
     scratch = root_context.Clone()  # evaluate at chosen q without touching the caller's state
     plant_context = plant.GetMyContextFromRoot(scratch)
@@ -58,7 +65,7 @@ def identify(arm: Arm, root_context: Context) -> LumpedParameters:
     theta3 = (straight[0, 1] - bent[0, 1]) / kappa1
     theta7 = bent[1, 0] / kappa2
     theta8 = (straight[1, 0] - bent[1, 0]) / kappa2
-    damping = [plant.GetJointByName(j).GetDamping(plant_context) for j in JOINTS]
+    damping = [plant.GetJointByName(j).GetDamping(plant_context) for j in arm.layout.joints]
     return LumpedParameters(
         theta1=bent[0, 0] / kappa1 - theta2,
         theta2=theta2,
@@ -71,7 +78,7 @@ def identify(arm: Arm, root_context: Context) -> LumpedParameters:
         theta9=bent[1, 1] / kappa2 - theta7,
         theta10=damping[1] / kappa2,
         theta11=physical.coulomb[1] / kappa2,
-        l1=arm.link1_length,
+        l1=arm.layout.link_lengths[0],
         g=g,
     )
 
@@ -81,6 +88,7 @@ def identify_urdf(urdf: str | Path, payload_mass: float = 0.0) -> LumpedParamete
     """theta of the URDF arm with ``payload_mass`` kg at the link-2 tip (refused, naming
     ``payload_mass``, outside its allowed range; cached per file and payload)."""
     require_payload_mass(payload_mass)
+    check_arm_urdf(Path(urdf), payload_link=PAYLOAD_BODY)
     _, arm, context = build_arm_diagram(PlantConfig(urdf=str(urdf)))
     apply_parameters(arm, context, arm.default_parameters.with_payload(payload_mass))
     return identify(arm, context)

@@ -1,5 +1,5 @@
-"""The true plant: the URDF two-link arm in a MultibodyPlant, its motor stage
-and its Coulomb friction.
+"""The true plant: a serial URDF arm (the paper's two-link arm by default) in a
+MultibodyPlant, its motor stage and its Coulomb friction.
 
 Signal path (all C++ systems, no Python in the integrator's inner loop)::
 
@@ -21,6 +21,11 @@ with Drake's default RK3 (accuracy 1e-2) takes 8 k steps at 0.01 rad/s but
 which is stable only for ``time_step < 2 M_jj v_s / f_c`` (~3e-4 s for
 joint 2 at the default); use the continuous plant where friction matters.
 
+The arm's ``n`` joints come from the URDF (``models.urdf_check.check_serial_urdf``:
+one chain of revolute joints from the base, each with its motor stage); every
+per-joint vector is in that base-to-tip order. A link named ``payload`` welded to
+the last link carries the tip payload (an arm without one takes no payload).
+
 Motor constants and Coulomb levels are numeric parameters of those systems,
 so they, like the MultibodyPlant's masses, centres of mass, inertias, damping
 and rotor inertias, can change per Context without rebuilding
@@ -29,7 +34,8 @@ and rotor inertias, can change per Context without rebuilding
 
 from __future__ import annotations
 
-import xml.etree.ElementTree as ET
+import functools
+import operator
 from dataclasses import dataclass, fields, replace
 from pathlib import Path
 
@@ -49,16 +55,14 @@ from pydrake.symbolic import Variable, tanh
 from pydrake.systems.framework import Context, Diagram, DiagramBuilder
 from pydrake.systems.primitives import Demultiplexer, Multiplexer, SymbolicVectorSystem
 
-from posfb.models.urdf_check import POSFB_NS, check_arm_urdf
+from posfb.models.urdf_check import SerialChain, check_serial_urdf
 from posfb.models.validation import require_finite, require_nonnegative, require_positive
 
 #: The arm shipped with posfb.
 DEFAULT_URDF = Path(__file__).resolve().parent.parent / "urdf" / "two_link_arm.urdf"
 
-JOINTS = ("joint1", "joint2")
-LINKS = ("link1", "link2")
+#: The link that carries the tip payload, where an arm has one.
 PAYLOAD_BODY = "payload"
-ACTUATORS = ("motor1", "motor2")
 
 
 @dataclass(frozen=True)
@@ -102,32 +106,39 @@ def require_payload_mass(value: float) -> float:
 
 @dataclass(frozen=True)
 class ArmParameters:
-    """The physical parameters that can change per Context (SI units).
+    """The physical parameters that can change per Context (SI units), one entry per
+    joint in base-to-tip order (``n`` from the URDF).
 
-    Link inertias are about the centre of mass and the joint axis; centres of
-    mass lie on the link's x axis at ``com`` from the joint. ``rotor_inertia``
-    is the reflected value (rotor inertia x gear ratio^2) seen at the joint.
-    ``payload_mass`` is a point mass at the link-2 tip, at most
-    ``MAX_PAYLOAD_MASS``.
+    ``link_*`` describe the link each joint moves (the joint's child link):
+    ``link_com`` is the distance of its centre of mass from the joint frame along
+    the URDF's direction to it, ``link_inertia`` its central moment of inertia about
+    the joint axis (the URDF's central inertia is scaled to it, keeping its shape;
+    for the shipped planar arm, a rod along x). ``rotor_inertia`` is the reflected
+    value (rotor inertia x gear ratio^2) seen at the joint. ``payload_mass`` is a
+    point mass at the ``payload`` link, at most ``MAX_PAYLOAD_MASS``.
     """
 
-    link_mass: tuple[float, float]
-    link_com: tuple[float, float]
-    link_inertia: tuple[float, float]
-    rotor_inertia: tuple[float, float]
-    damping: tuple[float, float]
-    coulomb: tuple[float, float]
-    motor_constant: tuple[float, float]
+    link_mass: tuple[float, ...]
+    link_com: tuple[float, ...]
+    link_inertia: tuple[float, ...]
+    rotor_inertia: tuple[float, ...]
+    damping: tuple[float, ...]
+    coulomb: tuple[float, ...]
+    motor_constant: tuple[float, ...]
     payload_mass: float = 0.0
 
     def __post_init__(self) -> None:
+        joints = len(self.link_mass)
         for field in fields(self):
             value = getattr(self, field.name)
             if field.name == "payload_mass":
                 require_payload_mass(value)
                 continue
-            if len(value) != 2:
-                raise ValueError(f"{field.name} = {value!r}; two values (one per joint) required")
+            if len(value) != joints or joints == 0:
+                raise ValueError(
+                    f"{field.name} = {value!r}; {max(joints, 1)} values (one per joint, as "
+                    "link_mass) required"
+                )
             for j, entry in enumerate(value):
                 name = f"{field.name}[{j}]"
                 if field.name in ("link_mass", "motor_constant"):
@@ -135,12 +146,16 @@ class ArmParameters:
                 else:
                     require_nonnegative(name, entry)
 
+    @property
+    def joints(self) -> int:
+        return len(self.link_mass)
+
     def with_payload(self, mass: float) -> ArmParameters:
         return replace(self, payload_mass=mass)
 
 
-#: The per-joint fields of ``ArmParameters`` (two values each), in declaration order:
-#: what a scenario overrides and a Monte-Carlo study draws (its stream order).
+#: The per-joint fields of ``ArmParameters`` (one value per joint), in declaration
+#: order: what a scenario overrides and a Monte-Carlo study draws (its stream order).
 JOINT_PARAMETERS = tuple(f.name for f in fields(ArmParameters) if f.name != "payload_mass")
 
 #: The SI unit of each ``ArmParameters`` field, as a column-name suffix (exports).
@@ -157,8 +172,41 @@ PARAMETER_UNITS = {
 
 
 @dataclass(frozen=True)
+class LinkShape:
+    """How ``ArmParameters``' ``link_com`` and ``link_inertia`` map to a link's spatial
+    inertia: the unit direction to its centre of mass and its central inertia divided
+    by the moment about the joint axis (both in the link frame, from the URDF)."""
+
+    com_direction: np.ndarray
+    inertia_shape: np.ndarray
+    axis: np.ndarray
+
+
+@dataclass(frozen=True)
+class ArmLayout:
+    """What the URDF names: the ``joints`` (base to tip), the link each moves, their
+    actuators, the payload body (``None`` where the arm has none), each link's
+    ``LinkShape``, the distances between successive joints (``link_lengths``,
+    ``n - 1``) and from the last joint to the payload (``tip_length``, 0 without one)."""
+
+    joints: tuple[str, ...]
+    links: tuple[str, ...]
+    actuators: tuple[str, ...]
+    payload: str | None
+    shapes: tuple[LinkShape, ...]
+    link_lengths: tuple[float, ...]
+    tip_length: float
+
+    @property
+    def size(self) -> int:
+        """``n``: the number of joints."""
+        return len(self.joints)
+
+
+@dataclass(frozen=True)
 class Arm:
-    """Handles to the systems that make up the true plant inside a diagram."""
+    """Handles to the systems that make up the true plant inside a diagram, its
+    ``layout`` and the URDF's parameters."""
 
     plant: MultibodyPlant
     motor: SymbolicVectorSystem
@@ -166,103 +214,134 @@ class Arm:
     coulomb: SymbolicVectorSystem
     state_split: Demultiplexer
     config: PlantConfig
-    link1_length: float
-    link2_length: float
+    layout: ArmLayout
     default_parameters: ArmParameters
 
+    @property
+    def size(self) -> int:
+        """``n``: the number of joints."""
+        return self.layout.size
+
     def voltage_input_port(self):
-        """Motor voltages ``u`` (V), size 2."""
+        """Motor voltages ``u`` (V), size n."""
         return self.motor_input.get_input_port(0)
 
     def position_output_port(self):
-        """True joint positions ``q`` (rad), size 2."""
+        """True joint positions ``q`` (rad), size n."""
         return self.state_split.get_output_port(0)
 
     def velocity_output_port(self):
-        """True joint velocities (rad/s), size 2: for loggers and energy checks
+        """True joint velocities (rad/s), size n: for loggers and energy checks
         only, never for a controller."""
         return self.state_split.get_output_port(1)
 
 
-def _read_posfb_extras(urdf: Path) -> tuple[tuple[float, float], tuple[float, float]]:
-    """Coulomb levels and motor constants from posfb's own URDF elements."""
-    root = ET.parse(urdf).getroot()
-    coulomb = {}
-    for joint in root.iter("joint"):
-        element = joint.find(f"{{{POSFB_NS}}}coulomb_friction")
-        if element is not None:
-            coulomb[joint.get("name")] = float(element.get("value"))
-    motor = {}
-    for actuator in root.iter("actuator"):
-        element = actuator.find(f"{{{POSFB_NS}}}motor_constant")
-        if element is not None:
-            motor[actuator.get("name")] = float(element.get("value"))
-    missing = [f"posfb:coulomb_friction in joint {j}" for j in JOINTS if j not in coulomb]
-    missing += [f"posfb:motor_constant in actuator {a}" for a in ACTUATORS if a not in motor]
-    if missing:
-        raise ValueError(f"URDF {urdf} lacks {', '.join(missing)}")
-    return (coulomb[JOINTS[0]], coulomb[JOINTS[1]]), (motor[ACTUATORS[0]], motor[ACTUATORS[1]])
-
-
-def _load_urdf(plant: MultibodyPlant, urdf: Path) -> None:
+def _load_urdf(plant: MultibodyPlant, urdf: Path, chain: SerialChain) -> None:
     try:
         Parser(plant).AddModels(str(urdf))
     except RuntimeError as error:
         first_line = str(error).strip().splitlines()[0]
         raise ValueError(f"URDF {urdf} could not be parsed: {first_line}") from None
-    for name in (*LINKS, PAYLOAD_BODY, "base"):
-        if not plant.HasBodyNamed(name):
-            raise ValueError(f"URDF {urdf} has no link named {name!r}")
-    for name in JOINTS:
-        if not plant.HasJointNamed(name):
-            raise ValueError(f"URDF {urdf} has no joint named {name!r}")
-    for name in ACTUATORS:
-        if not plant.HasJointActuatorNamed(name):
-            raise ValueError(f"URDF {urdf} has no actuator named {name!r}")
-    plant.WeldFrames(plant.world_frame(), plant.GetFrameByName("base"), RigidTransform())
+    plant.WeldFrames(plant.world_frame(), plant.GetFrameByName(chain.base), RigidTransform())
     for index in plant.GetJointActuatorIndices():
         # Voltage saturation is modelled upstream; no extra clamp on the torque.
         plant.get_joint_actuator(index).set_effort_limit(np.inf)
 
 
-def _make_motor() -> SymbolicVectorSystem:
-    """``tau_j = kappa_j u_j`` with the motor constants as numeric parameters.
+def _actuators(plant: MultibodyPlant, joints: tuple[str, ...]) -> tuple[str, ...]:
+    """The actuator of each joint, in joint order; the plant's actuation input is in
+    actuator-index order, which must be the same (checked)."""
+    by_joint = {}
+    for index in plant.GetJointActuatorIndices():
+        actuator = plant.get_joint_actuator(index)
+        by_joint[actuator.joint().name()] = (int(index), actuator.name())
+    order = [by_joint[j][0] for j in joints]
+    if order != sorted(order) or len(by_joint) != len(joints):
+        raise ValueError(
+            f"the URDF's transmissions are declared in the order {list(by_joint)}; one per "
+            f"arm joint, in the chain's order {list(joints)}, is required"
+        )
+    return tuple(by_joint[j][1] for j in joints)
 
-    Input ``[u1, u2, v1, v2]``; its state integrates the mechanical work the
+
+def _check_state_order(plant: MultibodyPlant, joints: tuple[str, ...]) -> None:
+    """The plant's state must be ``[q_1..q_n, v_1..v_n]`` in chain order (true for a
+    serial chain of revolute joints; checked, since the encoder and friction read it)."""
+    for j, name in enumerate(joints):
+        joint = plant.GetJointByName(name)
+        if joint.position_start() != j or joint.velocity_start() != j:
+            raise ValueError(
+                f"joint {name!r} is state entry {joint.position_start()} of the plant; "
+                f"the chain's order ({j}) is required"
+            )
+    if plant.num_positions() != len(joints):
+        raise ValueError(
+            f"the plant has {plant.num_positions()} positions; one per arm joint "
+            f"({len(joints)}) is required"
+        )
+
+
+def _payload(plant: MultibodyPlant, last_link: str) -> str | None:
+    """The payload body, if the URDF has one; it must be welded to the last link."""
+    if not plant.HasBodyNamed(PAYLOAD_BODY):
+        return None
+    body = plant.GetBodyByName(PAYLOAD_BODY)
+    for index in plant.GetJointIndices():
+        joint = plant.get_joint(index)
+        if joint.child_body().index() == body.index() and (
+            joint.num_velocities() != 0 or joint.parent_body().name() != last_link
+        ):
+            raise ValueError(
+                f"link {PAYLOAD_BODY!r} hangs from {joint.parent_body().name()!r} by a "
+                f"{joint.type_name()} joint; a fixed joint to the last link "
+                f"{last_link!r} is required"
+            )
+    return PAYLOAD_BODY
+
+
+def _sum(terms: list) -> object:
+    return functools.reduce(operator.add, terms)
+
+
+def _make_motor(joints: int, actuator_order: list[int]) -> SymbolicVectorSystem:
+    """``tau_j = kappa_j u_j`` with the motor constants as numeric parameters, output
+    in the plant's actuator order (``actuator_order[i]``: the joint of actuator ``i``).
+
+    Input ``[u_1..u_n, v_1..v_n]``; its state integrates the mechanical work the
     motors deliver, ``W = sum_j tau_j v_j`` (J), for energy bookkeeping. (A
     stateless SymbolicVectorSystem cannot sit in a continuous diagram in
     Drake 1.51: its DoCalcTimeDerivatives asserts.)"""
-    u = [Variable(f"u{j + 1}") for j in range(2)]
-    v = [Variable(f"v{j + 1}") for j in range(2)]
-    kappa = [Variable(f"kappa{j + 1}") for j in range(2)]
+    u = [Variable(f"u{j + 1}") for j in range(joints)]
+    v = [Variable(f"v{j + 1}") for j in range(joints)]
+    kappa = [Variable(f"kappa{j + 1}") for j in range(joints)]
     work = Variable("motor_work")
-    torque = [kappa[j] * u[j] for j in range(2)]
+    torque = [kappa[j] * u[j] for j in range(joints)]
     system = SymbolicVectorSystem(
         state=[work],
         input=[*u, *v],
         parameter=kappa,
-        dynamics=[torque[0] * v[0] + torque[1] * v[1]],
-        output=torque,
+        dynamics=[_sum([torque[j] * v[j] for j in range(joints)])],
+        output=[torque[j] for j in actuator_order],
     )
     system.set_name("motor")
     return system
 
 
-def _make_coulomb() -> SymbolicVectorSystem:
-    """``-f_c tanh(v / v_s)`` per joint; parameters ``[f_c1, f_c2, v_s]``.
+def _make_coulomb(joints: int) -> SymbolicVectorSystem:
+    """``-f_c tanh(v / v_s)`` per joint; parameters ``[f_c1..f_cn, v_s]``.
 
     Input: joint velocities. Its state integrates the energy friction
     dissipates (J, never decreasing)."""
-    v = [Variable(f"v{j + 1}") for j in range(2)]
-    levels = [Variable(f"fc{j + 1}") for j in range(2)]
+    v = [Variable(f"v{j + 1}") for j in range(joints)]
+    levels = [Variable(f"fc{j + 1}") for j in range(joints)]
     v_s = Variable("v_s")
     loss = Variable("friction_loss")
-    force = [-levels[j] * tanh(v[j] / v_s) for j in range(2)]
+    force = [-levels[j] * tanh(v[j] / v_s) for j in range(joints)]
     system = SymbolicVectorSystem(
         state=[loss],
         input=v,
         parameter=[*levels, v_s],
-        dynamics=[-(force[0] * v[0] + force[1] * v[1])],
+        dynamics=[-_sum([force[j] * v[j] for j in range(joints)])],
         output=force,
     )
     system.set_name("coulomb_friction")
@@ -281,18 +360,22 @@ def add_arm(builder: DiagramBuilder, config: PlantConfig | None = None) -> Arm:
     ("Detected NaN in applied generalized force input port")."""
     config = config or PlantConfig()
     urdf = Path(config.urdf)
-    check_arm_urdf(urdf, payload_link=PAYLOAD_BODY)
-    coulomb_levels, motor_constant = _read_posfb_extras(urdf)
+    chain = check_serial_urdf(urdf)
+    n = len(chain.joints)
     plant, _ = AddMultibodyPlant(MultibodyPlantConfig(time_step=config.time_step), builder)
     plant.set_name("arm")
-    _load_urdf(plant, urdf)
+    _load_urdf(plant, urdf, chain)
     plant.Finalize()
+    _check_state_order(plant, chain.joints)
+    actuators = _actuators(plant, chain.joints)
+    links = tuple(plant.GetJointByName(j).child_body().name() for j in chain.joints)
+    payload = _payload(plant, links[-1])
 
-    motor = builder.AddSystem(_make_motor())
-    motor_input = builder.AddSystem(Multiplexer([2, 2]))
+    motor = builder.AddSystem(_make_motor(n, list(range(n))))
+    motor_input = builder.AddSystem(Multiplexer([n, n]))
     motor_input.set_name("motor_input")
-    coulomb = builder.AddSystem(_make_coulomb())
-    split = builder.AddSystem(Demultiplexer([2, 2]))
+    coulomb = builder.AddSystem(_make_coulomb(n))
+    split = builder.AddSystem(Demultiplexer([n, n]))
     split.set_name("state_split")
     builder.Connect(plant.get_state_output_port(), split.get_input_port(0))
     builder.Connect(motor_input.get_output_port(0), motor.get_input_port(0))
@@ -302,8 +385,24 @@ def add_arm(builder: DiagramBuilder, config: PlantConfig | None = None) -> Arm:
     builder.Connect(coulomb.get_output_port(0), plant.get_applied_generalized_force_input_port())
 
     context = plant.CreateDefaultContext()
-    elbow = plant.GetJointByName(JOINTS[1]).frame_on_parent().CalcPoseInBodyFrame(context)
-    tip = plant.GetFrameByName(PAYLOAD_BODY).CalcPose(context, plant.GetFrameByName(LINKS[1]))
+    joints = [plant.GetJointByName(j) for j in chain.joints]
+    lengths = tuple(
+        float(np.linalg.norm(joint.frame_on_parent().CalcPoseInBodyFrame(context).translation()))
+        for joint in joints[1:]
+    )
+    tip = 0.0
+    if payload is not None:
+        pose = plant.GetFrameByName(payload).CalcPose(context, plant.GetFrameByName(links[-1]))
+        tip = float(np.linalg.norm(pose.translation()))
+    layout = ArmLayout(
+        joints=chain.joints,
+        links=links,
+        actuators=actuators,
+        payload=payload,
+        shapes=tuple(_link_shape(plant, context, joint) for joint in joints),
+        link_lengths=lengths,
+        tip_length=tip,
+    )
     return Arm(
         plant=plant,
         motor=motor,
@@ -311,71 +410,129 @@ def add_arm(builder: DiagramBuilder, config: PlantConfig | None = None) -> Arm:
         coulomb=coulomb,
         state_split=split,
         config=config,
-        link1_length=float(np.linalg.norm(elbow.translation())),
-        link2_length=float(np.linalg.norm(tip.translation())),
-        default_parameters=_read_plant_defaults(plant, context, coulomb_levels, motor_constant),
+        layout=layout,
+        default_parameters=_read(plant, layout, context, chain.coulomb, chain.motor_constant),
     )
 
 
-def _central_inertia_about_axis(body: RigidBody, context: Context) -> float:
-    """Moment of inertia about the centre of mass and the joint (y) axis."""
+def _central_inertia(body: RigidBody, context: Context) -> np.ndarray:
+    """The body's rotational inertia about its centre of mass, in its frame."""
     spatial = body.CalcSpatialInertiaInBodyFrame(context)
-    return float(spatial.Shift(spatial.get_com()).CalcRotationalInertia()[1, 1])
+    return spatial.Shift(spatial.get_com()).CalcRotationalInertia().CopyToFullMatrix3()
 
 
-def _read_plant_defaults(
+def _joint_axis(joint: RevoluteJoint) -> np.ndarray:
+    """The joint's axis in its child body's frame."""
+    pose = joint.frame_on_child().GetFixedPoseInBodyFrame()
+    return pose.rotation().matrix() @ joint.revolute_axis()
+
+
+def _link_shape(plant: MultibodyPlant, context: Context, joint: RevoluteJoint) -> LinkShape:
+    body = joint.child_body()
+    com = body.CalcCenterOfMassInBodyFrame(context)
+    distance = float(np.linalg.norm(com))
+    axis = _joint_axis(joint)
+    inertia = _central_inertia(body, context)
+    moment = float(axis @ inertia @ axis)
+    return LinkShape(
+        com_direction=com / distance if distance > 0.0 else np.zeros(3),
+        inertia_shape=inertia / moment if moment > 0.0 else np.zeros((3, 3)),
+        axis=axis,
+    )
+
+
+def _read(
     plant: MultibodyPlant,
+    layout: ArmLayout,
     context: Context,
-    coulomb: tuple[float, float],
-    motor: tuple[float, float],
+    coulomb: tuple[float, ...],
+    motor: tuple[float, ...],
 ) -> ArmParameters:
-    bodies = [plant.GetBodyByName(name) for name in LINKS]
-    actuators = [plant.GetJointActuatorByName(name) for name in ACTUATORS]
+    """The parameters in the plant ``context``, with the given Coulomb levels and motor
+    constants (they live in the symbolic systems)."""
+    bodies = [plant.GetBodyByName(name) for name in layout.links]
+    actuators = [plant.GetJointActuatorByName(name) for name in layout.actuators]
+    payload = layout.payload
     return ArmParameters(
         link_mass=tuple(float(b.get_mass(context)) for b in bodies),
-        link_com=tuple(float(b.CalcCenterOfMassInBodyFrame(context)[0]) for b in bodies),
-        link_inertia=tuple(_central_inertia_about_axis(b, context) for b in bodies),
-        rotor_inertia=tuple(
-            float(a.default_rotor_inertia() * a.default_gear_ratio() ** 2) for a in actuators
+        link_com=tuple(
+            float(b.CalcCenterOfMassInBodyFrame(context) @ shape.com_direction)
+            for b, shape in zip(bodies, layout.shapes, strict=True)
         ),
-        damping=tuple(float(plant.GetJointByName(j).default_damping()) for j in JOINTS),
-        coulomb=coulomb,
-        motor_constant=motor,
-        payload_mass=float(plant.GetBodyByName(PAYLOAD_BODY).get_mass(context)),
+        link_inertia=tuple(
+            float(shape.axis @ _central_inertia(b, context) @ shape.axis)
+            for b, shape in zip(bodies, layout.shapes, strict=True)
+        ),
+        rotor_inertia=tuple(
+            float(a.rotor_inertia(context) * a.gear_ratio(context) ** 2) for a in actuators
+        ),
+        damping=tuple(float(plant.GetJointByName(j).GetDamping(context)) for j in layout.joints),
+        coulomb=tuple(float(c) for c in coulomb),
+        motor_constant=tuple(float(k) for k in motor),
+        payload_mass=0.0
+        if payload is None
+        else float(plant.GetBodyByName(payload).get_mass(context)),
+    )
+
+
+def _require_size(arm: Arm, parameters: ArmParameters) -> None:
+    if parameters.joints != arm.size:
+        raise ValueError(
+            f"the parameters have {parameters.joints} joints and the arm "
+            f"{arm.config.urdf} {arm.size}; one value per arm joint is required"
+        )
+
+
+def _link_inertia(arm: Arm, j: int, parameters: ArmParameters) -> SpatialInertia:
+    """Link ``j``'s spatial inertia for ``parameters`` (``ArmParameters``' docstring)."""
+    shape = arm.layout.shapes[j]
+    com, moment = parameters.link_com[j], parameters.link_inertia[j]
+    for name, value, direction in (
+        ("link_com", com, shape.com_direction),
+        ("link_inertia", moment, shape.inertia_shape),
+    ):
+        if value != 0.0 and not np.any(direction):
+            raise ValueError(
+                f"{name}[{j}] = {value!r}, but link {arm.layout.links[j]!r} has it 0 in the URDF "
+                "(no direction to scale); 0 is required"
+            )
+    inertia = shape.inertia_shape * moment
+    return SpatialInertia.MakeFromCentralInertia(
+        parameters.link_mass[j],
+        shape.com_direction * com,
+        RotationalInertia(
+            inertia[0, 0], inertia[1, 1], inertia[2, 2], inertia[0, 1], inertia[0, 2], inertia[1, 2]
+        ),
     )
 
 
 def apply_parameters(arm: Arm, root_context: Context, parameters: ArmParameters) -> None:
     """Set every physical parameter of the true plant in ``root_context``
-    (a Context of the diagram that holds ``arm``), without rebuilding.
-
-    Link inertias are rebuilt as a rod along the link's x axis
-    (``I_yy = I_zz = link_inertia``, ``I_xx = 0``); the out-of-plane moment does
-    not enter the planar dynamics."""
+    (a Context of the diagram that holds ``arm``), without rebuilding."""
+    _require_size(arm, parameters)
+    layout = arm.layout
+    if layout.payload is None and parameters.payload_mass != 0.0:
+        raise ValueError(
+            f"payload_mass = {parameters.payload_mass!r} kg, but {arm.config.urdf} has no "
+            f"link named {PAYLOAD_BODY!r} to carry it; 0 is required"
+        )
     plant = arm.plant
     plant_context = plant.GetMyMutableContextFromRoot(root_context)
-    for j in range(2):
-        body: RigidBody = plant.GetBodyByName(LINKS[j])
-        inertia = parameters.link_inertia[j]
-        body.SetSpatialInertiaInBodyFrame(
-            plant_context,
-            SpatialInertia.MakeFromCentralInertia(
-                parameters.link_mass[j],
-                [parameters.link_com[j], 0.0, 0.0],
-                RotationalInertia(0.0, inertia, inertia),
-            ),
-        )
-        joint: RevoluteJoint = plant.GetJointByName(JOINTS[j])
+    for j in range(arm.size):
+        body: RigidBody = plant.GetBodyByName(layout.links[j])
+        body.SetSpatialInertiaInBodyFrame(plant_context, _link_inertia(arm, j, parameters))
+        joint: RevoluteJoint = plant.GetJointByName(layout.joints[j])
         joint.SetDamping(plant_context, parameters.damping[j])
-        actuator: JointActuator = plant.GetJointActuatorByName(ACTUATORS[j])
+        actuator: JointActuator = plant.GetJointActuatorByName(layout.actuators[j])
         actuator.SetRotorInertia(
             plant_context, parameters.rotor_inertia[j] / actuator.default_gear_ratio() ** 2
         )
-    payload: RigidBody = plant.GetBodyByName(PAYLOAD_BODY)
-    payload.SetSpatialInertiaInBodyFrame(
-        plant_context,
-        SpatialInertia(parameters.payload_mass, np.zeros(3), UnitInertia(0.0, 0.0, 0.0)),
-    )
+    if layout.payload is not None:
+        payload: RigidBody = plant.GetBodyByName(layout.payload)
+        payload.SetSpatialInertiaInBodyFrame(
+            plant_context,
+            SpatialInertia(parameters.payload_mass, np.zeros(3), UnitInertia(0.0, 0.0, 0.0)),
+        )
     arm.motor.GetMyMutableContextFromRoot(root_context).get_mutable_numeric_parameter(
         0
     ).SetFromVector(np.asarray(parameters.motor_constant, dtype=float))
@@ -385,40 +542,28 @@ def apply_parameters(arm: Arm, root_context: Context, parameters: ArmParameters)
 def set_coulomb(
     arm: Arm,
     root_context: Context,
-    levels: tuple[float, float],
+    levels: tuple[float, ...],
     friction_velocity: float | None = None,
 ) -> None:
-    """Set the Coulomb levels (N m) and, optionally, the smoothing velocity."""
+    """Set the Coulomb levels (N m, one per joint) and, optionally, the smoothing
+    velocity."""
+    if len(levels) != arm.size:
+        raise ValueError(f"coulomb = {levels!r}; {arm.size} levels (one per joint) required")
     for j, level in enumerate(levels):
         require_nonnegative(f"coulomb[{j}]", level)
     v_s = arm.config.friction_velocity if friction_velocity is None else friction_velocity
     require_positive("friction_velocity", v_s)
     arm.coulomb.GetMyMutableContextFromRoot(root_context).get_mutable_numeric_parameter(
         0
-    ).SetFromVector(np.array([levels[0], levels[1], v_s], dtype=float))
+    ).SetFromVector(np.array([*levels, v_s], dtype=float))
 
 
 def read_parameters(arm: Arm, root_context: Context) -> ArmParameters:
     """The physical parameters currently in ``root_context``."""
-    plant = arm.plant
-    plant_context = plant.GetMyContextFromRoot(root_context)
-    bodies = [plant.GetBodyByName(name) for name in LINKS]
-    actuators = [plant.GetJointActuatorByName(name) for name in ACTUATORS]
     kappa = arm.motor.GetMyContextFromRoot(root_context).get_numeric_parameter(0).value()
     coulomb = arm.coulomb.GetMyContextFromRoot(root_context).get_numeric_parameter(0).value()
-    return ArmParameters(
-        link_mass=tuple(float(b.get_mass(plant_context)) for b in bodies),
-        link_com=tuple(float(b.CalcCenterOfMassInBodyFrame(plant_context)[0]) for b in bodies),
-        link_inertia=tuple(_central_inertia_about_axis(b, plant_context) for b in bodies),
-        rotor_inertia=tuple(
-            float(a.rotor_inertia(plant_context) * a.gear_ratio(plant_context) ** 2)
-            for a in actuators
-        ),
-        damping=tuple(float(plant.GetJointByName(j).GetDamping(plant_context)) for j in JOINTS),
-        coulomb=(float(coulomb[0]), float(coulomb[1])),
-        motor_constant=(float(kappa[0]), float(kappa[1])),
-        payload_mass=float(plant.GetBodyByName(PAYLOAD_BODY).get_mass(plant_context)),
-    )
+    plant_context = arm.plant.GetMyContextFromRoot(root_context)
+    return _read(arm.plant, arm.layout, plant_context, tuple(coulomb[: arm.size]), tuple(kappa))
 
 
 def energy_accounts(arm: Arm, root_context: Context) -> tuple[float, float]:

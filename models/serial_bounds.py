@@ -96,26 +96,39 @@ def tensor_norm(tensor: np.ndarray, iterations: int = 100) -> float:
 
 
 def _workspace_maxima(
-    true: SerialArmModel, nominal: SerialArmModel, angles: np.ndarray
+    m1: Callable[[np.ndarray], np.ndarray],
+    christoffel: Callable[[np.ndarray], np.ndarray],
+    gravity: Callable[[np.ndarray], np.ndarray],
+    angles: np.ndarray,
 ) -> dict[str, float]:
-    """``dM1``, ``dG``, ``dC`` maximised over the joint angles ``angles``."""
-    M0_true, M0_nominal = true.M0(), nominal.M0()
-
-    def m1(q: np.ndarray) -> float:
-        difference = (nominal.M(q) - M0_nominal) - (true.M(q) - M0_true)
-        return float(np.linalg.norm(difference, 2))
-
-    def gravity(q: np.ndarray) -> float:
-        return float(np.linalg.norm(nominal.G(q) - true.G(q)))
-
-    def coriolis(q: np.ndarray) -> float:
-        return tensor_norm(nominal.christoffel(q) - true.christoffel(q))
-
+    """The largest ``||m1(q)||_2``, ``tensor_norm(christoffel(q))`` and ``||gravity(q)||``
+    over the joint angles ``angles`` (named ``delta_M1``, ``delta_C``, ``delta_G``)."""
     return {
-        "delta_M1": _maximum(m1, angles),
-        "delta_C": _maximum(coriolis, angles),
-        "delta_G": _maximum(gravity, angles),
+        "delta_M1": _maximum(lambda q: float(np.linalg.norm(m1(q), 2)), angles),
+        "delta_C": _maximum(lambda q: tensor_norm(christoffel(q)), angles),
+        "delta_G": _maximum(lambda q: float(np.linalg.norm(gravity(q))), angles),
     }
+
+
+def _sobol_angles(joints: int, samples: int, seed: int) -> np.ndarray:
+    if samples < 2 or samples & (samples - 1):
+        raise ValueError(f"samples = {samples!r}; a power of 2 >= 2 is required")
+    sobol = qmc.Sobol(joints, scramble=True, rng=np.random.default_rng(seed))
+    return 2.0 * np.pi * sobol.random(samples)
+
+
+def model_norms(model: SerialArmModel, samples: int = 64, seed: int = 0) -> dict[str, float]:
+    """The nominal norms the design's bounds scale (``models.design.bounds``):
+    ``max_q ||M1*(q)||``, ``k_C1 = max_q max_{|x| = 1} ||C*(q, x)||`` and
+    ``max_q ||G*(q)||`` (named ``delta_M1``, ``delta_C``, ``delta_G``), by the same
+    workspace search as ``uncertainty_norms`` over ``samples`` points."""
+    M0 = model.M0()
+    return _workspace_maxima(
+        lambda q: model.M(q) - M0,
+        model.christoffel,
+        model.G,
+        _sobol_angles(model.size, samples, seed),
+    )
 
 
 def uncertainty_norms(
@@ -128,19 +141,23 @@ def uncertainty_norms(
             f"the true arm has {true.size} joints and the nominal model {nominal.size}; "
             "the same number is required"
         )
-    if samples < 2 or samples & (samples - 1):
-        raise ValueError(f"samples = {samples!r}; a power of 2 >= 2 is required")
     exact = {
         "delta_M0": float(np.linalg.norm(nominal.M0() - true.M0(), 2)),
         "delta_B": float(np.linalg.norm(nominal.B() - true.B(), 2)),
         "delta_F": float(np.linalg.norm(nominal.coulomb_levels() - true.coulomb_levels())),
     }
-    angles = (
-        2.0
-        * np.pi
-        * qmc.Sobol(true.size, scramble=True, rng=np.random.default_rng(seed)).random(samples)
-    )
-    fine = {**exact, **_workspace_maxima(true, nominal, angles)}
-    coarse = {**exact, **_workspace_maxima(true, nominal, angles[: samples // 2])}
+    angles = _sobol_angles(true.size, samples, seed)
+    M0_true, M0_nominal = true.M0(), nominal.M0()
+
+    def maxima(points: np.ndarray) -> dict[str, float]:
+        return _workspace_maxima(
+            lambda q: (nominal.M(q) - M0_nominal) - (true.M(q) - M0_true),
+            lambda q: nominal.christoffel(q) - true.christoffel(q),
+            lambda q: nominal.G(q) - true.G(q),
+            points,
+        )
+
+    fine = {**exact, **maxima(angles)}
+    coarse = {**exact, **maxima(angles[: samples // 2])}
     order = {name: fine[name] for name in BOUND_NAMES}
     return SampledNorms(order, {name: coarse[name] for name in BOUND_NAMES}, samples)

@@ -35,12 +35,6 @@ from pydrake.trajectories import PiecewisePolynomial
 
 from posfb.models.validation import require_finite
 
-#: Number of joints a trajectory drives.
-JOINTS = 2
-
-#: Size of the stacked desired vector ``[q_d, qdot_d, qddot_d]``.
-DESIRED_SIZE = 3 * JOINTS
-
 #: Fewest samples of a not-a-knot cubic (``from_samples``).
 MIN_SPLINE_SAMPLES = 4
 
@@ -48,7 +42,11 @@ Derivatives = tuple[np.ndarray, np.ndarray, np.ndarray]
 
 
 class Trajectory(Protocol):
-    """A desired joint trajectory: ``(q_d, qdot_d, qddot_d)`` at time ``t`` (s)."""
+    """A desired trajectory of ``joints`` joints: ``(q_d, qdot_d, qddot_d)`` at time
+    ``t`` (s)."""
+
+    @property
+    def joints(self) -> int: ...
 
     def evaluate(self, t: float) -> Derivatives: ...
 
@@ -95,11 +93,12 @@ class WaveTrajectory:
     waves: tuple[JointWave, ...] = PAPER_TRAJECTORY
 
     def __post_init__(self) -> None:
-        if len(self.waves) != JOINTS:
-            raise ValueError(
-                f"trajectory.joints has {len(self.waves)} entries; exactly {JOINTS} "
-                "(one per joint) are required"
-            )
+        if len(self.waves) == 0:
+            raise ValueError("trajectory.joints is empty; one wave per joint is required")
+
+    @property
+    def joints(self) -> int:
+        return len(self.waves)
 
     def evaluate(self, t: float) -> Derivatives:
         return desired(t, self.waves)
@@ -122,10 +121,10 @@ def _require_times(key: str, times: np.ndarray, fewest: int) -> None:
 
 
 def _require_positions(key: str, positions: np.ndarray, count: int) -> None:
-    if positions.shape != (count, JOINTS):
+    if positions.ndim != 2 or positions.shape[0] != count or positions.shape[1] == 0:
         raise ValueError(
-            f"{key} has shape {list(positions.shape)}; {count} rows of {JOINTS} joint "
-            "positions (rad) are required"
+            f"{key} has shape {list(positions.shape)}; {count} rows of one position (rad) "
+            "per joint are required"
         )
     if not np.all(np.isfinite(positions)):
         raise ValueError(f"{key} has a non-finite entry; finite positions (rad) are required")
@@ -136,11 +135,12 @@ class SplineTrajectory:
     held at rest at its end points outside ``[start_time, end_time]``."""
 
     def __init__(self, spline: PiecewisePolynomial) -> None:
-        if spline.rows() != JOINTS or spline.cols() != 1:
+        if spline.rows() == 0 or spline.cols() != 1:
             raise ValueError(
-                f"spline is {spline.rows()} x {spline.cols()}; {JOINTS} x 1 is required"
+                f"spline is {spline.rows()} x {spline.cols()}; a column (n x 1) is required"
             )
         self.spline = spline
+        self.joints = spline.rows()
         self.velocity = spline.derivative(1)
         self.acceleration = spline.derivative(2)
         self.start_time = spline.start_time()
@@ -156,7 +156,7 @@ class SplineTrajectory:
         _require_times("trajectory.times", t, 2)
         q = np.asarray(positions, dtype=float)
         _require_positions("trajectory.positions", q, len(t))
-        zero = np.zeros((JOINTS, 1))
+        zero = np.zeros((q.shape[1], 1))
         return cls(PiecewisePolynomial.CubicWithContinuousSecondDerivatives(t, q.T, zero, zero))
 
     @classmethod
@@ -174,7 +174,7 @@ class SplineTrajectory:
     def evaluate(self, t: float) -> Derivatives:
         if t < self.start_time or t > self.end_time:
             end = self.start_time if t < self.start_time else self.end_time
-            rest = np.zeros(JOINTS)
+            rest = np.zeros(self.joints)
             return self.spline.value(end).ravel(), rest, rest.copy()
         return (
             self.spline.value(t).ravel(),
@@ -184,7 +184,7 @@ class SplineTrajectory:
 
 
 def sampled_source(trajectory: Trajectory, sample_time: float, samples: int) -> TrajectorySource:
-    """A C++ ``TrajectorySource`` of ``[q_d, qdot_d, qddot_d]`` (size 6): ``trajectory``
+    """A C++ ``TrajectorySource`` of ``[q_d, qdot_d, qddot_d]`` (size 3n): ``trajectory``
     evaluated at ``t_k = k T_s``, ``k = 0..samples``, joined by a first-order hold.
 
     Exact wherever it is read at a sample instant (a segment evaluated at its own start

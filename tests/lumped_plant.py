@@ -18,7 +18,7 @@ from pydrake.systems.framework import DiagramBuilder
 from pydrake.systems.primitives import SymbolicVectorSystem, VectorLogSink
 
 from posfb.diagrams.closed_loop import hold_inputs
-from posfb.models.controllers import INTERNALS, make_controller
+from posfb.models.controllers import internals_names, make_controller
 from posfb.models.design import ControllerConfig, NonlinearTorqueConfig
 from posfb.models.lumped import TABLE1, LumpedModel, LumpedParameters
 from posfb.models.trajectory import WaveTrajectory, desired, sampled_source
@@ -90,7 +90,7 @@ def simulate(
     for name, port, size in (
         ("q", plant.get_output_port(), 2),
         ("voltage", controller.GetOutputPort("voltage"), 2),
-        ("internals", controller.GetOutputPort("internals"), len(INTERNALS[kind])),
+        ("internals", controller.GetOutputPort("internals"), len(internals_names(kind, 2))),
     ):
         logs[name] = builder.AddSystem(VectorLogSink(size, T))
         builder.Connect(port, logs[name].get_input_port())

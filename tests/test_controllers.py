@@ -10,10 +10,10 @@ import pytest
 from lumped_plant import exact_model_config, simulate
 from pydrake.systems.analysis import Simulator
 
-from posfb.models.controllers import CONTROLLER_KINDS, INTERNALS, make_controller
+from posfb.models.controllers import CONTROLLER_KINDS, internals_names, make_controller
 from posfb.models.design import ControllerConfig, NonlinearTorqueConfig
 from posfb.models.lumped import LumpedModel
-from posfb.models.trajectory import DESIRED_SIZE, desired
+from posfb.models.trajectory import desired
 
 T = ControllerConfig().sample_time
 Q_D, QD_DOT, QD_DDOT = desired(1.0)
@@ -46,12 +46,12 @@ def test_ports_take_positions_and_no_velocity(kind):
     inputs = [controller.get_input_port(i) for i in range(controller.num_input_ports())]
     assert [(p.get_name(), p.size()) for p in inputs] == [
         ("q_measured", 2),
-        ("desired", DESIRED_SIZE),
+        ("desired", 6),
     ]
     outputs = [controller.get_output_port(i) for i in range(controller.num_output_ports())]
     assert [(p.get_name(), p.size()) for p in outputs] == [
         ("voltage", 2),
-        ("internals", len(INTERNALS[kind])),
+        ("internals", len(internals_names(kind, 2))),
     ]
 
 
@@ -82,7 +82,7 @@ def test_filters_start_at_rest_from_the_first_measurement(kind):
     voltage, internals = _samples(make_controller(kind), [q0])
     model = LumpedModel()
     tau_d = model.M0() @ QD_DDOT + model.B() @ QD_DOT
-    names = INTERNALS[kind]
+    names = internals_names(kind, 2)
     tau_lc = internals[0, [names.index("tau_lc_1"), names.index("tau_lc_2")]]
     np.testing.assert_allclose(tau_lc, tau_d, rtol=1e-9)
     if kind == "proposed":
@@ -119,7 +119,7 @@ def test_alpha_rises_in_closed_form_without_error():
     np.testing.assert_allclose(alpha, expected, rtol=1e-12)
 
 
-PROPOSED_ALPHA = INTERNALS["proposed"].index("alpha")
+PROPOSED_ALPHA = internals_names("proposed", 2).index("alpha")
 
 
 @pytest.fixture(scope="module")
@@ -144,7 +144,7 @@ def test_alpha_is_monotone_bounded_and_does_not_chatter(closed_loop_run):
 
 
 def test_torques_add_up_to_the_voltage(closed_loop_run):
-    names = INTERNALS["proposed"]
+    names = internals_names("proposed", 2)
     parts = closed_loop_run.internals
     for joint in (1, 2):
         total = sum(parts[names.index(f"tau_{t}_{joint}")] for t in ("lin", "lc", "nc"))

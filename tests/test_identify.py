@@ -23,7 +23,7 @@ def test_identified_theta_matches_table1(arm_diagram, name):
 
 def test_table1_link_length_is_the_urdf_one(arm_diagram):
     _, arm, _ = arm_diagram
-    assert TABLE1.l1 == pytest.approx(arm.link1_length, rel=1e-12)
+    assert TABLE1.l1 == pytest.approx(arm.layout.link_lengths[0], rel=1e-12)
 
 
 def test_payload_raises_theta_as_a_tip_point_mass_predicts(arm_diagram):
@@ -37,7 +37,7 @@ def test_payload_raises_theta_as_a_tip_point_mass_predicts(arm_diagram):
     apply_parameters(arm, context, params.with_payload(mass))
     loaded = identify(arm, context)
     k1, k2 = params.motor_constant
-    l1, l2, g = arm.link1_length, arm.link2_length, TABLE1.g
+    l1, l2, g = arm.layout.link_lengths[0], arm.layout.tip_length, TABLE1.g
     expected = {
         "theta1": mass * l1**2 / k1,
         "theta2": mass * l2**2 / k1,
@@ -62,7 +62,7 @@ def test_payload_gravity_torque_rises_by_the_point_mass_moment(arm_diagram):
     mass = 0.288
     apply_parameters(arm, context, arm.default_parameters.with_payload(mass))
     after = -plant.CalcGravityGeneralizedForces(plant_context)
-    g, l1, l2 = TABLE1.g, arm.link1_length, arm.link2_length
+    g, l1, l2 = TABLE1.g, arm.layout.link_lengths[0], arm.layout.tip_length
     tip_moment = mass * g * l2 * np.cos(q[0] + q[1])
     np.testing.assert_allclose(
         after - before, [mass * g * l1 * np.cos(q[0]) + tip_moment, tip_moment], rtol=1e-9

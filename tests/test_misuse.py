@@ -98,7 +98,9 @@ CASES = {
     "scenario not a map": Case(("simulate", "--scenario", "{tmp}/list.yaml"), "a map of keys"),
     "YAML syntax": Case(("simulate", "--scenario", "{tmp}/syntax.yaml"), "YAML syntax error"),
     "CSV not numeric": Case(("simulate", "--scenario", "{tmp}/csv.yaml"), "non-numeric"),
-    "CSV two columns": Case(("simulate", "--scenario", "{tmp}/csv2.yaml"), "3 (time, q1, q2)"),
+    "CSV two columns": Case(
+        ("simulate", "--scenario", "{tmp}/csv2.yaml"), "trajectory drives 1 joints; the nominal"
+    ),
     "CSV times backwards": Case(("simulate", "--scenario", "{tmp}/csv3.yaml"), "strictly incr"),
     "CSV missing": Case(("simulate", "--scenario", "{tmp}/csv4.yaml"), "does not exist"),
     "one waypoint": Case(("simulate", "--scenario", "{tmp}/one_waypoint.yaml"), "at least 2"),

@@ -35,7 +35,6 @@ from posfb.models.controllers import cached_design
 from posfb.models.design import plant_spectral_radii
 from posfb.models.design.bounds import resolve_bounds
 from posfb.models.identify import identify
-from posfb.models.trajectory import JOINTS
 
 
 def _metrics_dict(metrics: RunMetrics) -> dict[str, float | None]:
@@ -114,7 +113,9 @@ class ClosedLoopEvaluator:
         plant = sample_plant(self.study, self.nominal_plant, index)
         sensor = config.sensor
         if plant.encoder_counts is not None:
-            sensor = dataclasses.replace(sensor, encoder_counts=(plant.encoder_counts,) * JOINTS)
+            sensor = dataclasses.replace(
+                sensor, encoder_counts=(plant.encoder_counts,) * config.joints
+            )
         context = self._reference.new_context(plant.parameters)
         theta = identify(self._reference.arm, context)
         design = config.design

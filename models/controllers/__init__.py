@@ -1,7 +1,8 @@
 """The three controllers as discrete Drake systems, and a factory.
 
-Every controller has inputs ``q_measured`` (2) and ``desired`` (6) and outputs
-``voltage`` (2) and ``internals`` (columns named by ``INTERNALS[kind]``); see
+Every controller of an ``n``-joint nominal model has inputs ``q_measured`` (n) and
+``desired`` (3n) and outputs ``voltage`` (n) and ``internals`` (columns named by
+``internals_names(kind, n)``); see
 ``models.controllers.base`` for the timing.
 """
 
@@ -10,16 +11,21 @@ from __future__ import annotations
 from functools import lru_cache
 
 from posfb.models.controllers.base import SampledController
-from posfb.models.controllers.lin_lc import LIN_LC_INTERNALS, LinLcController
-from posfb.models.controllers.pid import PID_INTERNALS, PidController
-from posfb.models.controllers.proposed import PROPOSED_INTERNALS, ProposedController
+from posfb.models.controllers.lin_lc import LinLcController, lin_lc_internals
+from posfb.models.controllers.pid import PidController, pid_internals
+from posfb.models.controllers.proposed import ProposedController, proposed_internals
 from posfb.models.design import ControllerConfig, Design, compute_design
 
 #: The controllers of Sec. 4.2: computed torque + PID, Lin+LC, the paper's.
 CONTROLLER_KINDS = ("pid", "lin_lc", "proposed")
 
-#: Column names of each kind's ``internals`` output.
-INTERNALS = {"pid": PID_INTERNALS, "lin_lc": LIN_LC_INTERNALS, "proposed": PROPOSED_INTERNALS}
+_INTERNALS = {"pid": pid_internals, "lin_lc": lin_lc_internals, "proposed": proposed_internals}
+
+
+def internals_names(kind: str, joints: int) -> tuple[str, ...]:
+    """Column names of controller ``kind``'s ``internals`` output for ``joints`` joints."""
+    return _INTERNALS[kind](joints)
+
 
 #: Designs are pure functions of the (frozen, hashable) config: reuse them.
 cached_design = lru_cache(maxsize=32)(compute_design)
@@ -66,10 +72,6 @@ def make_controller(kind: str, config: ControllerConfig | None = None) -> Sample
 
 __all__ = [
     "CONTROLLER_KINDS",
-    "INTERNALS",
-    "LIN_LC_INTERNALS",
-    "PID_INTERNALS",
-    "PROPOSED_INTERNALS",
     "ControllerConfig",
     "Design",
     "LinLcController",
@@ -79,6 +81,7 @@ __all__ = [
     "RELEVANT_CHECKS",
     "cached_design",
     "failed_checks",
+    "internals_names",
     "make_controller",
     "require_design",
 ]

@@ -1,10 +1,10 @@
 """The shape shared by the three controllers (the interface the closed-loop
 diagrams wire): discrete systems with direct feedthrough behind a zero-order hold.
 
-Inputs: ``q_measured`` (2, the held quantised joint positions) and ``desired`` (6,
+Inputs: ``q_measured`` (n, the held quantised joint positions) and ``desired`` (3n,
 the held ``[q_d, qdot_d, qddot_d]`` of ``models.trajectory``); no velocity input.
-Outputs: ``voltage`` (2, volts before saturation) and ``internals`` (named by the
-subclass's ``INTERNALS`` tuple).
+Outputs: ``voltage`` (n, volts before saturation) and ``internals`` (named by the
+subclass's ``internals`` names).
 
 With both inputs held by ``ZeroOrderHold(T_s)`` blocks (``diagrams.closed_loop``)
 the controller realises, with no extra sample of delay::
@@ -37,25 +37,31 @@ from pydrake.systems.framework import (
     ValueProducer,
 )
 
-from posfb.models.design.config import JOINTS
-from posfb.models.trajectory import DESIRED_SIZE
 from posfb.models.validation import require_positive
+
+
+def joint_names(prefix: str, joints: int) -> tuple[str, ...]:
+    """``(prefix_1, ..., prefix_n)``: one internals column per joint."""
+    return tuple(f"{prefix}_{j + 1}" for j in range(joints))
 
 
 class SampledController(LeafSystem):
     """Ports, state, the cached step and the periodic update; subclasses implement
-    ``_start`` and ``_step``."""
+    ``_start`` and ``_step``; ``joints`` is ``n``."""
 
-    def __init__(self, sample_time: float, internals: tuple[str, ...], memory_size: int) -> None:
+    def __init__(
+        self, sample_time: float, joints: int, internals: tuple[str, ...], memory_size: int
+    ) -> None:
         super().__init__()
         self.sample_time = require_positive("sample_time", sample_time)
+        self.joints = joints
         self.internals_names = internals
-        self._q_port = self.DeclareVectorInputPort("q_measured", JOINTS)
-        self._desired_port = self.DeclareVectorInputPort("desired", DESIRED_SIZE)
+        self._q_port = self.DeclareVectorInputPort("q_measured", joints)
+        self._desired_port = self.DeclareVectorInputPort("desired", 3 * joints)
         self._memory = self.DeclareDiscreteState(memory_size)
         self._phase = self.DeclareDiscreteState(1)
-        self._voltage_end = JOINTS
-        self._internals_end = JOINTS + len(internals)
+        self._voltage_end = joints
+        self._internals_end = joints + len(internals)
         self._step_cache = self.DeclareCacheEntry(
             description="controller step (u, internals, next memory)",
             value_producer=ValueProducer(
@@ -65,7 +71,7 @@ class SampledController(LeafSystem):
             prerequisites_of_calc={self.xd_ticket(), self.all_input_ports_ticket()},
         )
         ticket = {self._step_cache.ticket()}
-        self.DeclareVectorOutputPort("voltage", JOINTS, self._calc_voltage, ticket)
+        self.DeclareVectorOutputPort("voltage", joints, self._calc_voltage, ticket)
         self.DeclareVectorOutputPort("internals", len(internals), self._calc_internals, ticket)
         self.DeclarePeriodicDiscreteUpdateEvent(sample_time, 0.0, self._update)
 
@@ -94,6 +100,11 @@ class SampledController(LeafSystem):
         step = self._step_cache.Eval(context)
         discrete_state.get_mutable_vector(self._memory).SetFromVector(step[self._internals_end :])
         discrete_state.get_mutable_vector(self._phase).SetAtIndex(0, 2.0)
+
+    def split_desired(self, desired: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """``(q_d, qdot_d, qddot_d)`` of the stacked desired input."""
+        n = self.joints
+        return desired[:n], desired[n : 2 * n], desired[2 * n :]
 
     def _start(self, q: np.ndarray, desired: np.ndarray) -> np.ndarray:
         """The memory before the first sample, from the first measurement."""

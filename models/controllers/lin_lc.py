@@ -9,13 +9,14 @@ from __future__ import annotations
 
 import numpy as np
 
-from posfb.models.controllers.base import SampledController
-from posfb.models.controllers.feedforward import NominalTorques
+from posfb.models.controllers.base import SampledController, joint_names
+from posfb.models.controllers.feedforward import nominal_torques
 from posfb.models.design import Design
-from posfb.models.lumped import LumpedModel
 
-#: Columns of the ``internals`` output.
-LIN_LC_INTERNALS = ("tau_lin_1", "tau_lin_2", "tau_lc_1", "tau_lc_2")
+
+def lin_lc_internals(joints: int) -> tuple[str, ...]:
+    """Columns of the ``internals`` output for ``joints`` joints."""
+    return joint_names("tau_lin", joints) + joint_names("tau_lc", joints)
 
 
 class LinLcController(SampledController):
@@ -24,17 +25,19 @@ class LinLcController(SampledController):
     def __init__(self, design: Design) -> None:
         design.require_linear_torque()
         self._filter = design.lin_lc_filter
-        super().__init__(design.config.sample_time, LIN_LC_INTERNALS, len(self._filter.A))
+        n = design.config.joints
+        super().__init__(design.config.sample_time, n, lin_lc_internals(n), len(self._filter.A))
         self.set_name("lin_lc_controller")
-        self._torques = NominalTorques(LumpedModel(design.config.nominal))
+        self._torques = nominal_torques(design.config.nominal)
 
     def _start(self, q: np.ndarray, desired: np.ndarray) -> np.ndarray:
-        return self._filter.initial @ (q - desired[0:2])
+        return self._filter.initial @ (q - desired[: self.joints])
 
     def _step(
         self, q: np.ndarray, desired: np.ndarray, memory: np.ndarray
     ) -> tuple[np.ndarray, np.ndarray]:
-        error, qd_dot, qd_ddot = q - desired[0:2], desired[2:4], desired[4:6]
+        q_d, qd_dot, qd_ddot = self.split_desired(desired)
+        error = q - q_d
         f = self._filter
         eta = f.C @ memory + f.D @ error
         memory[:] = f.A @ memory + f.B @ error

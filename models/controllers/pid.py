@@ -14,39 +14,41 @@ from __future__ import annotations
 
 import numpy as np
 
-from posfb.models.controllers.base import SampledController
-from posfb.models.design.config import JOINTS, PidGains
-from posfb.models.lumped import LumpedModel, LumpedParameters
+from posfb.models.controllers.base import SampledController, joint_names
+from posfb.models.design.config import PidGains
+from posfb.models.nominal import NominalModel, joint_count, nominal_model
 
-#: Columns of the ``internals`` output.
-PID_INTERNALS = ("qdot_est_1", "qdot_est_2", "error_integral_1", "error_integral_2")
 
-_N = JOINTS
+def pid_internals(joints: int) -> tuple[str, ...]:
+    """Columns of the ``internals`` output for ``joints`` joints."""
+    return joint_names("qdot_est", joints) + joint_names("error_integral", joints)
 
 
 class PidController(SampledController):
     """``u = tau_PID`` of Eq. 26 from measured positions only."""
 
-    def __init__(self, nominal: LumpedParameters, gains: PidGains, sample_time: float) -> None:
+    def __init__(self, nominal: NominalModel, gains: PidGains, sample_time: float) -> None:
+        n = joint_count(nominal)
         # memory: [q_{k-1}, I_k]
-        super().__init__(sample_time, PID_INTERNALS, 2 * _N)
+        super().__init__(sample_time, n, pid_internals(n), 2 * n)
         self.set_name("pid_controller")
-        self._model = LumpedModel(nominal)
+        self._model = nominal_model(nominal)
         self._Kp, self._Kv, self._KI = (
             np.asarray(g, dtype=float) for g in (gains.Kp, gains.Kv, gains.KI)
         )
 
     def _start(self, q: np.ndarray, desired: np.ndarray) -> np.ndarray:
-        return np.concatenate([q, np.zeros(_N)])
+        return np.concatenate([q, np.zeros(self.joints)])
 
     def _step(
         self, q: np.ndarray, desired: np.ndarray, memory: np.ndarray
     ) -> tuple[np.ndarray, np.ndarray]:
-        error, qd_dot, qd_ddot = q - desired[0:2], desired[2:4], desired[4:6]
-        qdot = (q - memory[:_N]) / self.sample_time
-        integral = memory[_N:].copy()
+        q_d, qd_dot, qd_ddot = self.split_desired(desired)
+        error, n = q - q_d, self.joints
+        qdot = (q - memory[:n]) / self.sample_time
+        integral = memory[n:].copy()
         command = qd_ddot - self._Kv * (qdot - qd_dot) - self._Kp * error - self._KI * integral
         voltage = self._model.inverse_dynamics(q, qdot, command, friction=True)
-        memory[:_N] = q
-        memory[_N:] = integral + self.sample_time * error
+        memory[:n] = q
+        memory[n:] = integral + self.sample_time * error
         return voltage, np.concatenate([qdot, integral])

@@ -23,19 +23,16 @@ import math
 
 import numpy as np
 
-from posfb.models.controllers.base import SampledController
-from posfb.models.controllers.feedforward import NominalTorques
+from posfb.models.controllers.base import SampledController, joint_names
+from posfb.models.controllers.feedforward import nominal_torques
 from posfb.models.design import Design
-from posfb.models.design.config import JOINTS
-from posfb.models.lumped import LumpedModel
 
-#: Columns of the ``internals`` output.
-PROPOSED_INTERNALS = (
-    "tau_lin_1", "tau_lin_2", "tau_lc_1", "tau_lc_2", "tau_nc_1", "tau_nc_2",
-    "alpha", "phi_1", "phi_2", "U1", "U2", "delta_bar",
-)  # fmt: skip
 
-_N = JOINTS
+def proposed_internals(joints: int) -> tuple[str, ...]:
+    """Columns of the ``internals`` output for ``joints`` joints."""
+    torques = ("tau_lin", "tau_lc", "tau_nc")
+    per_joint = tuple(name for prefix in torques for name in joint_names(prefix, joints))
+    return (*per_joint, "alpha", *joint_names("phi", joints), "U1", "U2", "delta_bar")
 
 
 class ProposedController(SampledController):
@@ -46,10 +43,13 @@ class ProposedController(SampledController):
         design.require_nonlinear_torque()
         self._filter = design.proposed_filter
         self._states = len(self._filter.A)
+        n = design.config.joints
         # memory: [filter state, running max |p|, running max |pbar|, y = |alpha~1|]
-        super().__init__(design.config.sample_time, PROPOSED_INTERNALS, self._states + 2 * _N + 1)
+        super().__init__(
+            design.config.sample_time, n, proposed_internals(n), self._states + 2 * n + 1
+        )
         self.set_name("proposed_controller")
-        self._torques = NominalTorques(LumpedModel(design.config.nominal))
+        self._torques = nominal_torques(design.config.nominal)
         self._bounds = design.bounds
         self._c = design.bound_filter.c
         nonlinear = design.config.nonlinear
@@ -59,23 +59,24 @@ class ProposedController(SampledController):
         self._rate = 2.0 * design.coupling_norm * (1.0 - self._decay)
 
     def _start(self, q: np.ndarray, desired: np.ndarray) -> np.ndarray:
-        memory = np.zeros(self._states + 2 * _N + 1)
-        memory[: self._states] = self._filter.initial @ (q - desired[0:2])
+        memory = np.zeros(self._states + 2 * self.joints + 1)
+        memory[: self._states] = self._filter.initial @ (q - desired[: self.joints])
         memory[-1] = self._y0
         return memory
 
     def _step(
         self, q: np.ndarray, desired: np.ndarray, memory: np.ndarray
     ) -> tuple[np.ndarray, np.ndarray]:
-        error, qd_dot, qd_ddot = q - desired[0:2], desired[2:4], desired[4:6]
+        q_d, qd_dot, qd_ddot = self.split_desired(desired)
+        error, j = q - q_d, self.joints
         f, n = self._filter, self._states
         state = memory[:n]
         outputs = f.C @ state + f.D @ error
         memory[:n] = f.A @ state + f.B @ error
-        eta, phi = outputs[0:_N], outputs[_N : 2 * _N]
-        p_max, pbar_max = memory[n : n + _N], memory[n + _N : n + 2 * _N]
-        np.maximum(p_max, np.abs(outputs[2 * _N : 3 * _N]), out=p_max)
-        np.maximum(pbar_max, np.abs(outputs[3 * _N :]), out=pbar_max)
+        eta, phi = outputs[0:j], outputs[j : 2 * j]
+        p_max, pbar_max = memory[n : n + j], memory[n + j : n + 2 * j]
+        np.maximum(p_max, np.abs(outputs[2 * j : 3 * j]), out=p_max)
+        np.maximum(pbar_max, np.abs(outputs[3 * j :]), out=pbar_max)
         U1 = math.sqrt(p_max @ p_max) / self._c
         U2 = math.sqrt(pbar_max @ pbar_max) / self._c**2
         delta_bar = self._bounds.delta_bar(

@@ -17,6 +17,9 @@ import scipy.optimize
 
 from posfb.models.design.config import UncertaintyBounds
 from posfb.models.lumped import LumpedModel, LumpedParameters
+from posfb.models.nominal import NominalModel, nominal_model
+from posfb.models.serial_bounds import model_norms
+from posfb.models.serial_model import SerialArmModel
 
 
 @dataclass(frozen=True)
@@ -100,28 +103,50 @@ class ResolvedBounds:
         )
 
 
-def resolve_bounds(bounds: UncertaintyBounds, parameters: LumpedParameters) -> ResolvedBounds:
-    """Fill each ``None`` of ``bounds`` with ``relative`` times the nominal norm.
-
-    ``M1*(q)`` is linear in ``cos q2`` and ``G*(q)`` reaches ``|G1| = theta4 +
-    (g/l1)|theta3|`` and ``|G2| = (g/l1)|theta8|`` at one configuration, so their
-    maxima over ``q`` are taken in closed form.
-    """
+def _lumped_norms(parameters: LumpedParameters, k_C1: float) -> dict[str, float]:
+    """The nominal norms of the two-link theta model. ``M1*(q)`` is linear in
+    ``cos q2`` and ``G*(q)`` reaches ``|G1| = theta4 + (g/l1)|theta3|`` and
+    ``|G2| = (g/l1)|theta8|`` at one configuration, so their maxima over ``q`` are
+    taken in closed form."""
     model = LumpedModel(parameters)
     p = parameters
     ratio = p.g / p.l1
-    k_C1 = coriolis_bound(parameters) if bounds.k_C1 is None else bounds.k_C1
-    F_norm = float(np.linalg.norm(model.coulomb_levels()))
-    nominal = {
+    return {
         "delta_M0": float(np.linalg.norm(model.M0(), 2)),
         "delta_M1": float(np.linalg.norm(model.M1(np.zeros(2)), 2)),
         "delta_C": k_C1,
         "delta_G": math.hypot(p.theta4 + ratio * abs(p.theta3), ratio * abs(p.theta8)),
         "delta_B": float(np.linalg.norm(model.B(), 2)),
-        "delta_F": F_norm,
     }
+
+
+def _serial_norms(model: SerialArmModel, k_C1: float | None) -> tuple[dict[str, float], float]:
+    """The nominal norms of a serial arm: ``M1*``, ``C*`` and ``G*`` maximised over a
+    sampled workspace (``models.serial_bounds.model_norms``)."""
+    sampled = model_norms(model)
+    k_C1 = sampled["delta_C"] if k_C1 is None else k_C1
+    return {
+        "delta_M0": float(np.linalg.norm(model.M0(), 2)),
+        "delta_M1": sampled["delta_M1"],
+        "delta_C": k_C1,
+        "delta_G": sampled["delta_G"],
+        "delta_B": float(np.linalg.norm(model.B(), 2)),
+    }, k_C1
+
+
+def resolve_bounds(bounds: UncertaintyBounds, nominal: NominalModel) -> ResolvedBounds:
+    """Fill each ``None`` of ``bounds`` with ``relative`` times the nominal norm: closed
+    forms for the two-link theta model, a sampled workspace search for a URDF model."""
+    model = nominal_model(nominal)
+    if isinstance(nominal, LumpedParameters):
+        k_C1 = coriolis_bound(nominal) if bounds.k_C1 is None else bounds.k_C1
+        norms = _lumped_norms(nominal, k_C1)
+    else:
+        norms, k_C1 = _serial_norms(model, bounds.k_C1)
+    F_norm = float(np.linalg.norm(model.coulomb_levels()))
+    norms["delta_F"] = F_norm
     resolved = {
         name: bounds.relative * norm if getattr(bounds, name) is None else getattr(bounds, name)
-        for name, norm in nominal.items()
+        for name, norm in norms.items()
     }
     return ResolvedBounds(**resolved, k_C1=k_C1, F_norm=F_norm)

@@ -1,7 +1,10 @@
 """Design inputs of the controllers, validated where they enter.
 
 Defaults are the paper's Sec. 4.2 settings. Matrices are tuples of rows
-(immutable, so the dataclasses stay frozen and hashable); ``n = 2`` joints.
+(immutable, so the dataclasses stay frozen and hashable). Each part is sized by
+its own entries (``n`` joints: ``lambdas``, ``A_zeta``, ``Kp``); ``ControllerConfig``
+requires every part to have the nominal model's ``n`` (the paper's defaults are
+for its two joints).
 """
 
 from __future__ import annotations
@@ -11,16 +14,14 @@ from dataclasses import dataclass, field, fields, replace
 import numpy as np
 
 from posfb.models.design.discretise import DISCRETISATIONS
-from posfb.models.lumped import TABLE1, LumpedParameters
+from posfb.models.lumped import TABLE1
+from posfb.models.nominal import NominalModel, is_nominal_model, joint_count
 from posfb.models.validation import (
     require_matrix,
     require_nonnegative,
     require_positive,
     require_vector,
 )
-
-#: Number of joints of the lumped model.
-JOINTS = 2
 
 Matrix = tuple[tuple[float, ...], ...]
 
@@ -40,6 +41,16 @@ def freeze(instance: object, *names: str) -> None:
         values = np.asarray(getattr(instance, name), dtype=float).tolist()
         frozen = tuple(tuple(row) for row in values) if isinstance(values[0], list) else values
         object.__setattr__(instance, name, tuple(frozen))
+
+
+def joint_vector(name: str, value: tuple[float, ...] | np.ndarray) -> np.ndarray:
+    """``value`` as a finite, non-empty vector (one entry per joint)."""
+    array = np.asarray(value, dtype=float)
+    if array.ndim != 1 or array.size == 0:
+        raise ValueError(
+            f"{name} = {np.asarray(value).tolist()!r}; a list of one number per joint is required"
+        )
+    return require_vector(name, array, array.size)
 
 
 def require_symmetric(name: str, value: Matrix | np.ndarray, size: int, definite: bool) -> None:
@@ -79,19 +90,30 @@ class LqrWeights:
     lambdas: tuple[float, ...] = (10.0, 10.0)
 
     def __post_init__(self) -> None:
-        require_symmetric("Q1", self.Q1, 2 * JOINTS, definite=False)
-        require_symmetric("Q2", self.Q2, JOINTS, definite=True)
-        require_symmetric("R", self.R, JOINTS, definite=True)
-        for i, value in enumerate(require_vector("lambdas", self.lambdas, JOINTS)):
+        lambdas = joint_vector("lambdas", self.lambdas)
+        for i, value in enumerate(lambdas):
             require_positive(f"lambdas[{i}]", value)
+        n = lambdas.size
+        try:
+            require_symmetric("Q1", self.Q1, 2 * n, definite=False)
+            require_symmetric("Q2", self.Q2, n, definite=True)
+            require_symmetric("R", self.R, n, definite=True)
+        except ValueError as error:
+            raise ValueError(f"{error} (n = {n} joints, from lambdas)") from None
         freeze(self, "Q1", "Q2", "R", "lambdas")
 
     @property
+    def joints(self) -> int:
+        """``n``: the number of ``lambdas``."""
+        return len(self.lambdas)
+
+    @property
     def Q(self) -> np.ndarray:
-        """``Q = diag(Q1, Q2)`` (6 x 6)."""
-        q = np.zeros((3 * JOINTS, 3 * JOINTS))
-        q[: 2 * JOINTS, : 2 * JOINTS] = self.Q1
-        q[2 * JOINTS :, 2 * JOINTS :] = self.Q2
+        """``Q = diag(Q1, Q2)`` (3n x 3n)."""
+        n = self.joints
+        q = np.zeros((3 * n, 3 * n))
+        q[: 2 * n, : 2 * n] = self.Q1
+        q[2 * n :, 2 * n :] = self.Q2
         return q
 
 
@@ -125,10 +147,21 @@ class NonlinearTorqueConfig:
                 f"alpha0 = {self.alpha0!r} exceeds alpha_star = {alpha_star!r}; "
                 "0 <= alpha0 <= alpha_star is required"
             )
+        n = np.asarray(self.A_zeta, dtype=float).shape[0] if np.ndim(self.A_zeta) == 2 else 0
+        if n == 0:
+            raise ValueError(f"A_zeta = {self.A_zeta!r}; a square n x n matrix is required")
         for name in ("A_zeta", "B_zeta", "C_zeta"):
-            require_matrix(name, getattr(self, name), (JOINTS, JOINTS))
+            try:
+                require_matrix(name, getattr(self, name), (n, n))
+            except ValueError as error:
+                raise ValueError(f"{error} (n = {n} joints, from A_zeta)") from None
         require_positive("filter_a", self.filter_a)
         freeze(self, "A_zeta", "B_zeta", "C_zeta")
+
+    @property
+    def joints(self) -> int:
+        """``n``: the size of ``A_zeta``."""
+        return len(self.A_zeta)
 
 
 @dataclass(frozen=True)
@@ -171,25 +204,32 @@ class PidGains:
     KI: tuple[float, ...] = (1.411, 0.3)
 
     def __post_init__(self) -> None:
+        n = joint_vector("Kp", self.Kp).size
         for name in ("Kp", "Kv", "KI"):
-            for i, value in enumerate(require_vector(name, getattr(self, name), JOINTS)):
+            for i, value in enumerate(require_vector(name, getattr(self, name), n)):
                 check = require_nonnegative if name == "KI" else require_positive
                 check(f"{name}[{i}]", value)
         freeze(self, "Kp", "Kv", "KI")
+
+    @property
+    def joints(self) -> int:
+        """``n``: the number of ``Kp``."""
+        return len(self.Kp)
 
 
 @dataclass(frozen=True)
 class ControllerConfig:
     """Everything the three controllers are built from; defaults are the paper's.
 
-    ``nominal`` is the model the controllers use (Table 1; ``M0*`` is its
-    q-independent part, reading note 5), ``sample_time`` the period ``T_s`` of
+    ``nominal`` is the model the controllers use (``models.nominal``: Table 1 by
+    default, whose ``M0*`` is its q-independent part, reading note 5, or a nominal
+    URDF); its joint count ``n`` sizes every other part. ``sample_time`` the period ``T_s`` of
     every controller, ``discretisation`` how the filters of Eq. 13, 20 and 25 are
     sampled (``models.design.discretise.DISCRETISATIONS``; first-order hold by
     default).
     """
 
-    nominal: LumpedParameters = TABLE1
+    nominal: NominalModel = TABLE1
     sample_time: float = 0.01
     lqr: LqrWeights = field(default_factory=LqrWeights)
     nonlinear: NonlinearTorqueConfig = field(default_factory=NonlinearTorqueConfig)
@@ -204,8 +244,12 @@ class ControllerConfig:
                 f"discretisation = {self.discretisation!r}; one of "
                 f"{', '.join(DISCRETISATIONS)} is required"
             )
+        if not is_nominal_model(self.nominal):
+            raise ValueError(
+                f"nominal = {self.nominal!r} is not a nominal model "
+                "(LumpedParameters or UrdfNominal)"
+            )
         for name, kind in (
-            ("nominal", LumpedParameters),
             ("lqr", LqrWeights),
             ("nonlinear", NonlinearTorqueConfig),
             ("bounds", UncertaintyBounds),
@@ -213,6 +257,22 @@ class ControllerConfig:
         ):
             if not isinstance(getattr(self, name), kind):
                 raise ValueError(f"{name} = {getattr(self, name)!r} is not a {kind.__name__}")
+        n = self.joints
+        for name, part, entry in (
+            ("lqr", self.lqr, "lambdas"),
+            ("nonlinear", self.nonlinear, "A_zeta"),
+            ("pid", self.pid, "Kp"),
+        ):
+            if part.joints != n:
+                raise ValueError(
+                    f"{name}.{entry} is sized for {part.joints} joints; the nominal model "
+                    f"has {n}: one entry per joint is required"
+                )
+
+    @property
+    def joints(self) -> int:
+        """``n``: the nominal model's number of joints."""
+        return joint_count(self.nominal)
 
     def with_alpha_star(self, alpha_star: float) -> ControllerConfig:
         """This config with the nonlinear torque's steady-state gain ``alpha*`` changed

@@ -46,6 +46,8 @@ from posfb.models.design.realisation import (
 )
 from posfb.models.design.spr import SprCertificate, spr_certificate
 from posfb.models.lumped import LumpedModel, LumpedParameters
+from posfb.models.nominal import nominal_model
+from posfb.models.serial_model import SerialArmModel
 
 #: Checks whose failure makes ``tau_LC`` (Eq. 13) unusable.
 LINEAR_TORQUE_CHECKS = ("riccati",)
@@ -229,12 +231,14 @@ def _loop_radii(
     }
 
 
-def plant_spectral_radii(design: Design, plant: LumpedParameters) -> dict[str, float]:
+def plant_spectral_radii(
+    design: Design, plant: LumpedParameters | SerialArmModel
+) -> dict[str, float]:
     """The sampled-data spectral radius of each ``LOOP_CONTROLLERS`` loop with the filters
     *as designed* (on the nominal model) closed around the linear part ``M0, B`` of
-    ``plant`` (another arm's theta): the design report's check, asked of a sampled plant.
-    On ``design.config.nominal`` it is the design's own radii."""
-    model = LumpedModel(plant)
+    ``plant`` (another arm's theta, or a serial arm's model): the design report's check,
+    asked of a sampled plant. On the design's own nominal model it is the design's radii."""
+    model = LumpedModel(plant) if isinstance(plant, LumpedParameters) else plant
     return _loop_radii(
         model.M0(),
         model.B(),
@@ -248,7 +252,7 @@ def plant_spectral_radii(design: Design, plant: LumpedParameters) -> dict[str, f
 def compute_design(config: ControllerConfig | None = None) -> Design:
     """The design of Sec. 3 for ``config`` (default: the paper's Sec. 4.2 settings)."""
     config = ControllerConfig() if config is None else config
-    model = LumpedModel(config.nominal)
+    model = nominal_model(config.nominal)
     M0, B = model.M0(), model.B()
     nonlinear = config.nonlinear
     T = config.sample_time

@@ -1,0 +1,70 @@
+"""The nominal model the controllers are designed from: one of two forms (issue 13).
+
+* ``LumpedParameters``: the paper's two-link theta model of Table 1
+  (``models.lumped``, closed forms; the paper's results are computed with it);
+* ``UrdfNominal``: any serial revolute arm, its ``M*, C*, G*, B*, F*`` and ``M0*``
+  computed by Drake from a *nominal* URDF (``models.serial_model``).
+
+Everything downstream (design, controllers, bounds) asks this module for the
+joint count and for a model object with ``M0()``, ``M(q)``, ``B()``, ``G(q)``,
+``coriolis(q, v)``, ``coulomb_levels()`` and ``inverse_dynamics``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from functools import lru_cache
+from pathlib import Path
+
+from posfb.models.lumped import LumpedModel, LumpedParameters
+from posfb.models.serial_model import SerialArmModel
+from posfb.models.urdf_check import check_serial_urdf
+
+#: Joints of the paper's lumped model.
+LUMPED_JOINTS = 2
+
+
+@dataclass(frozen=True)
+class UrdfNominal:
+    """A nominal model computed by Drake from the serial URDF arm at ``urdf``.
+
+    ``joints`` (filled in from the file, validated on construction) is its joint
+    count; the file is checked by ``models.urdf_check.check_serial_urdf``."""
+
+    urdf: str
+
+    def __post_init__(self) -> None:
+        chain = check_serial_urdf(Path(self.urdf))
+        object.__setattr__(self, "_joints", len(chain.joints))
+
+    @property
+    def joints(self) -> int:
+        return self._joints  # type: ignore[attr-defined]
+
+
+NominalModel = LumpedParameters | UrdfNominal
+
+
+def joint_count(nominal: NominalModel) -> int:
+    """The number of joints of ``nominal``."""
+    if isinstance(nominal, UrdfNominal):
+        return nominal.joints
+    return LUMPED_JOINTS
+
+
+@lru_cache(maxsize=8)
+def _serial_model(urdf: str) -> SerialArmModel:
+    return SerialArmModel(urdf)
+
+
+def nominal_model(nominal: NominalModel) -> LumpedModel | SerialArmModel:
+    """The model object of ``nominal``. A ``UrdfNominal``'s ``SerialArmModel`` is shared
+    per file within a process (it holds a Context: evaluate it from one thread)."""
+    if isinstance(nominal, UrdfNominal):
+        return _serial_model(nominal.urdf)
+    return LumpedModel(nominal)
+
+
+def is_nominal_model(value: object) -> bool:
+    """Whether ``value`` is one of the two nominal-model forms."""
+    return isinstance(value, LumpedParameters | UrdfNominal)
