@@ -2,11 +2,13 @@
 
 One row per control sample ``t_k = k T_s``, ``k = 0..N`` (the rows of
 ``ClosedLoopResult``; a diverged run has fewer). The leading columns are fixed
-(``LEADING_COLUMNS``)::
+(``leading_columns(n)``), for two joints::
 
     time_s, q1_desired_rad, q2_desired_rad, q1_rad, q2_rad,
     q1_measured_rad, q2_measured_rad, u1_commanded_V, u2_commanded_V,
     u1_applied_V, u2_applied_V
+
+and likewise ``q1 .. qn``, ``u1 .. un`` for ``n`` joints.
 
 ``q`` is the true joint position, ``q_measured`` the encoder's; the voltages at
 row ``k`` are the ones computed at ``t_k`` and held on ``[t_k, t_k + T_s)``.
@@ -14,7 +16,7 @@ The paper's RMS (``analysis.metrics.rms``) recomputed from the file over rows
 ``1..N`` of ``q - q_desired`` and ``u_applied`` equals the run's metrics.
 
 Then come the controller's internals, each name with its unit appended
-(``INTERNAL_UNITS``; a trailing ``_1``/``_2`` in a name is the joint). The
+(``INTERNAL_UNITS``; a trailing ``_j`` in a name is the joint). The
 lumped model of Sec. 4.1 (``models.lumped``) is each joint's equation of motion
 divided by its motor constant, so every "torque" of the controllers is an
 armature voltage, in V:
@@ -68,47 +70,53 @@ _CSV_READ_OPTIONS = (
 EXPORT_FORMATS = (".csv", ".parquet", ".npz")
 
 #: The first columns of every exported run, in this order.
-LEADING_COLUMNS = (
-    "time_s",
-    "q1_desired_rad", "q2_desired_rad",
-    "q1_rad", "q2_rad",
-    "q1_measured_rad", "q2_measured_rad",
-    "u1_commanded_V", "u2_commanded_V",
-    "u1_applied_V", "u2_applied_V",
+#: The leading column groups: a per-joint name pattern each, in order.
+_LEADING = (
+    "q{j}_desired_rad", "q{j}_rad", "q{j}_measured_rad", "u{j}_commanded_V", "u{j}_applied_V",
 )  # fmt: skip
 
-#: Unit suffix of every known controller internal (see the module docstring).
+
+def leading_columns(joints: int) -> tuple[str, ...]:
+    """``time_s``, then each group of ``_LEADING`` for joints ``1..joints``."""
+    names = [pattern.format(j=j + 1) for pattern in _LEADING for j in range(joints)]
+    return ("time_s", *names)
+
+
+#: Unit suffix of every known controller internal (see the module docstring); a
+#: per-joint internal ``name_j`` takes the unit of ``name``.
 INTERNAL_UNITS = {
     # Lin+LC and the proposed controller (torques of the lumped model are volts)
-    "tau_lin_1": "V",
-    "tau_lin_2": "V",
-    "tau_lc_1": "V",
-    "tau_lc_2": "V",
-    "tau_nc_1": "V",
-    "tau_nc_2": "V",
+    "tau_lin": "V",
+    "tau_lc": "V",
+    "tau_nc": "V",
     "alpha": "dimensionless",
-    "phi_1": "V",
-    "phi_2": "V",
+    "phi": "V",
     "U1": "rad_per_s",
     "U2": "rad_per_s2",
     "delta_bar": "V",
     # PID
-    "qdot_est_1": "rad_per_s",
-    "qdot_est_2": "rad_per_s",
-    "error_integral_1": "rad_s",
-    "error_integral_2": "rad_s",
+    "qdot_est": "rad_per_s",
+    "error_integral": "rad_s",
 }
+
+
+def _unit(name: str) -> str | None:
+    """The unit of internal ``name`` (``name`` or, for ``stem_j``, ``stem``)."""
+    stem, _, joint = name.rpartition("_")
+    if name in INTERNAL_UNITS:
+        return INTERNAL_UNITS[name]
+    return INTERNAL_UNITS.get(stem) if joint.isdigit() else None
 
 
 def internal_columns(names: Sequence[str]) -> list[str]:
     """``names`` with their unit suffixes; ``ValueError`` for a name without a known unit."""
-    unknown = [name for name in names if name not in INTERNAL_UNITS]
+    unknown = [name for name in names if _unit(name) is None]
     if unknown:
         raise ValueError(
             f"controller internals {', '.join(map(repr, unknown))} have no unit in "
             "posfb.analysis.export.INTERNAL_UNITS; a new controller must add its units there"
         )
-    return [f"{name}_{INTERNAL_UNITS[name]}" for name in names]
+    return [f"{name}_{_unit(name)}" for name in names]
 
 
 def _columns(name: str, values: np.ndarray, rows: int, width: int) -> np.ndarray:
@@ -124,23 +132,24 @@ def _columns(name: str, values: np.ndarray, rows: int, width: int) -> np.ndarray
 
 
 def run_table(result: ClosedLoopResult) -> pd.DataFrame:
-    """The run as a table: ``LEADING_COLUMNS``, then the internals with their units."""
+    """The run as a table: ``leading_columns(n)``, then the internals with their units."""
     times = np.asarray(result.times, dtype=float)
     if times.ndim != 1:
         raise ValueError(f"result.times has shape {times.shape}; a 1-D array is required")
     rows = len(times)
+    n = result.config.joints
     names = tuple(result.internals_names)
     internal_names = internal_columns(names)
     blocks = [
         times[:, None],
-        _columns("q_desired", result.q_desired, rows, 2),
-        _columns("q_true", result.q_true, rows, 2),
-        _columns("q_measured", result.q_measured, rows, 2),
-        _columns("u_commanded", result.u_commanded, rows, 2),
-        _columns("u_applied", result.u_applied, rows, 2),
+        _columns("q_desired", result.q_desired, rows, n),
+        _columns("q_true", result.q_true, rows, n),
+        _columns("q_measured", result.q_measured, rows, n),
+        _columns("u_commanded", result.u_commanded, rows, n),
+        _columns("u_applied", result.u_applied, rows, n),
         _columns("internals", np.reshape(result.internals, (rows, -1)), rows, len(names)),
     ]
-    columns = [*LEADING_COLUMNS, *internal_names]
+    columns = [*leading_columns(n), *internal_names]
     if len(set(columns)) != len(columns):
         raise ValueError(f"duplicate column names in {columns}")
     data = np.hstack(blocks)

@@ -44,8 +44,8 @@ class RunMetrics:
     the limit; ``wall_time_s``: wall time of the simulation (build excluded).
     """
 
-    rms_q: tuple[float, float]
-    rms_u: tuple[float, float]
+    rms_q: tuple[float, ...]
+    rms_u: tuple[float, ...]
     max_abs_q_err: float
     saturated_fraction: float
     wall_time_s: float
@@ -70,8 +70,8 @@ def compute_metrics(
     rms_q, rms_u = rms(error), rms(applied)
     saturated = np.any(np.abs(commanded) > voltage_limit, axis=1)
     return RunMetrics(
-        rms_q=(float(rms_q[0]), float(rms_q[1])),
-        rms_u=(float(rms_u[0]), float(rms_u[1])),
+        rms_q=tuple(float(v) for v in rms_q),
+        rms_u=tuple(float(v) for v in rms_u),
         max_abs_q_err=float(np.max(np.abs(error))),
         saturated_fraction=float(np.mean(saturated)),
         wall_time_s=float(wall_time_s),

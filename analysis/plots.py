@@ -41,27 +41,44 @@ def _label(kind: str, label_suffix: Mapping[str, str] | None) -> str:
     return CONTROLLER_LABELS[kind] + (label_suffix or {}).get(kind, "")
 
 
+def _panel_letter(index: int) -> str:
+    """``a, b, ..., z, aa, ab, ...``: the label of panel ``index`` (0-based)."""
+    return (
+        _panel_letter(index // 26 - 1) + chr(ord("a") + index % 26)
+        if index >= 26
+        else (chr(ord("a") + index))
+    )
+
+
+def _joint_grid(joints: int, sharex: bool) -> tuple[Figure, np.ndarray]:
+    """Two rows of one panel per joint (Figs. 4-7 for two joints: 1100 x 700 px)."""
+    figure = Figure(figsize=(5.5 * max(joints, 2), 7), layout="constrained")
+    return figure, figure.subplots(2, joints, sharex=sharex, squeeze=False)
+
+
 def positions_and_voltages(
     results: Mapping[str, ClosedLoopResult],
     title: str,
     label_suffix: Mapping[str, str] | None = None,
 ) -> Figure:
-    """Figs. 4/6: positions with the desired trajectory, then applied voltages."""
-    figure = Figure(figsize=(11, 7), layout="constrained")
-    axes = figure.subplots(2, 2, sharex=True)
+    """Figs. 4/6: positions with the desired trajectory, then applied voltages (one
+    column per joint)."""
     first = next(iter(results.values()))
-    for j in range(2):
+    joints = first.q_true.shape[1]
+    figure, axes = _joint_grid(joints, sharex=True)
+    for j in range(joints):
         axes[0, j].plot(first.times, first.q_desired[:, j], label="desired", **DESIRED_STYLE)
     for kind, result in results.items():
-        for j in range(2):
+        for j in range(joints):
             axes[0, j].plot(result.times, result.q_true[:, j], label=_label(kind, label_suffix),
                             **STYLES[kind])  # fmt: skip
             axes[1, j].plot(result.times, result.u_applied[:, j], **STYLES[kind])
-    for j, letter in enumerate("ab"):
-        axes[0, j].set_title(f"({letter}) joint {j + 1} position")
+    for j in range(joints):
+        axes[0, j].set_title(f"({_panel_letter(j)}) joint {j + 1} position")
         axes[0, j].set_ylabel(f"q{j + 1} (rad)")
-    for j, letter in enumerate("cd"):
-        axes[1, j].set_title(f"({letter}) joint {j + 1} armature voltage (applied)")
+        axes[1, j].set_title(
+            f"({_panel_letter(joints + j)}) joint {j + 1} armature voltage (applied)"
+        )
         axes[1, j].set_ylabel(f"u{j + 1} (V)")
         axes[1, j].set_xlabel("t (s)")
     axes[0, 0].legend(loc="best", fontsize="small")
@@ -74,21 +91,23 @@ def tracking_errors(
     title: str,
     label_suffix: Mapping[str, str] | None = None,
 ) -> Figure:
-    """Figs. 5/7: ``q~`` of both joints over the run and in the close-up window."""
-    figure = Figure(figsize=(11, 7), layout="constrained")
-    axes = figure.subplots(2, 2)
+    """Figs. 5/7: ``q~`` of every joint over the run and in the close-up window."""
     first = next(iter(results.values()))
+    joints = first.q_true.shape[1]
+    figure, axes = _joint_grid(joints, sharex=False)
     start, stop = closeup_window(float(first.times[-1]))
     for kind, result in results.items():
         error = result.q_error
         window = (result.times >= start) & (result.times <= stop)
-        for j in range(2):
+        for j in range(joints):
             axes[0, j].plot(result.times, error[:, j], label=_label(kind, label_suffix),
                             **STYLES[kind])  # fmt: skip
             axes[1, j].plot(result.times[window], error[window, j], **STYLES[kind])
-    for j in range(2):
-        axes[0, j].set_title(f"({'ab'[j]}) joint {j + 1}: t = 0-{first.times[-1]:g} s")
-        axes[1, j].set_title(f"({'cd'[j]}) joint {j + 1}: t = {start:g}-{stop:g} s")
+    for j in range(joints):
+        axes[0, j].set_title(f"({_panel_letter(j)}) joint {j + 1}: t = 0-{first.times[-1]:g} s")
+        axes[1, j].set_title(
+            f"({_panel_letter(joints + j)}) joint {j + 1}: t = {start:g}-{stop:g} s"
+        )
         for row in range(2):
             axes[row, j].set_ylabel(f"q~{j + 1} (rad)")
             axes[row, j].axhline(0.0, color="grey", linewidth=0.5)

@@ -1,6 +1,6 @@
 """Simulated seconds per wall second of one closed-loop run, per controller.
 
-    .venv/bin/python bench/bench_closed_loop.py [--duration 20] [--repeat 5]
+    .venv/bin/python bench/bench_closed_loop.py [--duration 20] [--repeat 5] [--arms]
 
 The shipped paper scenarios (``analysis/scenarios/paper_*.yaml``: T_s = 0.01 s,
 RK3 at accuracy 3e-3, 20000-count encoder) on the nominal and the payload arm,
@@ -8,6 +8,15 @@ plus the proposed controller with the second study's alpha* = 2.75. The
 diagram is built once per controller and case (build time printed separately);
 each figure is the best of ``--repeat`` runs on fresh Contexts (the run's own
 ``wall_time_s``: Initialize + AdvanceTo, logging included).
+
+``--arms``: the cost of a run against the number of joints ``n`` (issue 13), one
+shipped scenario per arm with its own nominal model and settings
+(``paper_nominal.yaml``: n = 2, ``three_link_nominal.yaml``: n = 3,
+``six_joint_nominal.yaml``: n = 6). Per controller: the build time (the design
+included, computed once per process), the best run, the integrator's steps and
+derivative evaluations, and wall microseconds per evaluation. The arms differ in
+trajectory, gains and stiffness: a row is what a user of that arm pays, not the
+same motion on more joints.
 """
 
 from __future__ import annotations
@@ -15,11 +24,17 @@ from __future__ import annotations
 import argparse
 import statistics
 import time
+from pathlib import Path
 
 from posfb.analysis.experiment import case_scenario
-from posfb.diagrams.closed_loop import ClosedLoopRunner
-from posfb.diagrams.resolve import resolve
+from posfb.diagrams.closed_loop import ClosedLoopResult, ClosedLoopRunner
+from posfb.diagrams.resolve import LoadedScenario, load_scenario, resolve
 from posfb.models.controllers import CONTROLLER_KINDS
+
+SCENARIOS = Path(__file__).resolve().parent.parent / "analysis" / "scenarios"
+
+#: (n, scenario file) of every arm of ``--arms``.
+ARMS = ((2, "paper_nominal.yaml"), (3, "three_link_nominal.yaml"), (6, "six_joint_nominal.yaml"))
 
 #: (label, scenario settings) of every benchmarked variant.
 VARIANTS = [(kind, (f"controller.kind={kind}",)) for kind in CONTROLLER_KINDS] + [
@@ -27,29 +42,57 @@ VARIANTS = [(kind, (f"controller.kind={kind}",)) for kind in CONTROLLER_KINDS] +
 ]
 
 
-def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--duration", type=float, default=20.0)
-    parser.add_argument("--repeat", type=int, default=5)
-    args = parser.parse_args()
-    print(f"{args.duration:g} s runs, best and median of {args.repeat}")
+def timed_runs(loaded: LoadedScenario, repeat: int) -> tuple[float, list[ClosedLoopResult]]:
+    """The build time of the scenario's closed loop and ``repeat`` runs of it."""
+    resolved = resolve(loaded)
+    start = time.perf_counter()
+    runner = ClosedLoopRunner(resolved.config)
+    build = time.perf_counter() - start
+    parameters = resolved.true_parameters(runner.arm.default_parameters)
+    return build, [runner.run(parameters) for _ in range(repeat)]
+
+
+def paper_cases(duration: float, repeat: int) -> None:
+    print(f"{duration:g} s runs, best and median of {repeat}")
     print("| controller | case | build s | wall s (best) | wall s (median) | sim s / wall s |")
     print("|---|---|---:|---:|---:|---:|")
     for label, settings in VARIANTS:
         for case in ("nominal", "payload"):
-            loaded = case_scenario(case, (*settings, f"timing.duration={args.duration}"))
-            resolved = resolve(loaded)
-            start = time.perf_counter()
-            runner = ClosedLoopRunner(resolved.config)
-            build = time.perf_counter() - start
-            parameters = resolved.true_parameters(runner.arm.default_parameters)
-            walls = [runner.run(parameters).wall_time_s for _ in range(args.repeat)]
+            loaded = case_scenario(case, (*settings, f"timing.duration={duration}"))
+            build, runs = timed_runs(loaded, repeat)
+            walls = [run.wall_time_s for run in runs]
             best = min(walls)
             print(
                 f"| {label} | {case} | {build:.2f} | {best:.3f} | "
-                f"{statistics.median(walls):.3f} | {args.duration / best:.1f} |",
+                f"{statistics.median(walls):.3f} | {duration / best:.1f} |",
                 flush=True,
             )
+
+
+def arms(duration: float, repeat: int) -> None:
+    print(f"{duration:g} s runs, best of {repeat}")
+    print("| n | controller | build s | wall s | steps | evaluations | us / evaluation |")
+    print("|---:|---|---:|---:|---:|---:|---:|")
+    for joints, name in ARMS:
+        for kind in CONTROLLER_KINDS:
+            settings = (f"controller.kind={kind}", f"timing.duration={duration}")
+            build, runs = timed_runs(load_scenario(SCENARIOS / name, settings), repeat)
+            best = min(runs, key=lambda run: run.wall_time_s)
+            per_evaluation = 1e6 * best.wall_time_s / max(best.derivative_evaluations, 1)
+            print(
+                f"| {joints} | {kind} | {build:.2f} | {best.wall_time_s:.2f} | "
+                f"{best.integrator_steps} | {best.derivative_evaluations} | {per_evaluation:.1f} |",
+                flush=True,
+            )
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--duration", type=float, default=20.0)
+    parser.add_argument("--repeat", type=int, default=5)
+    parser.add_argument("--arms", action="store_true", help="cost against the number of joints")
+    args = parser.parse_args()
+    (arms if args.arms else paper_cases)(args.duration, args.repeat)
 
 
 if __name__ == "__main__":

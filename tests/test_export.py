@@ -11,8 +11,8 @@ import pytest
 from posfb.analysis.export import (
     EXPORT_FORMATS,
     INTERNAL_UNITS,
-    LEADING_COLUMNS,
     export_run,
+    leading_columns,
     read_run,
     run_table,
 )
@@ -76,7 +76,7 @@ def test_export_round_trip_and_rms(runs, tmp_path, kind, suffix):
 
     columns = list(table.columns)
     assert columns[: len(EXPECTED_LEADING)] == EXPECTED_LEADING
-    assert list(LEADING_COLUMNS) == EXPECTED_LEADING
+    assert list(leading_columns(2)) == EXPECTED_LEADING
     assert len(table) == config.samples + 1
     assert all(table[c].dtype == np.float64 for c in columns)
 
@@ -107,10 +107,11 @@ def test_export_round_trip_and_rms(runs, tmp_path, kind, suffix):
 def test_internals_have_unit_suffixes(runs, kind):
     _, result = runs[kind]
     table = run_table(result)
-    internals = list(table.columns[len(LEADING_COLUMNS) :])
+    internals = list(table.columns[len(leading_columns(2)) :])
     assert len(internals) == len(result.internals_names) > 0
     for name, column in zip(result.internals_names, internals, strict=True):
-        assert column == f"{name}_{INTERNAL_UNITS[name]}"
+        stem = name if name in INTERNAL_UNITS else name.rpartition("_")[0]
+        assert column == f"{name}_{INTERNAL_UNITS[stem]}"
         np.testing.assert_array_equal(
             table[column].to_numpy(), result.internals[:, result.internals_names.index(name)]
         )
@@ -120,7 +121,7 @@ def test_internals_have_unit_suffixes(runs, kind):
 
 def test_proposed_internals_names(runs):
     _, result = runs["proposed"]
-    internals = list(run_table(result).columns[len(LEADING_COLUMNS) :])
+    internals = list(run_table(result).columns[len(leading_columns(2)) :])
     assert internals == [
         "tau_lin_1_V", "tau_lin_2_V", "tau_lc_1_V", "tau_lc_2_V", "tau_nc_1_V", "tau_nc_2_V",
         "alpha_dimensionless", "phi_1_V", "phi_2_V", "U1_rad_per_s", "U2_rad_per_s2",

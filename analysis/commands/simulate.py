@@ -83,8 +83,10 @@ def run(args: argparse.Namespace) -> int:
     print(f"{label}, {summary['scenario']}, {config.duration:g} s: {result.status}")
     if result.message:
         print(f"  {result.message}")
-    print(f"  RMS(q~) = ({m.rms_q[0]:.5f}, {m.rms_q[1]:.5f}) rad, max |q~| = {m.max_abs_q_err:.5f}")
-    print(f"  RMS(u)  = ({m.rms_u[0]:.3f}, {m.rms_u[1]:.3f}) V applied")
+    rms_q = ", ".join(f"{v:.5f}" for v in m.rms_q)
+    rms_u = ", ".join(f"{v:.3f}" for v in m.rms_u)
+    print(f"  RMS(q~) = ({rms_q}) rad, max |q~| = {m.max_abs_q_err:.5f}")
+    print(f"  RMS(u)  = ({rms_u}) V applied")
     print(f"  saturated: {100 * m.saturated_fraction:.1f} % of the samples")
     rate = config.duration / m.wall_time_s
     print(f"  wall time {m.wall_time_s:.2f} s ({rate:.1f} simulated s per wall s)")

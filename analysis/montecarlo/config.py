@@ -74,11 +74,15 @@ from posfb.diagrams.resolve import (
     resolve_path,
     with_absolute_paths,
 )
-from posfb.diagrams.scenario import Scenario, apply_setting, get_setting
+from posfb.diagrams.scenario import Scenario, apply_setting, get_setting, scenario_joints
 from posfb.diagrams.yaml_schema import load_typed, read_text
 from posfb.models.controllers import CONTROLLER_KINDS, require_design
 from posfb.models.design import ControllerConfig
 from posfb.models.plant import JOINT_PARAMETERS, PARAMETER_UNITS
+
+#: The arms a study runs: the two-joint arm, whose identified theta (Table 1) and
+#: closed-form Assumption-1 constants every stored sample carries.
+STUDY_JOINTS = 2
 
 #: Parameters that must be > 0 (the others must be >= 0), as ``ArmParameters`` requires.
 POSITIVE_PARAMETERS = ("link_mass", "motor_constant")
@@ -487,6 +491,13 @@ def validate_study(study: Study) -> Study:
         "scenario/settings are folded into base when a study file is loaded",
     )
     base = study.base_scenario()  # the scenario checks its own keys, naming them
+    joints = scenario_joints(base, Path.cwd())  # study paths are absolute
+    _require(
+        joints == STUDY_JOINTS,
+        f"base.plant.urdf has {joints} joints; Monte-Carlo studies store the two-joint "
+        f"arm's theta model and Assumption-1 ratios, so {STUDY_JOINTS} joints are required "
+        "(simulate and design take any serial arm)",
+    )
     _require(len(study.controllers) > 0, "controllers is empty; name at least one controller")
     for name in study.controllers:
         _require(
