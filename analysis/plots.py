@@ -146,10 +146,13 @@ def log_scale(axis: Axes, which: str = "y", empty: str = "no finished runs") -> 
 REPORT_DPI = 120
 
 
-def joint_panels(sharey: bool = True, width: float = 10.0) -> tuple[Figure, np.ndarray]:
-    """A figure (no pyplot state, no GUI backend) with one panel per joint."""
-    figure = Figure(figsize=(width, 4))
-    return figure, figure.subplots(1, 2, sharey=sharey)
+def joint_panels(
+    joints: int, sharey: bool = True, width: float = 10.0
+) -> tuple[Figure, np.ndarray]:
+    """A figure (no pyplot state, no GUI backend) with one panel per joint, ``width``
+    inches for two joints and as much again per two more."""
+    figure = Figure(figsize=(width * max(joints, 2) / 2, 4))
+    return figure, figure.subplots(1, joints, sharey=sharey, squeeze=False)[0]
 
 
 def label_joint_panel(

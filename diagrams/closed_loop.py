@@ -150,8 +150,9 @@ class ClosedLoopConfig:
     noise after it, drawn from ``noise_seed``), ``delay_samples`` (whole periods);
     ``voltage_limit`` (V) per joint; ``divergence_bound`` on ``|q~|`` in rad;
     ``simulator`` Drake's integrator settings (the runner caps ``max_step_size`` at
-    ``T_s``: a step never spans more than one control period). Per-joint values take
-    one number for both joints or one per joint.
+    ``T_s``: a step never spans more than one control period). The number of joints
+    ``n`` is the design's nominal model's; the trajectory and the plant URDF must
+    have as many. Per-joint values take one number for all joints or one per joint.
     """
 
     controller: str = "proposed"

@@ -55,6 +55,7 @@ from pydrake.symbolic import Variable, tanh
 from pydrake.systems.framework import Context, Diagram, DiagramBuilder
 from pydrake.systems.primitives import Demultiplexer, Multiplexer, SymbolicVectorSystem
 
+from posfb.models.serial_model import SerialArmModel
 from posfb.models.urdf_check import SerialChain, check_serial_urdf
 from posfb.models.validation import require_finite, require_nonnegative, require_positive
 
@@ -564,6 +565,17 @@ def read_parameters(arm: Arm, root_context: Context) -> ArmParameters:
     coulomb = arm.coulomb.GetMyContextFromRoot(root_context).get_numeric_parameter(0).value()
     plant_context = arm.plant.GetMyContextFromRoot(root_context)
     return _read(arm.plant, arm.layout, plant_context, tuple(coulomb[: arm.size]), tuple(kappa))
+
+
+def arm_model(arm: Arm, root_context: Context) -> SerialArmModel:
+    """The Eq. 2 model (``models.serial_model``) of the arm with the parameters in
+    ``root_context``: a sampled plant as the design's terms see it."""
+    parameters = read_parameters(arm, root_context)
+    plant_context = arm.plant.CreateDefaultContext()
+    plant_context.SetTimeStateAndParametersFrom(arm.plant.GetMyContextFromRoot(root_context))
+    return SerialArmModel.of_plant(
+        arm.plant, plant_context, arm.layout.joints, parameters.motor_constant, parameters.coulomb
+    )
 
 
 def energy_accounts(arm: Arm, root_context: Context) -> tuple[float, float]:

@@ -59,15 +59,21 @@ class SampledNorms:
 STARTS = 3
 
 
-def _maximum(function: Callable[[np.ndarray], float], points: np.ndarray) -> float:
-    """The largest ``function`` over ``points``, refined by Nelder-Mead from the
-    ``STARTS`` best."""
+#: Nelder-Mead iterations of each local search, by default.
+SEARCH_STEPS = 4000
+
+
+def _maximum(
+    function: Callable[[np.ndarray], float], points: np.ndarray, steps: int = SEARCH_STEPS
+) -> float:
+    """The largest ``function`` over ``points``, refined by at most ``steps`` Nelder-Mead
+    iterations from each of the ``STARTS`` best."""
     values = np.array([function(point) for point in points])
     best = float(values.max())
     for start in points[np.argsort(values)[::-1][:STARTS]]:
         result = scipy.optimize.minimize(
             lambda point: -function(point), start, method="Nelder-Mead",
-            options={"xatol": 1e-10, "fatol": 1e-15, "maxiter": 4000},
+            options={"xatol": 1e-10, "fatol": 1e-15, "maxiter": steps},
         )  # fmt: skip
         best = max(best, -float(result.fun))
     return best
@@ -100,13 +106,14 @@ def _workspace_maxima(
     christoffel: Callable[[np.ndarray], np.ndarray],
     gravity: Callable[[np.ndarray], np.ndarray],
     angles: np.ndarray,
+    steps: int = SEARCH_STEPS,
 ) -> dict[str, float]:
     """The largest ``||m1(q)||_2``, ``tensor_norm(christoffel(q))`` and ``||gravity(q)||``
     over the joint angles ``angles`` (named ``delta_M1``, ``delta_C``, ``delta_G``)."""
     return {
-        "delta_M1": _maximum(lambda q: float(np.linalg.norm(m1(q), 2)), angles),
-        "delta_C": _maximum(lambda q: tensor_norm(christoffel(q)), angles),
-        "delta_G": _maximum(lambda q: float(np.linalg.norm(gravity(q))), angles),
+        "delta_M1": _maximum(lambda q: float(np.linalg.norm(m1(q), 2)), angles, steps),
+        "delta_C": _maximum(lambda q: tensor_norm(christoffel(q)), angles, steps),
+        "delta_G": _maximum(lambda q: float(np.linalg.norm(gravity(q))), angles, steps),
     }
 
 
@@ -132,10 +139,15 @@ def model_norms(model: SerialArmModel, samples: int = 64, seed: int = 0) -> dict
 
 
 def uncertainty_norms(
-    true: SerialArmModel, nominal: SerialArmModel, samples: int = 256, seed: int = 0
+    true: SerialArmModel,
+    nominal: SerialArmModel,
+    samples: int = 256,
+    seed: int = 0,
+    steps: int = SEARCH_STEPS,
 ) -> SampledNorms:
     """Assumption 1's smallest constants for ``true`` against ``nominal`` (module
-    docstring); ``samples`` (a power of 2) workspace points."""
+    docstring); ``samples`` (a power of 2) workspace points, at most ``steps``
+    iterations of each local search."""
     if true.size != nominal.size:
         raise ValueError(
             f"the true arm has {true.size} joints and the nominal model {nominal.size}; "
@@ -155,6 +167,7 @@ def uncertainty_norms(
             lambda q: nominal.christoffel(q) - true.christoffel(q),
             lambda q: nominal.G(q) - true.G(q),
             points,
+            steps,
         )
 
     fine = {**exact, **maxima(angles)}

@@ -32,6 +32,7 @@ chain of revolute/continuous joints, each with its motor stage.
 from __future__ import annotations
 
 import itertools
+from collections.abc import Sequence
 from pathlib import Path
 
 import numpy as np
@@ -39,6 +40,7 @@ from pydrake.autodiffutils import InitializeAutoDiff
 from pydrake.math import RigidTransform
 from pydrake.multibody.parsing import Parser
 from pydrake.multibody.plant import MultibodyPlant
+from pydrake.systems.framework import Context
 
 from posfb.models.urdf_check import check_serial_urdf
 
@@ -50,29 +52,58 @@ class SerialArmModel:
     """``M*, C*, G*, B*, F*`` and ``M0*`` of a serial URDF arm (module docstring).
 
     ``joints`` lists the arm joints from the base to the tip; vectors are in that
-    order. One ``MultibodyPlant`` and Context per model: not for concurrent use."""
+    order. One ``MultibodyPlant`` and Context per model: not for concurrent use.
+    ``of_plant`` gives the model of a plant already built, with the parameters of a
+    given Context (a sampled plant)."""
 
     def __init__(self, urdf: str | Path) -> None:
-        self.urdf = Path(urdf)
-        chain = check_serial_urdf(self.urdf)
-        self.joints = chain.joints
-        self.size = len(chain.joints)
+        chain = check_serial_urdf(Path(urdf))
         plant = MultibodyPlant(time_step=0.0)
-        Parser(plant).AddModels(str(self.urdf))
+        Parser(plant).AddModels(str(urdf))
         plant.WeldFrames(plant.world_frame(), plant.GetFrameByName(chain.base), RigidTransform())
         plant.Finalize()
-        self._plant, self._context = plant, plant.CreateDefaultContext()
+        self._setup(
+            plant, plant.CreateDefaultContext(), chain.joints, chain.motor_constant, chain.coulomb
+        )
+
+    @classmethod
+    def of_plant(
+        cls,
+        plant: MultibodyPlant,
+        context: Context,
+        joints: Sequence[str],
+        motor_constant: Sequence[float],
+        coulomb: Sequence[float],
+    ) -> SerialArmModel:
+        """The model of ``plant`` with the parameters in its ``context`` (which the model
+        then owns and changes: pass a copy), the arm ``joints`` and their motor stages
+        (motor constants in N m/V, Coulomb levels in N m)."""
+        model = cls.__new__(cls)
+        model._setup(plant, context, tuple(joints), motor_constant, coulomb)
+        return model
+
+    def _setup(
+        self,
+        plant: MultibodyPlant,
+        context: Context,
+        joints: tuple[str, ...],
+        motor_constant: Sequence[float],
+        coulomb: Sequence[float],
+    ) -> None:
+        self.joints = joints
+        self.size = len(joints)
+        self._plant, self._context = plant, context
         # Position and velocity index of each arm joint (Drake orders them its own way).
-        self._q_index = [plant.GetJointByName(j).position_start() for j in self.joints]
-        self._v_index = [plant.GetJointByName(j).velocity_start() for j in self.joints]
-        kappa, coulomb = np.array(chain.motor_constant), np.array(chain.coulomb)
+        self._q_index = [plant.GetJointByName(j).position_start() for j in joints]
+        self._v_index = [plant.GetJointByName(j).velocity_start() for j in joints]
+        kappa = np.array(motor_constant, dtype=float)
         self.motor_constant = kappa
         self._scale = 1.0 / kappa
-        damping = np.array([plant.GetJointByName(j).default_damping() for j in self.joints])
+        damping = np.array([plant.GetJointByName(j).GetDamping(context) for j in joints])
         self._B = np.diag(damping * self._scale)
-        self._coulomb = coulomb * self._scale
+        self._coulomb = np.array(coulomb, dtype=float) * self._scale
         self._M0: np.ndarray | None = None
-        self._autodiff: tuple[MultibodyPlant, object] | None = None
+        self._autodiff: tuple[MultibodyPlant, Context] | None = None
 
     def _set_state(self, q: np.ndarray, v: np.ndarray | None = None) -> None:
         positions = np.zeros(self._plant.num_positions())
@@ -137,7 +168,9 @@ class SerialArmModel:
         plant)."""
         if self._autodiff is None:
             plant = self._plant.ToAutoDiffXd()
-            self._autodiff = (plant, plant.CreateDefaultContext())
+            context = plant.CreateDefaultContext()
+            context.SetTimeStateAndParametersFrom(self._context)
+            self._autodiff = (plant, context)
         plant, context = self._autodiff
         positions = np.zeros(plant.num_positions())
         positions[self._q_index] = q

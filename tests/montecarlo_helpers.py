@@ -5,7 +5,7 @@ from __future__ import annotations
 from pathlib import Path
 
 from posfb.analysis.montecarlo.coverage import BOUND_NAMES
-from posfb.analysis.montecarlo.records import METRIC_COLUMNS, ControllerRun, SampleResult
+from posfb.analysis.montecarlo.records import ControllerRun, SampleResult, metric_columns
 from posfb.analysis.montecarlo.store import ResultStore
 
 #: A tiny study: two controllers, 1 s runs, parameters drawn the shipped study's way.
@@ -51,7 +51,7 @@ def all_rows(db: Path) -> tuple[list[dict], list[dict]]:
 
 def make_result(index: int, controllers=("proposed", "pid"), status="ok") -> SampleResult:
     """A finished sample with made-up numbers (no simulation)."""
-    metrics = {column: 0.001 * (index + 1) * (k + 1) for k, column in enumerate(METRIC_COLUMNS)}
+    metrics = {column: 0.001 * (index + 1) * (k + 1) for k, column in enumerate(metric_columns(2))}
     return SampleResult(
         index=index,
         parameters={"link_mass": [5.0, 0.9], "payload_mass": 0.1 * index},

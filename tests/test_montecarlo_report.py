@@ -9,7 +9,7 @@ from montecarlo_helpers import TINY_STUDY
 from posfb.analysis.cli import main
 from posfb.analysis.montecarlo.config import study_from_text
 from posfb.analysis.montecarlo.coverage import BOUND_NAMES
-from posfb.analysis.montecarlo.records import METRIC_COLUMNS, ControllerRun, SampleResult
+from posfb.analysis.montecarlo.records import ControllerRun, SampleResult, metric_columns
 from posfb.analysis.montecarlo.report import FIGURES
 from posfb.analysis.montecarlo.results import beats, joint_stats, load, status_counts
 from posfb.analysis.montecarlo.store import ResultStore
@@ -27,7 +27,7 @@ TABLE = [
 def _run(controller: str, rms: tuple[float, float] | None) -> ControllerRun:
     if rms is None:
         return ControllerRun(controller, "diverged", "|q~| = 1.2 rad exceeds 1 rad", {})
-    metrics = dict.fromkeys(METRIC_COLUMNS, 0.5)
+    metrics = dict.fromkeys(metric_columns(2), 0.5)
     metrics.update(rms_q1=rms[0], rms_q2=rms[1])
     return ControllerRun(controller, "ok", "", metrics)
 
@@ -105,7 +105,7 @@ def _synthetic_store(path, study, error_of):
         for i in range(study.samples):
             plant = sample_plant(study, nominal, i).parameters
             rms = error_of(plant)
-            metrics = dict.fromkeys(METRIC_COLUMNS, 0.5)
+            metrics = dict.fromkeys(metric_columns(2), 0.5)
             metrics.update(rms_q1=rms, rms_q2=rms)
             parameters = {
                 k: list(v) if isinstance(v, tuple) else v for k, v in plant.__dict__.items()

@@ -14,9 +14,9 @@ from posfb.analysis.cli import main
 from posfb.analysis.montecarlo.config import study_from_text
 from posfb.analysis.montecarlo.store import ResultStore
 from posfb.analysis.montecarlo.table import (
-    PLANT_COLUMNS,
     RATIO_COLUMNS,
     THETA_COLUMNS,
+    plant_columns,
     study_table,
 )
 from posfb.models.controllers import cached_design
@@ -44,7 +44,7 @@ def test_the_table_has_a_row_per_sample_and_controller_with_every_column(db):
     table = study_table(db)
     assert len(table) == 4 * 2
     assert list(table.columns[: len(ISSUE_COLUMNS)]) == ISSUE_COLUMNS
-    for column in (*PLANT_COLUMNS, "sensor.noise_std[1]", *THETA_COLUMNS, *RATIO_COLUMNS):
+    for column in (*plant_columns(2), "sensor.noise_std[1]", *THETA_COLUMNS, *RATIO_COLUMNS):
         assert column in table.columns, column
     assert {"inside_bounds", "sampled_data_spectral_radius"} <= set(table.columns)
     assert "link_mass_1_kg" in table.columns and "payload_mass_kg" in table.columns

@@ -26,8 +26,9 @@ Distributions are written with Drake's names and keys
 posfb adds ``relative: true``, which reads the numbers as fractions of the URDF's
 value ``v0`` (the draw ``x`` gives ``v0 (1 + x)``: ``min: -0.2, max: 0.2`` is +-20 %);
 ``relative: false`` (the default) reads them as the value itself in SI units.
-The per-joint parameters take a list of one distribution (used for both joints,
-each joint drawing its own value) or two (joint 1, joint 2).
+
+The per-joint parameters take a list of one distribution (every joint drawing its
+own value from it) or one per joint of the study's arm.
 
 The closed loop each sample runs is a scenario (``diagrams.scenario``): ``base``,
 built when the file is loaded from ``scenario`` (a scenario file, relative to the
@@ -58,6 +59,7 @@ loaded ``Study`` as read-only. ``validate_study`` then checks every value,
 naming the key.
 """
 
+import functools
 import hashlib
 import math
 from dataclasses import dataclass, field, replace
@@ -74,15 +76,17 @@ from posfb.diagrams.resolve import (
     resolve_path,
     with_absolute_paths,
 )
-from posfb.diagrams.scenario import Scenario, apply_setting, get_setting, scenario_joints
+from posfb.diagrams.scenario import (
+    PlantSettings,
+    Scenario,
+    apply_setting,
+    get_setting,
+    scenario_joints,
+)
 from posfb.diagrams.yaml_schema import load_typed, read_text
 from posfb.models.controllers import CONTROLLER_KINDS, require_design
 from posfb.models.design import ControllerConfig
 from posfb.models.plant import JOINT_PARAMETERS, PARAMETER_UNITS
-
-#: The arms a study runs: the two-joint arm, whose identified theta (Table 1) and
-#: closed-form Assumption-1 constants every stored sample carries.
-STUDY_JOINTS = 2
 
 #: Parameters that must be > 0 (the others must be >= 0), as ``ArmParameters`` requires.
 POSITIVE_PARAMETERS = ("link_mass", "motor_constant")
@@ -147,7 +151,8 @@ def _nominal() -> list[Distribution]:
 @dataclass
 class ParameterDistributions:
     """One entry per physical parameter of ``ArmParameters``; each per-joint list holds
-    one distribution (both joints) or two (joint 1, joint 2). Omitted: the URDF value."""
+    one distribution (every joint draws its own value from it) or one per joint.
+    Omitted: the URDF value."""
 
     link_mass: list[Distribution] = field(default_factory=_nominal)
     link_com: list[Distribution] = field(default_factory=_nominal)
@@ -159,15 +164,16 @@ class ParameterDistributions:
     payload_mass: Distribution = field(default_factory=Deterministic)
 
     def for_joint(self, name: str, joint: int) -> Distribution:
-        """The distribution of ``name`` at ``joint`` (0 or 1)."""
+        """The distribution of ``name`` at ``joint`` (0-based; one entry serves all)."""
         entries = getattr(self, name)
-        return entries[joint] if len(entries) == 2 else entries[0]
+        return entries[joint] if len(entries) > 1 else entries[0]
 
 
 @dataclass
 class SampleOverride:
-    """Absolute values for sample ``sample``: keys are ``ArmParameters`` fields (two
-    values for a per-joint field, one for ``payload_mass``) or ``encoder_counts``."""
+    """Absolute values for sample ``sample``: keys are ``ArmParameters`` fields (one
+    value per joint for a per-joint field, one for ``payload_mass``) or
+    ``encoder_counts``."""
 
     sample: int = 0
     values: dict[str, list[float]] = field(default_factory=dict)
@@ -186,7 +192,7 @@ class Study:
     ``encoder_counts`` lists the resolutions a sample draws from (uniformly; one entry
     fixes it; 0 is an ideal sensor; empty: the scenario's). ``draws`` gives any other
     numeric scenario key a distribution (``relative: true`` reads it as a fraction of
-    the base value; a per-joint key without ``[j]`` gives both joints the same draw).
+    the base value; a per-joint key without ``[j]`` gives every joint the same draw).
     ``sampling`` is the design the draws follow (``SAMPLING_DESIGNS``,
     ``analysis.montecarlo.sampling``).
     """
@@ -247,13 +253,25 @@ def is_random(distribution: Distribution) -> bool:
     return distribution.stddev > 0.0 and distribution.min != distribution.max
 
 
-#: The scalars of one sample, in stream order: (name, joint). Append only: a slot's
-#: position seeds its stream.
-SLOTS = (
-    *((name, joint) for name in JOINT_PARAMETERS for joint in (0, 1)),
-    ("payload_mass", 0),
-    ("encoder_counts", 0),
-)
+def slots(joints: int) -> tuple[tuple[str, int], ...]:
+    """The scalars of one sample of an arm of ``joints`` joints, in stream order:
+    (name, joint). A slot's position seeds its stream, so this order is fixed (for
+    two joints it is the order every earlier store was drawn in)."""
+    return (
+        *((name, joint) for name in JOINT_PARAMETERS for joint in range(joints)),
+        ("payload_mass", 0),
+        ("encoder_counts", 0),
+    )
+
+
+@functools.lru_cache(maxsize=32)
+def _urdf_joints(urdf: str) -> int:
+    return scenario_joints(Scenario(plant=PlantSettings(urdf=urdf)), Path.cwd())
+
+
+def study_joints(study: Study) -> int:
+    """``n``: the joints of the study's plant URDF (its paths are absolute)."""
+    return _urdf_joints(study.base.plant.urdf)
 
 #: The sampling designs a study may name (``Study.sampling``).
 SAMPLING_DESIGNS = ("random", "latin_hypercube", "sobol", "saltelli")
@@ -278,7 +296,8 @@ def varied_scalars(study: Study) -> tuple[VariedScalar, ...]:
     dimensions of a QMC design, the columns of an export, the inputs of a sensitivity
     analysis."""
     varied = []
-    for slot, (name, joint) in enumerate(SLOTS):
+    layout = slots(study_joints(study))
+    for slot, (name, joint) in enumerate(layout):
         if name == "payload_mass":
             if is_random(study.parameters.payload_mass):
                 varied.append(VariedScalar(slot, name, None, f"{name}_kg"))
@@ -290,7 +309,7 @@ def varied_scalars(study: Study) -> tuple[VariedScalar, ...]:
             varied.append(VariedScalar(slot, name, joint, column))
     for position, (key, distribution) in enumerate(study.draws.items()):
         if is_random(distribution):
-            varied.append(VariedScalar(len(SLOTS) + position, key, None, key))
+            varied.append(VariedScalar(len(layout) + position, key, None, key))
     return tuple(varied)
 
 
@@ -383,26 +402,26 @@ def _check_physical(key: str, name: str, distribution: Distribution) -> None:
     )
 
 
-def _check_parameters(parameters: ParameterDistributions) -> None:
+def _check_parameters(parameters: ParameterDistributions, joints: int) -> None:
     for name in JOINT_PARAMETERS:
         entries = getattr(parameters, name)
         _require(
-            len(entries) in (1, 2),
+            len(entries) in (1, joints),
             f"parameters.{name} has {len(entries)} entries; "
-            "1 (both joints) or 2 (joint 1, joint 2) are required",
+            f"1 (all joints) or {joints} (one per joint) are required",
         )
         for j, distribution in enumerate(entries):
             _check_physical(f"parameters.{name}[{j}]", name, distribution)
     _check_physical("parameters.payload_mass", "payload_mass", parameters.payload_mass)
 
 
-def _check_override(position: int, override: SampleOverride) -> None:
+def _check_override(position: int, override: SampleOverride, joints: int) -> None:
     key = f"overrides[{position}]"
     _require(override.sample >= 0, f"{key}.sample = {override.sample!r}; an index >= 0 is required")
     allowed = (*JOINT_PARAMETERS, "payload_mass", "encoder_counts")
     for name, values in override.values.items():
         _require(name in allowed, f"{key}.values has unknown key {name!r}; one of {allowed}")
-        size = 2 if name in JOINT_PARAMETERS else 1
+        size = joints if name in JOINT_PARAMETERS else 1
         _require(
             len(values) == size,
             f"{key}.values.{name} has {len(values)} entries; {size} required",
@@ -491,13 +510,6 @@ def validate_study(study: Study) -> Study:
         "scenario/settings are folded into base when a study file is loaded",
     )
     base = study.base_scenario()  # the scenario checks its own keys, naming them
-    joints = scenario_joints(base, Path.cwd())  # study paths are absolute
-    _require(
-        joints == STUDY_JOINTS,
-        f"base.plant.urdf has {joints} joints; Monte-Carlo studies store the two-joint "
-        f"arm's theta model and Assumption-1 ratios, so {STUDY_JOINTS} joints are required "
-        "(simulate and design take any serial arm)",
-    )
     _require(len(study.controllers) > 0, "controllers is empty; name at least one controller")
     for name in study.controllers:
         _require(
@@ -511,10 +523,10 @@ def validate_study(study: Study) -> Study:
     for counts in study.encoder_counts:
         _require(counts >= 0, f"encoder_counts has {counts!r}; integers >= 0 are required")
     _check_controllers(study, base)
-    _check_parameters(study.parameters)
+    _check_parameters(study.parameters, study_joints(study))
     _check_draws(study, base)
     for position, override in enumerate(study.overrides):
-        _check_override(position, override)
+        _check_override(position, override, study_joints(study))
     samples = [override.sample for override in study.overrides]
     _require(len(set(samples)) == len(samples), "overrides name a sample twice")
     if study.sampling == "saltelli":

@@ -127,7 +127,7 @@ def _samples_needed(precision: float, samples: int) -> str:
 
 def plot(data: StudyData, out: Path) -> None:
     """Write ``convergence`` and ``ecdf`` (PNG and SVG) into ``out``."""
-    figure, axes = joint_panels(sharey=False)
+    figure, axes = joint_panels(data.joints, sharey=False)
     for joint, axis in enumerate(axes):
         for k, controller in enumerate(data.controllers):
             counts, running = running_quantiles(data.rms_q[controller][:, joint], QUANTILES)
@@ -139,7 +139,7 @@ def plot(data: StudyData, out: Path) -> None:
     figure.suptitle("Running median and 95th percentile: did the statistics settle?", y=1.02)
     save_report_figure(figure, out, "convergence")
 
-    figure, axes = joint_panels()
+    figure, axes = joint_panels(data.joints)
     for joint, axis in enumerate(axes):
         for controller in data.controllers:
             values, probability = ecdf(data.rms_q[controller][:, joint])

@@ -25,6 +25,13 @@ that holds for all ``q, q'``, computed in closed form:
 regularisation of ``sgn`` (``models.plant``) is numerical smoothing of the same
 law, not a parameter difference. The sample is *inside* when every ratio
 ``||dX|| / D_X`` is at most 1.
+
+For a study whose nominal model is a URDF's (any serial arm), the same constants
+come from ``models.serial_bounds.uncertainty_norms`` between the sampled plant's
+model and the nominal one (``serial_coverage``): ``dM0``, ``dB``, ``dF`` exactly,
+``dM1``, ``dC``, ``dG`` as maxima over ``COVERAGE_POINTS`` sampled joint angles
+refined by a short local search (``COVERAGE_SEARCH_STEPS``): lower bounds of the true
+maxima, cheap enough to run per sample (``models.serial_bounds`` has the full search).
 """
 
 from __future__ import annotations
@@ -34,8 +41,16 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
+from posfb.models import serial_bounds
 from posfb.models.design.bounds import ResolvedBounds, coriolis_bound
 from posfb.models.lumped import LumpedModel, LumpedParameters
+from posfb.models.serial_model import SerialArmModel
+
+#: Workspace points per sample of ``serial_coverage`` (a power of 2) and iterations of
+#: each local search: a per-sample cost of about a controller run's on six joints
+#: (the design's own bounds use ``models.serial_bounds``' defaults).
+COVERAGE_POINTS = 32
+COVERAGE_SEARCH_STEPS = 50
 
 #: The constants of Assumption 1, in the paper's order.
 BOUND_NAMES = ("delta_M0", "delta_M1", "delta_C", "delta_G", "delta_B", "delta_F")
@@ -75,9 +90,22 @@ def _ratio(norm: float, bound: float) -> float:
     return 0.0 if norm == 0.0 else math.inf
 
 
-def coverage(true: LumpedParameters, nominal: LumpedParameters, bounds: ResolvedBounds) -> Coverage:
-    """Where ``true`` lies relative to the bounds ``bounds`` around ``nominal``."""
-    norms = uncertainty_norms(true, nominal)
+def _coverage(norms: dict[str, float], bounds: ResolvedBounds) -> Coverage:
     return Coverage(
         {name: float(_ratio(norms[name], getattr(bounds, name))) for name in BOUND_NAMES}
     )
+
+
+def coverage(true: LumpedParameters, nominal: LumpedParameters, bounds: ResolvedBounds) -> Coverage:
+    """Where ``true`` lies relative to the bounds ``bounds`` around ``nominal``."""
+    return _coverage(uncertainty_norms(true, nominal), bounds)
+
+
+def serial_coverage(
+    true: SerialArmModel, nominal: SerialArmModel, bounds: ResolvedBounds
+) -> Coverage:
+    """``coverage`` for serial-arm models (module docstring)."""
+    sampled = serial_bounds.uncertainty_norms(
+        true, nominal, samples=COVERAGE_POINTS, steps=COVERAGE_SEARCH_STEPS
+    )
+    return _coverage(sampled.norms, bounds)

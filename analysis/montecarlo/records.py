@@ -8,21 +8,17 @@ from dataclasses import dataclass
 #: Outcomes of one controller on one sample.
 STATUSES = ("ok", "diverged", "error")
 
-#: The per-controller numbers the store keeps (from ``analysis.metrics.RunMetrics``).
-METRIC_COLUMNS = (
-    "rms_q1",
-    "rms_q2",
-    "rms_u1",
-    "rms_u2",
-    "max_abs_q_err",
-    "saturated_fraction",
-    "wall_time_s",
-)
+def metric_columns(joints: int) -> tuple[str, ...]:
+    """The per-controller numbers the store keeps for an arm of ``joints`` joints (from
+    ``analysis.metrics.RunMetrics``): ``rms_q1 .. rms_qn``, ``rms_u1 .. rms_un``, then
+    the scalars."""
+    per_joint = tuple(f"rms_{x}{j + 1}" for x in ("q", "u") for j in range(joints))
+    return (*per_joint, "max_abs_q_err", "saturated_fraction", "wall_time_s")
 
 
 @dataclass(frozen=True)
 class ControllerRun:
-    """One controller on one sampled plant. ``metrics`` maps ``METRIC_COLUMNS`` to
+    """One controller on one sampled plant. ``metrics`` maps ``metric_columns(n)`` to
     values (``None`` where the run produced none, e.g. an error before the first step).
     ``spectral_radius``: the sampled-data loop of this plant's linear part with the
     controller as designed (``models.design.plant_spectral_radii``); ``None`` for a
@@ -42,7 +38,8 @@ class ControllerRun:
 @dataclass(frozen=True)
 class SampleResult:
     """Sample ``index``: its plant (``ArmParameters`` as a dict of lists), encoder
-    resolution, identified theta, Assumption-1 ratios and one run per controller."""
+    resolution, identified theta (Table 1's, for a study whose nominal model is the
+    theta model; empty otherwise), Assumption-1 ratios and one run per controller."""
 
     index: int
     parameters: dict[str, list[float] | float]

@@ -43,16 +43,22 @@ from posfb.analysis import plots
 from posfb.analysis.errors import UsageError
 from posfb.analysis.export import export_run
 from posfb.analysis.montecarlo.config import Study
-from posfb.analysis.montecarlo.records import METRIC_COLUMNS, ControllerRun, SampleResult
+from posfb.analysis.montecarlo.records import ControllerRun, SampleResult, metric_columns
 from posfb.analysis.montecarlo.store import RADIUS_COLUMN
 from posfb.diagrams.animate import animation_html
 from posfb.diagrams.closed_loop import ClosedLoopResult
 
-#: The metric columns a replay must reproduce (``wall_time_s`` is a timing).
-REPRODUCIBLE_METRICS = tuple(column for column in METRIC_COLUMNS if column != "wall_time_s")
 
-#: The ``runs`` columns compared, in the order differences are reported.
-RUN_COLUMNS = ("status", "message", *REPRODUCIBLE_METRICS, RADIUS_COLUMN)
+def run_columns(joints: int) -> tuple[str, ...]:
+    """The ``runs`` columns compared, in the order differences are reported: every
+    metric a replay must reproduce (``wall_time_s`` is a timing)."""
+    metrics = (column for column in metric_columns(joints) if column != "wall_time_s")
+    return ("status", "message", *metrics, RADIUS_COLUMN)
+
+
+def _joints(metrics: Mapping[str, object]) -> int:
+    """The joint count of a run's metrics (its ``rms_q*`` entries)."""
+    return sum(1 for key in metrics if key.startswith("rms_q"))
 
 #: The scalar ``samples`` columns compared (then the JSON ones, ``SAMPLE_JSON_COLUMNS``).
 SAMPLE_COLUMNS = ("encoder_counts", "payload_mass", "inside_bounds")
@@ -181,18 +187,18 @@ def replayed_sample_values(result: SampleResult) -> dict[str, object]:
 
 def run_values(row: Mapping[str, object]) -> dict[str, object]:
     """The compared values of a ``runs`` row (``ResultStore.run_rows``)."""
-    return {column: row.get(column) for column in RUN_COLUMNS}
+    return {column: row.get(column) for column in run_columns(_joints(row))}
 
 
 def replayed_run_values(run: ControllerRun) -> dict[str, object]:
     """The compared values of a recomputed run, as the store would have written them."""
-    metrics = {column: run.metrics.get(column) for column in REPRODUCIBLE_METRICS}
-    return {
+    stored = {
         "status": run.status,
         "message": run.message,
-        **metrics,
+        **run.metrics,
         RADIUS_COLUMN: run.spectral_radius,
     }
+    return {column: stored.get(column) for column in run_columns(_joints(run.metrics))}
 
 
 def compare(

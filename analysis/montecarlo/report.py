@@ -32,7 +32,7 @@ from posfb.analysis.montecarlo.results import (
 from posfb.analysis.montecarlo.statistics import Interval, proportion_interval
 from posfb.analysis.montecarlo.store import ResultStore
 from posfb.analysis.plots import joint_panels, label_joint_panel, save_report_figure
-from posfb.diagrams.scenario import Wave
+from posfb.diagrams.scenario import IdentifiedFromUrdf, Scenario, Theta, UrdfModel, Wave
 
 #: A run "saturates often" when more than this share of its control samples
 #: command a voltage beyond the limit.
@@ -46,9 +46,21 @@ FIGURES = (
 )  # fmt: skip
 
 
+def _nominal_text(base: Scenario) -> str:
+    """The nominal model the controllers keep, in words."""
+    nominal = base.nominal_model
+    if isinstance(nominal, UrdfModel):
+        return f"the nominal model Drake computes from {Path(nominal.urdf).name}"
+    if isinstance(nominal, IdentifiedFromUrdf):
+        return f"the theta model identified from {Path(nominal.urdf).name}"
+    if isinstance(nominal, Theta):
+        return "the given nominal theta model"
+    return "the nominal Table 1 model"
+
+
 def plot_distributions(data: StudyData, out: Path) -> None:
     """Box plots (with every sample as a dot) of the RMS error per controller and joint."""
-    figure, axes = joint_panels()
+    figure, axes = joint_panels(data.joints)
     everything = np.ones(len(data.samples), dtype=bool)
     for joint, axis in enumerate(axes):
         values = [ok_values(data, c, joint, everything) for c in data.controllers]
@@ -67,7 +79,7 @@ def plot_distributions(data: StudyData, out: Path) -> None:
 
 def plot_against_payload(data: StudyData, out: Path) -> None:
     """RMS error against the sampled tip payload, per joint, one colour per controller."""
-    figure, axes = joint_panels()
+    figure, axes = joint_panels(data.joints)
     for joint, axis in enumerate(axes):
         for controller in data.controllers:
             values = data.rms_q[controller][:, joint]
@@ -81,7 +93,7 @@ def plot_against_payload(data: StudyData, out: Path) -> None:
 def plot_inside_outside(data: StudyData, out: Path) -> None:
     """RMS error per controller for plants inside (blue) and outside (orange) the
     Assumption-1 bounds."""
-    figure, axes = joint_panels()
+    figure, axes = joint_panels(data.joints)
     groups = ((data.inside, "inside", "tab:blue"), (~data.inside, "outside", "tab:orange"))
     for joint, axis in enumerate(axes):
         for offset, (mask, name, colour) in zip((-0.2, 0.2), groups, strict=True):
@@ -175,7 +187,7 @@ def markdown(
         f"{n} sampled plants (seed {study.seed}, {base.timing.duration:g} s of "
         f"{trajectory} at T_s = {base.timing.sample_time:g} s each, encoder counts "
         f"{counts}{drawn}), every plant run under "
-        f"{', '.join(data.controllers)}; controllers keep the nominal Table 1 model"
+        f"{', '.join(data.controllers)}; controllers keep {_nominal_text(base)}"
         f"{design}. Code: {', '.join(data.code_versions) or data.meta.get('code_version', '?')}.",
         "",
         "## RMS tracking error (rad), runs that finished",
@@ -222,7 +234,7 @@ def markdown(
             "",
             f"The proposed controller beats computed torque + PID on **{wins} of "
             f"{comparable}** samples ({share}, Wilson 95 % interval): it finished and its "
-            "tracking error `||(rms_q1, rms_q2)||` is smaller, or PID did not finish.",
+            "tracking error `||(rms_q1, .., rms_qn)||` is smaller, or PID did not finish.",
         ]
     inside = int(np.sum(data.inside))
     lines += [
@@ -234,14 +246,15 @@ def markdown(
         + ", ".join(f"`{k}` {v}" for k, v in data.exceeded.items())
         + ".",
         "",
-        "| controller | median RMS j1 inside | outside | median RMS j2 inside | outside "
-        "| failures inside | outside |",
-        "|---|---:|---:|---:|---:|---:|---:|",
+        "| controller | "
+        + "".join(f"median RMS j{j + 1} inside | outside | " for j in range(data.joints))
+        + "failures inside | outside |",
+        "|---|" + "---:|---:|" * data.joints + "---:|---:|",
     ]
     for controller in data.controllers:
         medians = [
             _number(float(np.median(v))) if (v := ok_values(data, controller, j, m)).size else "-"
-            for j in (0, 1)
+            for j in range(data.joints)
             for m in (data.inside, ~data.inside)
         ]
         failed = data.status[controller] != "ok"
@@ -277,7 +290,7 @@ def write_report(store: ResultStore, out: str | Path) -> Path:
     plot_inside_outside(data, out)
     if found.loops:
         stability.plot(data, found.loops, out)
-    sensitivity.plot(found.ranked, data.controllers, out)
+    sensitivity.plot(found.ranked, data.controllers, data.joints, out)
     convergence.plot(data, out)
     path = out / "report.md"
     path.write_text(markdown(data, found))

@@ -7,7 +7,7 @@ Conventions (the report states them too):
   (``diverged`` or ``error``) instead.
 * "The paper's controller beats PID" on a sample when ``proposed`` finished
   (``ok``) and either PID did not, or the proposed controller's tracking error
-  ``||(rms_q1, rms_q2)||`` is smaller. The share is over the samples where
+  ``||(rms_q1, .., rms_qn)||`` is smaller. The share is over the samples where
   neither run is an ``error``.
 """
 
@@ -17,7 +17,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from posfb.analysis.montecarlo.config import Study, VariedScalar, varied_scalars
+from posfb.analysis.montecarlo.config import Study, VariedScalar, study_joints, varied_scalars
 from posfb.analysis.montecarlo.coverage import BOUND_NAMES
 from posfb.analysis.montecarlo.records import STATUSES
 from posfb.analysis.montecarlo.statistics import Interval, median_interval, quantile_interval
@@ -28,7 +28,7 @@ from posfb.analysis.montecarlo.store import RADIUS_COLUMN, ResultStore
 class StudyData:
     """A store's results as arrays aligned by sample (row ``i`` is ``samples[i]``).
 
-    ``rms_q[controller]`` has shape ``(n, 2)`` and ``saturated[controller]`` (the share
+    ``rms_q[controller]`` has shape ``(samples, joints)`` and ``saturated[controller]`` (the share
     of control samples with a commanded voltage beyond the limit) shape ``(n,)``, NaN
     where the run is not ``ok``; ``status[controller]`` holds the status strings.
     ``inputs`` maps the export column of every varied scalar (``varied_scalars``) to its
@@ -49,6 +49,7 @@ class StudyData:
     messages: dict[str, list[str]]
     inputs: dict[str, np.ndarray]
     radius: dict[str, np.ndarray]
+    joints: int
 
 
 @dataclass(frozen=True)
@@ -71,8 +72,9 @@ def load(store: ResultStore) -> StudyData:
     study = store.study()
     samples = store.sample_rows()
     index = {row["sample"]: i for i, row in enumerate(samples)}
-    n = len(samples)
-    rms_q = {c: np.full((n, 2), np.nan) for c in study.controllers}
+    n, joints = len(samples), study_joints(study)
+    rms_columns = [f"rms_q{j + 1}" for j in range(joints)]
+    rms_q = {c: np.full((n, joints), np.nan) for c in study.controllers}
     saturated = {c: np.full(n, np.nan) for c in study.controllers}
     status = {c: np.full(n, "error", dtype=object) for c in study.controllers}
     messages: dict[str, list[str]] = {c: [] for c in study.controllers}
@@ -83,7 +85,7 @@ def load(store: ResultStore) -> StudyData:
         if run[RADIUS_COLUMN] is not None:
             radius[controller][i] = run[RADIUS_COLUMN]
         if run["status"] == "ok":
-            rms_q[controller][i] = (run["rms_q1"], run["rms_q2"])
+            rms_q[controller][i] = [run[column] for column in rms_columns]
             saturated[controller][i] = run["saturated_fraction"]
         elif run["message"]:
             messages[controller].append(f"sample {run['sample']}: {run['message']}")
@@ -107,6 +109,7 @@ def load(store: ResultStore) -> StudyData:
             for scalar in varied_scalars(study)
         },
         radius=radius,
+        joints=joints,
     )
 
 
@@ -126,7 +129,7 @@ def joint_stats(data: StudyData) -> list[JointStats]:
     (``analysis.montecarlo.statistics``, seeded: the same store gives the same report)."""
     stats = []
     for controller in data.controllers:
-        for joint in (0, 1):
+        for joint in range(data.joints):
             values = data.rms_q[controller][:, joint]
             values = values[np.isfinite(values)]
             median, p95 = median_interval(values), quantile_interval(values, 0.95)

@@ -2,7 +2,7 @@
 
 The scalars of a sample are each parameter of each joint, the payload, the encoder
 resolution, then each ``draws`` key in file order; ``slot`` is a scalar's fixed
-position in that order (``SLOTS``, then ``draws``). How they are drawn is the
+position in that order (``slots(n)``, then ``draws``). How they are drawn is the
 study's ``sampling`` design (``SAMPLING_DESIGNS``):
 
 * ``random``: every scalar has its own random stream, seeded with
@@ -31,7 +31,6 @@ import scipy.stats
 from scipy.stats import qmc
 
 from posfb.analysis.montecarlo.config import (
-    SLOTS,
     Deterministic,
     Distribution,
     Gaussian,
@@ -39,6 +38,8 @@ from posfb.analysis.montecarlo.config import (
     Uniform,
     UniformDiscrete,
     saltelli_rows,
+    slots,
+    study_joints,
     varied_scalars,
 )
 from posfb.analysis.montecarlo.statistics import saltelli_unit_design
@@ -144,9 +145,10 @@ def draw(
 def sample_plant(study: Study, nominal: ArmParameters, index: int) -> SampledPlant:
     """The plant of sample ``index``: draws from ``study.parameters`` around ``nominal``
     (the URDF's values), the encoder resolution, then ``study.overrides``."""
-    values: dict[str, list[float]] = {name: [0.0, 0.0] for name in JOINT_PARAMETERS}
+    joints = study_joints(study)
+    values: dict[str, list[float]] = {name: [0.0] * joints for name in JOINT_PARAMETERS}
     point = unit_point(study, index)
-    for slot, (name, joint) in enumerate(SLOTS):
+    for slot, (name, joint) in enumerate(slots(joints)):
         rng, u = stream(study.seed, index, slot), point.get(slot)
         if name == "payload_mass":
             payload = draw(study.parameters.payload_mass, nominal.payload_mass, rng, u)
@@ -170,7 +172,7 @@ def sample_plant(study: Study, nominal: ArmParameters, index: int) -> SampledPla
             else:
                 values[name] = [float(v) for v in pinned]
     parameters = ArmParameters(
-        **{name: (v[0], v[1]) for name, v in values.items()}, payload_mass=payload
+        **{name: tuple(v) for name, v in values.items()}, payload_mass=payload
     )
     return SampledPlant(
         index=index, parameters=parameters, encoder_counts=None if counts is None else int(counts)
@@ -185,7 +187,7 @@ def sample_scenario(study: Study, index: int) -> tuple[Scenario, dict[str, float
     for position, (key, distribution) in enumerate(study.draws.items()):
         current = get_setting(base, key)
         nominal = float(current[0] if isinstance(current, list) else current)
-        slot = len(SLOTS) + position
+        slot = len(slots(study_joints(study))) + position
         value = draw(distribution, nominal, stream(study.seed, index, slot), point.get(slot))
         integer = isinstance(current[0] if isinstance(current, list) else current, int)
         text = repr(int(value)) if integer else repr(value)

@@ -42,7 +42,7 @@ SIGNIFICANCE = 0.01
 
 @dataclass(frozen=True)
 class Sensitivity:
-    """The ranking of one controller's joint error (``joint`` 1 or 2)."""
+    """The ranking of one controller's joint error (``joint`` 1..n)."""
 
     controller: str
     joint: int
@@ -58,7 +58,7 @@ def sensitivities(data: StudyData) -> list[Sensitivity]:
     names = list(data.inputs)
     found = []
     for controller in data.controllers:
-        for joint in (0, 1):
+        for joint in range(data.joints):
             response = data.rms_q[controller][:, joint]
             ranking = spearman_ranking(data.inputs, response) if names else []
             sobol, note = None, ""
@@ -131,10 +131,13 @@ def markdown(found: list[Sensitivity]) -> list[str]:
     return lines
 
 
-def plot(found: list[Sensitivity], controllers: tuple[str, ...], out: Path) -> None:
+def plot(
+    found: list[Sensitivity], controllers: tuple[str, ...], joints: int, out: Path
+) -> None:
     """Tornado bars of the strongest rank correlations, one panel per controller and joint."""
-    figure = Figure(figsize=(12, 2.6 * len(controllers) + 0.8), layout="constrained")
-    axes = np.atleast_2d(figure.subplots(len(controllers), 2, squeeze=False))
+    width = 6 * max(joints, 2)
+    figure = Figure(figsize=(width, 2.6 * len(controllers) + 0.8), layout="constrained")
+    axes = np.atleast_2d(figure.subplots(len(controllers), joints, squeeze=False))
     for entry in found:
         axis = axes[controllers.index(entry.controller), entry.joint - 1]
         shown = entry.ranking[:TOP][::-1]

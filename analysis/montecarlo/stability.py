@@ -43,7 +43,7 @@ class LoopStability:
     unstable_share: Interval
     largest: float
     smallest: float
-    median_rms: dict[tuple[bool, int], Interval]  # (unstable, joint 1|2) -> median RMS
+    median_rms: dict[tuple[bool, int], Interval]  # (unstable, joint 1..n) -> median RMS
     correlation: dict[int, RankCorrelation | None]  # joint -> RMS against rho
 
 
@@ -61,10 +61,10 @@ def loop_stability(data: StudyData) -> list[LoopStability]:
                 ok_values(data, controller, joint, unstable if flag else known & ~unstable)
             )
             for flag in (False, True)
-            for joint in (0, 1)
+            for joint in range(data.joints)
         }
         correlation = {}
-        for joint in (0, 1):
+        for joint in range(data.joints):
             ranking = spearman_ranking({"rho": radius}, data.rms_q[controller][:, joint])
             correlation[joint + 1] = ranking[0] if ranking else None
         found.append(
@@ -90,6 +90,10 @@ def markdown(found: list[LoopStability]) -> list[str]:
     """The section's Markdown lines (none when no controller has a designed loop)."""
     if not found:
         return []
+    joints = len(found[0].correlation)
+    medians_header = "".join(
+        f" median RMS j{j} rho < 1 | rho >= 1 |" for j in range(1, joints + 1)
+    )
     lines = [
         "## Per-sample sampled-data stability",
         "",
@@ -98,13 +102,14 @@ def markdown(found: list[LoopStability]) -> list[str]:
         "sampled loop on that plant. Shares with Wilson 95 % intervals, median RMS (rad, "
         "finished runs) with bootstrap 95 % intervals.",
         "",
-        "| controller | rho range | plants with rho >= 1 | share [95 % CI] | median RMS j1 "
-        "rho < 1 | rho >= 1 | median RMS j2 rho < 1 | rho >= 1 | Spearman(RMS j2, rho) |",
-        "|---|---:|---:|---:|---:|---:|---:|---:|---:|",
+        "| controller | rho range | plants with rho >= 1 | share [95 % CI] |"
+        + medians_header
+        + f" Spearman(RMS j{joints}, rho) |",
+        "|---|---:|---:|---:|" + "---:|---:|" * joints + "---:|",
     ]
     for entry in found:
         share = entry.unstable_share
-        correlation = entry.correlation[2]
+        correlation = entry.correlation[joints]
         rank = "-" if correlation is None else (
             f"{correlation.rho:+.2f} (p = {correlation.p_value:.2g})"
         )  # fmt: skip
@@ -114,7 +119,7 @@ def markdown(found: list[LoopStability]) -> list[str]:
             f"[{100 * share.low:.1f}, {100 * share.high:.1f}] | "
             + " | ".join(
                 _median(entry.median_rms[(flag, joint)])
-                for joint in (1, 2)
+                for joint in range(1, joints + 1)
                 for flag in (False, True)
             )
             + f" | {rank} |"
@@ -125,7 +130,7 @@ def markdown(found: list[LoopStability]) -> list[str]:
 
 def plot(data: StudyData, found: list[LoopStability], out: Path) -> None:
     """RMS error against the loop's spectral radius, per joint, one colour per controller."""
-    figure, axes = joint_panels(width=11.0)
+    figure, axes = joint_panels(data.joints, width=11.0)
     for joint, axis in enumerate(axes):
         for entry in found:
             radius = data.radius[entry.controller]

@@ -8,8 +8,11 @@ Schema (version 2)::
             parameters JSON, theta JSON, bound_ratios JSON, inside_bounds,
             code_version, finished_at)
     runs(sample, controller, status, message,
-         rms_q1, rms_q2, rms_u1, rms_u2, max_abs_q_err, saturated_fraction,
+         rms_q1 .. rms_qn, rms_u1 .. rms_un, max_abs_q_err, saturated_fraction,
          wall_time_s, sampled_data_spectral_radius, PRIMARY KEY (sample, controller))
+
+with ``n`` the joints of the study's arm (``records.metric_columns``; two for the
+paper's arm, as every earlier store).
 
 Version 2 added ``sampled_data_spectral_radius`` (NULL for PID); a version-1 store
 is read (the radius reads as missing) but not resumed.
@@ -48,8 +51,9 @@ from posfb.analysis.montecarlo.config import (
     canonical_text,
     identity,
     study_from_text,
+    study_joints,
 )
-from posfb.analysis.montecarlo.records import METRIC_COLUMNS, STATUSES, SampleResult
+from posfb.analysis.montecarlo.records import STATUSES, SampleResult, metric_columns
 
 SCHEMA_VERSION = "2"
 
@@ -65,7 +69,10 @@ RADIUS_COLUMN = "sampled_data_spectral_radius"
 #: The tables of a posfb store.
 TABLES = {"meta", "samples", "runs"}
 
-_SCHEMA = f"""
+
+def _schema(joints: int) -> str:
+    """The tables of a store of an arm of ``joints`` joints."""
+    return f"""
 CREATE TABLE IF NOT EXISTS meta (key TEXT PRIMARY KEY, value TEXT NOT NULL);
 CREATE TABLE IF NOT EXISTS samples (
     sample INTEGER PRIMARY KEY,
@@ -83,7 +90,7 @@ CREATE TABLE IF NOT EXISTS runs (
     controller TEXT NOT NULL,
     status TEXT NOT NULL CHECK (status IN ({", ".join(repr(s) for s in STATUSES)})),
     message TEXT NOT NULL,
-    {", ".join(f"{column} REAL" for column in METRIC_COLUMNS)},
+    {", ".join(f"{column} REAL" for column in metric_columns(joints))},
     {RADIUS_COLUMN} REAL,
     PRIMARY KEY (sample, controller)
 );
@@ -146,6 +153,7 @@ class ResultStore:
         self.path = path
         self._connection = connection
         self._lock = lock
+        self._metrics: tuple[str, ...] | None = None
 
     @classmethod
     def create_or_resume(cls, path: str | Path, study: Study, code_version: str) -> ResultStore:
@@ -164,7 +172,7 @@ class ResultStore:
         store = cls(path, connection, lock)
         try:
             connection.execute(f"PRAGMA application_id = {APPLICATION_ID}")
-            connection.executescript(_SCHEMA)
+            connection.executescript(_schema(study_joints(study)))
             meta = store.meta()
             if not meta:
                 store._write_meta(study, code_version)
@@ -228,7 +236,10 @@ class ResultStore:
 
     def write(self, result: SampleResult, code_version: str) -> None:
         """Store one finished sample and its runs in one transaction."""
-        names = ("sample", "controller", "status", "message", *METRIC_COLUMNS, RADIUS_COLUMN)
+        if self._metrics is None:
+            self._metrics = metric_columns(study_joints(self.study()))
+        metrics = self._metrics
+        names = ("sample", "controller", "status", "message", *metrics, RADIUS_COLUMN)
         columns, marks = ", ".join(names), ", ".join("?" * len(names))
         with self._transaction():
             self._connection.execute(
@@ -253,7 +264,7 @@ class ResultStore:
                         run.controller,
                         run.status,
                         run.message,
-                        *(run.metrics.get(column) for column in METRIC_COLUMNS),
+                        *(run.metrics.get(column) for column in metrics),
                         run.spectral_radius,
                     )
                     for run in result.runs

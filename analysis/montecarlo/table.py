@@ -7,15 +7,16 @@ export --db STORE --out FILE.parquet|.csv`` writes it
 in this order:
 
 * ``sample``, ``controller``, ``status`` (``ok | diverged | error``);
-* the run's metrics with units: ``rms_q1_rad``, ``rms_q2_rad``, ``rms_u1_V``,
-  ``rms_u2_V``, ``max_abs_q_err_rad``, ``saturated_fraction`` (NaN where the run
-  produced none);
+* the run's metrics with units: ``rms_q1_rad`` .. ``rms_qn_rad``, ``rms_u1_V`` ..
+  ``rms_un_V`` (``n`` joints), ``max_abs_q_err_rad``, ``saturated_fraction`` (NaN
+  where the run produced none);
 * the sample's plant, one column per scalar with its unit: ``link_mass_1_kg``,
-  ``link_mass_2_kg``, ... ``motor_constant_2_N_m_per_V``, ``payload_mass_kg``,
+  ``link_mass_2_kg``, ... ``motor_constant_n_N_m_per_V``, ``payload_mass_kg``,
   ``encoder_counts``, then every scenario key the study draws (``draws:``), under
   its dotted key (``timing.sample_time``);
-* the identified lumped model ``theta1`` ... ``theta11`` and ``l1_m``
-  (``models.identify``; the theta in the units of Table 1);
+* for a study of the theta nominal model (the paper's), the identified lumped model
+  ``theta1`` ... ``theta11`` and ``l1_m`` (``models.identify``; the theta in the
+  units of Table 1);
 * the Assumption-1 ratios ``delta_M0_ratio`` ... ``delta_F_ratio`` (``||dX|| /
   D_X``, ``analysis.montecarlo.coverage``) and ``inside_bounds``;
 * ``sampled_data_spectral_radius``: the controller's designed loop on this plant
@@ -34,36 +35,50 @@ import numpy as np
 import pandas as pd
 
 from posfb.analysis.export import write_table
+from posfb.analysis.montecarlo.config import study_joints
 from posfb.analysis.montecarlo.coverage import BOUND_NAMES
 from posfb.analysis.montecarlo.store import RADIUS_COLUMN, ResultStore
 from posfb.models.plant import JOINT_PARAMETERS, PARAMETER_UNITS
 
-#: Metric columns of the store and their names with units in the table.
-METRIC_NAMES = {
-    "rms_q1": "rms_q1_rad",
-    "rms_q2": "rms_q2_rad",
-    "rms_u1": "rms_u1_V",
-    "rms_u2": "rms_u2_V",
-    "max_abs_q_err": "max_abs_q_err_rad",
-    "saturated_fraction": "saturated_fraction",
-}
+
+def metric_names(joints: int) -> dict[str, str]:
+    """Metric columns of the store and their names with units in the table."""
+    names = {f"rms_q{j + 1}": f"rms_q{j + 1}_rad" for j in range(joints)}
+    names.update({f"rms_u{j + 1}": f"rms_u{j + 1}_V" for j in range(joints)})
+    return {
+        **names,
+        "max_abs_q_err": "max_abs_q_err_rad",
+        "saturated_fraction": "saturated_fraction",
+    }
+
 
 #: The formats ``export_study`` writes (text columns rule out ``.npz``).
 TABLE_FORMATS = (".parquet", ".csv")
 
-#: The physical plant's columns, in ``ArmParameters`` order.
-PLANT_COLUMNS = (
-    *(
-        f"{name}_{joint + 1}_{PARAMETER_UNITS[name]}"
-        for name in JOINT_PARAMETERS
-        for joint in (0, 1)
-    ),
-    f"payload_mass_{PARAMETER_UNITS['payload_mass']}",
-    "encoder_counts",
-)
 
-#: The identified lumped model's columns.
+def plant_columns(joints: int) -> tuple[str, ...]:
+    """The physical plant's columns, in ``ArmParameters`` order."""
+    return (
+        *(
+            f"{name}_{joint + 1}_{PARAMETER_UNITS[name]}"
+            for name in JOINT_PARAMETERS
+            for joint in range(joints)
+        ),
+        f"payload_mass_{PARAMETER_UNITS['payload_mass']}",
+        "encoder_counts",
+    )
+
+
+#: The identified lumped model's columns (a study of the theta nominal model).
 THETA_COLUMNS = (*(f"theta{i}" for i in range(1, 12)), "l1_m")
+
+
+def _theta_values(theta: dict[str, float]) -> dict[str, float]:
+    """``THETA_COLUMNS`` of a stored theta (empty for a URDF nominal model's study)."""
+    if not theta:
+        return {}
+    return {**{f"theta{i}": float(theta[f"theta{i}"]) for i in range(1, 12)}, "l1_m": theta["l1"]}
+
 
 #: The Assumption-1 ratio columns.
 RATIO_COLUMNS = tuple(f"{name}_ratio" for name in BOUND_NAMES)
@@ -75,7 +90,7 @@ def _plant_values(sample: dict[str, object]) -> dict[str, object]:
     values: dict[str, object] = {}
     for name in JOINT_PARAMETERS:
         per_joint = parameters.pop(name)
-        for joint in (0, 1):
+        for joint in range(len(per_joint)):
             values[f"{name}_{joint + 1}_{PARAMETER_UNITS[name]}"] = float(per_joint[joint])
     values[f"payload_mass_{PARAMETER_UNITS['payload_mass']}"] = float(
         parameters.pop("payload_mass")
@@ -95,20 +110,21 @@ def study_table(store: ResultStore | str | os.PathLike[str]) -> pd.DataFrame:
         with ResultStore.open_existing(store) as opened:
             return study_table(opened)
     samples = {row["sample"]: row for row in store.sample_rows()}
-    draws = list(store.study().draws)
+    study = store.study()
+    joints, draws = study_joints(study), list(study.draws)
+    metrics = metric_names(joints)
+    identified = any(sample["theta"] for sample in samples.values())
     rows = []
     for run in store.run_rows():
         sample = samples[run["sample"]]
-        theta = sample["theta"]
         rows.append(
             {
                 "sample": int(run["sample"]),
                 "controller": run["controller"],
                 "status": run["status"],
-                **{name: _number(run[column]) for column, name in METRIC_NAMES.items()},
+                **{name: _number(run[column]) for column, name in metrics.items()},
                 **_plant_values(sample),
-                **{f"theta{i}": float(theta[f"theta{i}"]) for i in range(1, 12)},
-                "l1_m": float(theta["l1"]),
+                **_theta_values(sample["theta"]),
                 **{f"{name}_ratio": float(sample["bound_ratios"][name]) for name in BOUND_NAMES},
                 "inside_bounds": bool(sample["inside_bounds"]),
                 RADIUS_COLUMN: _number(run[RADIUS_COLUMN]),
@@ -118,8 +134,9 @@ def study_table(store: ResultStore | str | os.PathLike[str]) -> pd.DataFrame:
             }
         )
     columns = [
-        "sample", "controller", "status", *METRIC_NAMES.values(), *PLANT_COLUMNS, *draws,
-        *THETA_COLUMNS, *RATIO_COLUMNS, "inside_bounds", RADIUS_COLUMN, "message",
+        "sample", "controller", "status", *metrics.values(), *plant_columns(joints), *draws,
+        *(THETA_COLUMNS if identified else ()), *RATIO_COLUMNS, "inside_bounds", RADIUS_COLUMN,
+        "message",
         "wall_time_s", "code_version",
     ]  # fmt: skip
     table = pd.DataFrame(rows, columns=columns)

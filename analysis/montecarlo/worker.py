@@ -23,26 +23,31 @@ from collections.abc import Sequence
 from dataclasses import asdict
 from pathlib import Path
 
+from pydrake.systems.framework import Context
+
 from posfb.analysis.metrics import RunMetrics, run_metrics
 from posfb.analysis.montecarlo.config import Study, study_from_text
-from posfb.analysis.montecarlo.coverage import coverage
-from posfb.analysis.montecarlo.records import METRIC_COLUMNS, ControllerRun, SampleResult
+from posfb.analysis.montecarlo.coverage import Coverage, coverage, serial_coverage
+from posfb.analysis.montecarlo.records import ControllerRun, SampleResult, metric_columns
 from posfb.analysis.montecarlo.sampling import SampledPlant, sample_plant, sample_scenario
 from posfb.diagrams.closed_loop import ClosedLoopResult, ClosedLoopRunner, SensorState
 from posfb.diagrams.resolve import LoadedScenario, resolve
 from posfb.diagrams.scenario import ParameterOverrides, Scenario, dump_scenario
 from posfb.models.controllers import cached_design
-from posfb.models.design import plant_spectral_radii
-from posfb.models.design.bounds import resolve_bounds
+from posfb.models.design import ControllerConfig, plant_spectral_radii
 from posfb.models.identify import identify
+from posfb.models.lumped import LumpedParameters
+from posfb.models.nominal import nominal_model
+from posfb.models.plant import arm_model
 
 
 def _metrics_dict(metrics: RunMetrics) -> dict[str, float | None]:
     values = (*metrics.rms_q, *metrics.rms_u, metrics.max_abs_q_err)
     values += (metrics.saturated_fraction, metrics.wall_time_s)
+    columns = metric_columns(len(metrics.rms_q))
     return {
         column: float(value) if math.isfinite(value) else None
-        for column, value in zip(METRIC_COLUMNS, values, strict=True)
+        for column, value in zip(columns, values, strict=True)
     }
 
 
@@ -117,10 +122,7 @@ class ClosedLoopEvaluator:
                 sensor, encoder_counts=(plant.encoder_counts,) * config.joints
             )
         context = self._reference.new_context(plant.parameters)
-        theta = identify(self._reference.arm, context)
-        design = config.design
-        where = coverage(theta, design.nominal, resolve_bounds(design.bounds, design.nominal))
-        radii = plant_spectral_radii(cached_design(design), theta)
+        theta, where, radii = self._place(config.design, context)
         parameters = {
             key: list(value) if isinstance(value, tuple) else value
             for key, value in asdict(plant.parameters).items()
@@ -135,12 +137,30 @@ class ClosedLoopEvaluator:
             index=index,
             parameters={**parameters, **drawn},
             encoder_counts=sensor.encoder_counts[0],
-            theta={key: float(value) for key, value in theta.as_dict().items()},
+            theta=theta,
             bound_ratios=where.ratios,
             inside_bounds=where.inside,
             runs=tuple(runs),
         )
         return sample, results
+
+    def _place(
+        self, design: ControllerConfig, context: Context
+    ) -> tuple[dict[str, float], Coverage, dict[str, float]]:
+        """The sampled plant in ``context`` against the design: its theta (Table 1's,
+        identified, for a theta nominal model; empty otherwise), where it lies against
+        the Assumption-1 bounds, and the sampled-data spectral radius of each designed
+        loop on its linear part."""
+        designed = cached_design(design)
+        bounds, arm = designed.bounds, self._reference.arm
+        if isinstance(design.nominal, LumpedParameters):
+            theta = identify(arm, context)
+            where = coverage(theta, design.nominal, bounds)
+            radii = plant_spectral_radii(designed, theta)
+            return {key: float(value) for key, value in theta.as_dict().items()}, where, radii
+        true = arm_model(arm, context)
+        where = serial_coverage(true, nominal_model(design.nominal), bounds)
+        return {}, where, plant_spectral_radii(designed, true)
 
     def _run(
         self,
