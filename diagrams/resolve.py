@@ -54,6 +54,7 @@ from posfb.models.nominal import NominalModel as NominalForm
 from posfb.models.nominal import UrdfNominal, joint_count
 from posfb.models.plant import (
     JOINT_PARAMETERS,
+    PAYLOAD_BODY,
     ArmParameters,
     PlantConfig,
 )
@@ -63,6 +64,7 @@ from posfb.models.trajectory import (
     Trajectory,
     WaveTrajectory,
 )
+from posfb.models.urdf_check import check_serial_urdf
 from posfb.models.validation import per_joint
 
 
@@ -308,6 +310,11 @@ def resolve(loaded: LoadedScenario) -> ResolvedScenario:
             simulator=scenario.timing.simulator,
         )
         # The payload and overrides are checked against ArmParameters' own rules.
+        if plant.payload_mass != 0.0 and PAYLOAD_BODY not in check_serial_urdf(urdf).links:
+            raise ValueError(
+                f"payload_mass = {plant.payload_mass!r} kg, but plant.urdf = {plant.urdf!r} "
+                f"has no link named {PAYLOAD_BODY!r} to carry it; 0 is required"
+            )
         overrides = _overrides(plant.parameters, joints)
         probe = ArmParameters(**{name: (1.0,) * joints for name in JOINT_PARAMETERS})
         replace(probe, **overrides, payload_mass=plant.payload_mass)

@@ -610,13 +610,15 @@ def _check_link2_inertia(arm: _Arm, bodies: list[_Body]) -> None:
 
 @dataclass(frozen=True)
 class SerialChain:
-    """A checked serial arm: its ``base`` link, the arm ``joints`` from the base to the tip
-    and, per joint, the Coulomb level (N m) and motor constant (N m/V) of its motor stage."""
+    """A checked serial arm: its ``base`` link, the arm ``joints`` from the base to the tip,
+    per joint the Coulomb level (N m) and motor constant (N m/V) of its motor stage, and
+    the names of all its ``links``."""
 
     base: str
     joints: tuple[str, ...]
     coulomb: tuple[float, ...]
     motor_constant: tuple[float, ...]
+    links: tuple[str, ...] = ()
 
 
 def check_serial_urdf(path: str | Path) -> SerialChain:
@@ -642,7 +644,9 @@ def check_serial_urdf(path: str | Path) -> SerialChain:
     except ValueError as error:
         raise ValueError(f"URDF {path}: {error}") from None
     coulomb, motor_constant = zip(*drives, strict=True)
-    return SerialChain(root, tuple(joint.name for joint in chain), coulomb, motor_constant)
+    return SerialChain(
+        root, tuple(joint.name for joint in chain), coulomb, motor_constant, tuple(links)
+    )
 
 
 def _serial_chain(

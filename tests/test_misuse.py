@@ -63,6 +63,10 @@ FILES = {
 }
 BINARY = bytes(range(256)) * 4
 
+SCENARIOS = Path(__file__).resolve().parent.parent / "analysis" / "scenarios"
+THREE_LINK = str(SCENARIOS / "three_link_nominal.yaml")
+SIX_JOINT = str(SCENARIOS / "six_joint_nominal.yaml")
+
 CASES = {
     # scenario keys and values (simulate)
     "unknown key": Case(("simulate", "--set", "timing.sampel_time=1"), "unknown key"),
@@ -100,6 +104,18 @@ CASES = {
     "CSV not numeric": Case(("simulate", "--scenario", "{tmp}/csv.yaml"), "non-numeric"),
     "CSV two columns": Case(
         ("simulate", "--scenario", "{tmp}/csv2.yaml"), "trajectory drives 1 joints; the nominal"
+    ),
+    "nominal and plant joints differ": Case(
+        ("simulate", "--set", "plant.urdf=package://posfb/six_joint_arm.urdf"),
+        "nominal_model has 2 joints",
+    ),
+    "two-joint list on three joints": Case(
+        ("simulate", "--scenario", THREE_LINK, "--set", "controller.lambdas=[10, 10]"),
+        "controller.lambdas = [10.0, 10.0]; one number for all joints or 3",
+    ),
+    "payload on an arm without a payload link": Case(
+        ("simulate", "--scenario", SIX_JOINT, "--set", "plant.payload_mass=0.2"),
+        "has no link named 'payload'",
     ),
     "CSV times backwards": Case(("simulate", "--scenario", "{tmp}/csv3.yaml"), "strictly incr"),
     "CSV missing": Case(("simulate", "--scenario", "{tmp}/csv4.yaml"), "does not exist"),
