@@ -138,6 +138,49 @@ def model_norms(model: SerialArmModel, samples: int = 64, seed: int = 0) -> dict
     )
 
 
+def _check_sizes(true: SerialArmModel, nominal: SerialArmModel) -> None:
+    if true.size != nominal.size:
+        raise ValueError(
+            f"the true arm has {true.size} joints and the nominal model {nominal.size}; "
+            "the same number is required"
+        )
+
+
+def _constants(
+    true: SerialArmModel, nominal: SerialArmModel, angles: np.ndarray, steps: int
+) -> dict[str, float]:
+    """The six constants, in ``BOUND_NAMES`` order, with the workspace maxima over
+    ``angles``."""
+    M0_true, M0_nominal = true.M0(), nominal.M0()
+    found = {
+        "delta_M0": float(np.linalg.norm(M0_nominal - M0_true, 2)),
+        "delta_B": float(np.linalg.norm(nominal.B() - true.B(), 2)),
+        "delta_F": float(np.linalg.norm(nominal.coulomb_levels() - true.coulomb_levels())),
+        **_workspace_maxima(
+            lambda q: (nominal.M(q) - M0_nominal) - (true.M(q) - M0_true),
+            lambda q: nominal.christoffel(q) - true.christoffel(q),
+            lambda q: nominal.G(q) - true.G(q),
+            angles,
+            steps,
+        ),
+    }
+    return {name: found[name] for name in BOUND_NAMES}
+
+
+def uncertainty_constants(
+    true: SerialArmModel,
+    nominal: SerialArmModel,
+    samples: int = 256,
+    seed: int = 0,
+    steps: int = SEARCH_STEPS,
+) -> dict[str, float]:
+    """Assumption 1's smallest constants for ``true`` against ``nominal`` from one
+    search over ``samples`` (a power of 2) workspace points, at most ``steps``
+    iterations of each local search (``uncertainty_norms`` without its check)."""
+    _check_sizes(true, nominal)
+    return _constants(true, nominal, _sobol_angles(true.size, samples, seed), steps)
+
+
 def uncertainty_norms(
     true: SerialArmModel,
     nominal: SerialArmModel,
@@ -147,30 +190,10 @@ def uncertainty_norms(
 ) -> SampledNorms:
     """Assumption 1's smallest constants for ``true`` against ``nominal`` (module
     docstring); ``samples`` (a power of 2) workspace points, at most ``steps``
-    iterations of each local search."""
-    if true.size != nominal.size:
-        raise ValueError(
-            f"the true arm has {true.size} joints and the nominal model {nominal.size}; "
-            "the same number is required"
-        )
-    exact = {
-        "delta_M0": float(np.linalg.norm(nominal.M0() - true.M0(), 2)),
-        "delta_B": float(np.linalg.norm(nominal.B() - true.B(), 2)),
-        "delta_F": float(np.linalg.norm(nominal.coulomb_levels() - true.coulomb_levels())),
-    }
+    iterations of each local search, and the same search on the first half of the
+    points as the convergence check."""
+    _check_sizes(true, nominal)
     angles = _sobol_angles(true.size, samples, seed)
-    M0_true, M0_nominal = true.M0(), nominal.M0()
-
-    def maxima(points: np.ndarray) -> dict[str, float]:
-        return _workspace_maxima(
-            lambda q: (nominal.M(q) - M0_nominal) - (true.M(q) - M0_true),
-            lambda q: nominal.christoffel(q) - true.christoffel(q),
-            lambda q: nominal.G(q) - true.G(q),
-            points,
-            steps,
-        )
-
-    fine = {**exact, **maxima(angles)}
-    coarse = {**exact, **maxima(angles[: samples // 2])}
-    order = {name: fine[name] for name in BOUND_NAMES}
-    return SampledNorms(order, {name: coarse[name] for name in BOUND_NAMES}, samples)
+    fine = _constants(true, nominal, angles, steps)
+    coarse = _constants(true, nominal, angles[: samples // 2], steps)
+    return SampledNorms(fine, coarse, samples)

@@ -27,7 +27,7 @@ law, not a parameter difference. The sample is *inside* when every ratio
 ``||dX|| / D_X`` is at most 1.
 
 For a study whose nominal model is a URDF's (any serial arm), the same constants
-come from ``models.serial_bounds.uncertainty_norms`` between the sampled plant's
+come from ``models.serial_bounds.uncertainty_constants`` between the sampled plant's
 model and the nominal one (``serial_coverage``): ``dM0``, ``dB``, ``dF`` exactly,
 ``dM1``, ``dC``, ``dG`` as maxima over ``COVERAGE_POINTS`` sampled joint angles
 refined by a short local search (``COVERAGE_SEARCH_STEPS``): lower bounds of the true
@@ -105,7 +105,7 @@ def serial_coverage(
     true: SerialArmModel, nominal: SerialArmModel, bounds: ResolvedBounds
 ) -> Coverage:
     """``coverage`` for serial-arm models (module docstring)."""
-    sampled = serial_bounds.uncertainty_norms(
+    norms = serial_bounds.uncertainty_constants(
         true, nominal, samples=COVERAGE_POINTS, steps=COVERAGE_SEARCH_STEPS
     )
-    return _coverage(sampled.norms, bounds)
+    return _coverage(norms, bounds)
