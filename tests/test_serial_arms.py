@@ -14,6 +14,8 @@ import pytest
 from pydrake.multibody.parsing import Parser
 from pydrake.multibody.plant import MultibodyPlant
 
+from posfb.analysis.export import run_table
+from posfb.analysis.plots import positions_and_voltages, tracking_errors
 from posfb.diagrams.resolve import load_scenario, run_scenario
 from posfb.models.controllers import CONTROLLER_KINDS
 from posfb.models.plant import (
@@ -129,3 +131,20 @@ def test_mismatched_sizes_are_refused_by_name(settings, needle):
     scenario = None if settings[0].startswith("plant.urdf") else THREE_LINK_SCENARIO
     with pytest.raises(ValueError, match=needle.replace("[", r"\[").replace("]", r"\]")):
         load_scenario(scenario, settings)
+
+
+def test_a_three_link_run_exports_and_plots_every_joint():
+    """A short three-link run: the export has one column per joint for every signal and
+    per-joint internal, and the run figures have one column of panels per joint."""
+    loaded = load_scenario(THREE_LINK_SCENARIO, ["timing.duration=0.2", "controller.kind=lin_lc"])
+    run = run_scenario(loaded)
+    table = run_table(run)
+    for j in range(1, 4):
+        for column in (f"q{j}_rad", f"q{j}_desired_rad", f"u{j}_applied_V", f"tau_lin_{j}_V"):
+            assert column in table, column
+    np.testing.assert_array_equal(table["q3_measured_rad"], run.q_measured[:, 2])
+    for figure in (
+        positions_and_voltages({"lin_lc": run}, "three"),
+        tracking_errors({"lin_lc": run}, "three"),
+    ):
+        assert len(figure.axes) == 2 * 3
