@@ -18,6 +18,10 @@ from posfb.analysis.export import run_table
 from posfb.analysis.plots import positions_and_voltages, tracking_errors
 from posfb.diagrams.resolve import load_scenario, run_scenario
 from posfb.models.controllers import CONTROLLER_KINDS
+from posfb.models.controllers.feedforward import nominal_torques
+from posfb.models.design import ControllerConfig, compute_design
+from posfb.models.identify import identify_urdf
+from posfb.models.nominal import UrdfNominal
 from posfb.models.plant import (
     DEFAULT_URDF,
     PlantConfig,
@@ -148,3 +152,28 @@ def test_a_three_link_run_exports_and_plots_every_joint():
         tracking_errors({"lin_lc": run}, "three"),
     ):
         assert len(figure.axes) == 2 * 3
+
+
+def test_the_urdf_nominal_model_of_the_paper_arm_equals_its_identified_theta():
+    """Two independent paths to the same nominal model of the shipped two-link arm:
+    Table 1's closed forms of the identified theta, and Drake's MultibodyPlant of the
+    URDF. Their torques (Eq. 4, 7, 18), designs and sampled-data radii agree."""
+    identified = identify_urdf(str(DEFAULT_URDF))
+    urdf = UrdfNominal(str(DEFAULT_URDF))
+    closed_form, drake = nominal_torques(identified), nominal_torques(urdf)
+    rng = np.random.default_rng(5)
+    for _ in range(20):
+        q, v, a = (rng.uniform(-3.0, 3.0, 2) for _ in range(3))
+        np.testing.assert_allclose(
+            drake.linearization(q, v, a), closed_form.linearization(q, v, a), rtol=1e-9, atol=1e-12
+        )
+        np.testing.assert_allclose(drake.desired(v, a), closed_form.desired(v, a), rtol=1e-9)
+        assert drake.M1_norm(q) == pytest.approx(closed_form.M1_norm(q), rel=1e-9, abs=1e-14)
+    ours, theirs = (
+        compute_design(ControllerConfig(nominal=urdf)),
+        compute_design(ControllerConfig(nominal=identified)),
+    )
+    assert ours.sampled_data_spectral_radius == pytest.approx(
+        theirs.sampled_data_spectral_radius, rel=1e-9
+    )
+    np.testing.assert_allclose(ours.K, theirs.K, rtol=1e-7, atol=1e-9)
