@@ -114,7 +114,8 @@ class ArmParameters:
     ``link_com`` is the distance of its centre of mass from the joint frame along
     the URDF's direction to it, ``link_inertia`` its central moment of inertia about
     the joint axis (the URDF's central inertia is scaled to it, keeping its shape;
-    for the shipped planar arm, a rod along x). ``rotor_inertia`` is the reflected
+    a planar arm's out-of-plane moments do not enter its dynamics, so the paper's
+    runs are unchanged by them). ``rotor_inertia`` is the reflected
     value (rotor inertia x gear ratio^2) seen at the joint. ``payload_mass`` is a
     point mass at the ``payload`` link, at most ``MAX_PAYLOAD_MASS``.
     """
