@@ -37,7 +37,7 @@ from posfb.diagrams.scenario import (
     Waypoints,
     apply_setting,
     resolve_path,
-    scenario_joints,
+    scenario_chain,
 )
 from posfb.diagrams.yaml_schema import load_typed, read_text
 from posfb.models.controllers import CONTROLLER_KINDS
@@ -64,7 +64,6 @@ from posfb.models.trajectory import (
     Trajectory,
     WaveTrajectory,
 )
-from posfb.models.urdf_check import check_serial_urdf
 from posfb.models.validation import per_joint
 
 
@@ -275,7 +274,8 @@ def resolve(loaded: LoadedScenario) -> ResolvedScenario:
         raise ValueError(
             f"controller.kind = {settings.kind!r}; one of {', '.join(CONTROLLER_KINDS)} is required"
         )
-    joints = scenario_joints(scenario, base)
+    chain = scenario_chain(scenario, base)
+    joints = len(chain.joints)
     try:
         nominal = make_nominal(scenario.nominal_model, base)
     except (ValueError, FileNotFoundError) as error:
@@ -310,7 +310,7 @@ def resolve(loaded: LoadedScenario) -> ResolvedScenario:
             simulator=scenario.timing.simulator,
         )
         # The payload and overrides are checked against ArmParameters' own rules.
-        if plant.payload_mass != 0.0 and PAYLOAD_BODY not in check_serial_urdf(urdf).links:
+        if plant.payload_mass != 0.0 and PAYLOAD_BODY not in chain.links:
             raise ValueError(
                 f"payload_mass = {plant.payload_mass!r} kg, but plant.urdf = {plant.urdf!r} "
                 f"has no link named {PAYLOAD_BODY!r} to carry it; 0 is required"

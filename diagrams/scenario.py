@@ -61,7 +61,7 @@ from posfb.models.plant import (
     PlantConfig,
 )
 from posfb.models.trajectory import PAPER_TRAJECTORY
-from posfb.models.urdf_check import check_serial_urdf
+from posfb.models.urdf_check import SerialChain, check_serial_urdf
 
 #: How a scenario names the arms shipped with posfb (``urdf/``): this prefix and the
 #: file name.
@@ -441,14 +441,19 @@ def get_setting(scenario: Scenario, key: str) -> object:
     return value[index] if index < len(value) else value[0]
 
 
-def scenario_joints(scenario: Scenario, base_dir: Path) -> int:
-    """``n``: the number of joints of the scenario's plant URDF (relative paths from
-    ``base_dir``)."""
+def scenario_chain(scenario: Scenario, base_dir: Path) -> SerialChain:
+    """The scenario's plant URDF, checked (relative paths from ``base_dir``); a bad file
+    is refused naming ``plant.urdf``."""
     urdf = resolve_path(scenario.plant.urdf, base_dir)
     try:
-        return len(check_serial_urdf(urdf).joints)
+        return check_serial_urdf(urdf)
     except (ValueError, FileNotFoundError) as error:
         raise ValueError(f"plant.urdf = {scenario.plant.urdf!r}: {error}") from None
+
+
+def scenario_joints(scenario: Scenario, base_dir: Path) -> int:
+    """``n``: the number of joints of the scenario's plant URDF."""
+    return len(scenario_chain(scenario, base_dir).joints)
 
 
 def apply_setting(scenario: Scenario, setting: str, base_dir: Path | None = None) -> Scenario:

@@ -12,8 +12,8 @@ joint count and for a model object with ``M0()``, ``M(q)``, ``B()``, ``G(q)``,
 
 from __future__ import annotations
 
+import threading
 from dataclasses import dataclass
-from functools import lru_cache
 from pathlib import Path
 
 from posfb.models.lumped import LumpedModel, LumpedParameters
@@ -52,17 +52,20 @@ def joint_count(nominal: NominalModel) -> int:
     return LUMPED_JOINTS
 
 
-@lru_cache(maxsize=8)
-def _serial_model(urdf: str) -> SerialArmModel:
-    return SerialArmModel(urdf)
+#: Each thread's ``SerialArmModel`` per nominal URDF (a model holds a Context, so
+#: threads, e.g. a Dask worker's, must not share one).
+_thread_models = threading.local()
 
 
 def nominal_model(nominal: NominalModel) -> LumpedModel | SerialArmModel:
-    """The model object of ``nominal``. A ``UrdfNominal``'s ``SerialArmModel`` is shared
-    per file within a process (it holds a Context: evaluate it from one thread)."""
-    if isinstance(nominal, UrdfNominal):
-        return _serial_model(nominal.urdf)
-    return LumpedModel(nominal)
+    """The model object of ``nominal``. A ``UrdfNominal``'s ``SerialArmModel`` is built
+    once per file and thread, and reused."""
+    if not isinstance(nominal, UrdfNominal):
+        return LumpedModel(nominal)
+    models = _thread_models.__dict__.setdefault("by_urdf", {})
+    if nominal.urdf not in models:
+        models[nominal.urdf] = SerialArmModel(nominal.urdf)
+    return models[nominal.urdf]
 
 
 def is_nominal_model(value: object) -> bool:
