@@ -10,8 +10,12 @@ table row:
 
 * **posfb s**: ``ClosedLoopRunner.run``'s ``wall_time_s``, best of ``--repeat`` (the
   diagram built once, as in ``bench_closed_loop.py``);
-* **NumPy s**: the same closed loop as a plain Python/NumPy loop (below), best of
-  ``--repeat``, and posfb's time over it;
+* **NumPy arrays s**: the same closed loop as a plain NumPy loop, the state, the RK4
+  stages and the plant in arrays (``LumpedModel``'s matrices, ``np.linalg.solve``: how
+  the loop of issue 11's premise was written), best of ``--repeat``, and its time over
+  posfb's (posfb's speed-up);
+* **NumPy scalar s**: the same loop with the plant written out in scalar ``math``
+  (below), best of ``--repeat``, and posfb's time over it;
 * **numba ms**: the same loop compiled with numba (controllers re-implemented, below), best
   of ``--repeat`` after one compiling call, and posfb's time over it; skipped with a line
   saying so when ``import numba`` fails (``pip install -e .[bench]``);
@@ -25,16 +29,23 @@ table row:
   on the arm's plant alone (inputs fixed) under a fixed-step explicit Euler Simulator, so
   it is all C++ (wall / evaluations); the callback floor is a trivial Python
   ``LeafSystem`` whose periodic update reads two input ports and writes its state output,
-  simulated alone for many periods (wall / updates).
+  simulated alone for many periods (wall / updates);
+* **arm floor s** = the same with posfb's whole arm (MultibodyPlant, the motor and
+  Coulomb ``SymbolicVectorSystem``s, mux and demux) in place of the bare plant, and
+  posfb s / arm floor s: what is left above it is the closed loop's own share (the
+  controller's Python beyond the callback floor, the encoder, the holds, saturation,
+  the logger, and RK3's error control and event bookkeeping per step).
 
-**The NumPy loop.** The plant is the lumped model of Sec. 4.1 with theta *identified from
+**The NumPy loops.** The plant is the lumped model of Sec. 4.1 with theta *identified from
 the shipped URDF* (``models.identify.identify_urdf``: it reproduces the MultibodyPlant's
 accelerations exactly, rotor inertia included) and the true plant's smooth Coulomb law
 ``theta_6|11 tanh(v / v_s)``, ``v_s = 0.01 rad/s``, in place of the model's ``sgn``
-(``LumpedModel.forward_dynamics`` has no smooth-friction option, so the right-hand side
-is written out here, in scalar ``math``: CPython's float arithmetic is several times
-faster than 2-element ndarrays). The script checks it against the Drake arm's own
-derivatives before timing. Per period: quantise (round to nearest count), call posfb's
+(``LumpedModel.forward_dynamics`` has no smooth-friction option). It is written twice:
+``array_rhs`` with ``LumpedModel``'s matrices and ``np.linalg.solve`` on 2-element
+arrays, and ``make_rhs`` written out in scalar ``math`` (CPython's float arithmetic is
+about 16x faster than 2-element ndarrays here). The script checks the scalar one against
+the Drake arm's own derivatives before timing, and prints how far the two loops' sampled
+positions drift apart (round-off). Per period: quantise (round to nearest count), call posfb's
 controller (``make_controller(kind)._start`` / ``._step``, the very Python methods the
 Drake diagram calls), saturate, hold the voltage, and take ``m`` fixed RK4 steps.
 
@@ -286,6 +297,60 @@ def numpy_loop(variant: Variant, m: int = STEPS_PER_PERIOD, counts: int | None =
             v2 += sixth * (a2 + 2.0 * (b2 + c2) + d2)
     wall = time.perf_counter() - start
     return LoopRun(wall, q_log, np.array([q1, q2, v1, v2]))
+
+
+def array_rhs(theta: LumpedParameters, v_s: float):
+    """``(q, v, u) -> qddot`` of the same true plant, written the way NumPy is usually
+    written: posfb's ``LumpedModel`` matrices and ``np.linalg.solve`` (2-element arrays)."""
+    model = LumpedModel(theta)
+    B, levels = model.B(), model.coulomb_levels()
+
+    def rhs(q: np.ndarray, v: np.ndarray, u: np.ndarray) -> np.ndarray:
+        force = u - model.C(q, v) @ v - model.G(q) - B @ v - levels * np.tanh(v / v_s)
+        return np.linalg.solve(model.M(q), force)
+
+    return rhs
+
+
+def numpy_array_loop(variant: Variant, m: int = STEPS_PER_PERIOD) -> LoopRun:
+    """``numpy_loop`` with the state, the RK4 stages and the plant in NumPy arrays
+    (``array_rhs``): the plain NumPy loop of issue 11's premise. Same controller calls,
+    quantiser, saturation and step."""
+    config = variant.config
+    rhs = array_rhs(variant.theta, config.plant.friction_velocity)
+    controller = make_controller(config.controller, config.design)
+    trajectory = config.trajectory
+    T = config.sample_time
+    h = T / m
+    steps = np.array([2.0 * math.pi / c if c else 0.0 for c in config.encoder_counts])
+    quantised = steps > 0.0
+    limit = np.array(config.voltage_limit)
+    updates = variant.updates
+    q_log = np.empty((updates, 2))
+    q = trajectory.evaluate(0.0)[0].astype(float)
+    v = np.zeros(2)
+    memory = None
+    start = time.perf_counter()
+    for k in range(updates):
+        q_log[k] = q
+        measured = np.where(quantised, steps * np.round(q / np.where(quantised, steps, 1.0)), q)
+        desired = np.concatenate(trajectory.evaluate(k * T))
+        if memory is None:
+            memory = controller._start(measured, desired)
+        voltage, _ = controller._step(measured, desired, memory)
+        u = np.clip(voltage, -limit, limit)
+        for _ in range(m):
+            a = rhs(q, v, u)
+            w = v + 0.5 * h * a
+            b = rhs(q + 0.5 * h * v, w, u)
+            x = v + 0.5 * h * b
+            c = rhs(q + 0.5 * h * w, x, u)
+            y = v + h * c
+            d = rhs(q + h * x, y, u)
+            q = q + h / 6.0 * (v + 2.0 * (w + x) + y)
+            v = v + h / 6.0 * (a + 2.0 * (b + c) + d)
+    wall = time.perf_counter() - start
+    return LoopRun(wall, q_log, np.concatenate([q, v]))
 
 
 def rk4_step_limit(variant: Variant) -> float:
@@ -703,10 +768,11 @@ def main() -> None:
         checks = ", ".join(f"{v.label} {halving_difference(v, m):.1e}" for v in variants)
         print(f"|q(20.01 s; h) - q(20.01 s; h/2)| (rad, ideal encoder): {checks}")
     cost = plant_cost(first)
+    whole_arm = arm_cost(first)
     floor = callback_floor(T)
     print(
         f"MultibodyPlant alone: {cost * 1e6:.2f} us per derivative evaluation "
-        f"(posfb's arm with motor and friction blocks: {arm_cost(first) * 1e6:.2f} us); "
+        f"(posfb's arm with motor and friction blocks: {whole_arm * 1e6:.2f} us); "
         f"Python callback floor: {floor * 1e6:.2f} us per update"
     )
     bound = None
@@ -716,16 +782,20 @@ def main() -> None:
         bound = NumbaBound()
     print(f"\n20 s closed loop, nominal arm, best of {args.repeat}\n")
     print(
-        "| controller | posfb s | NumPy s | posfb / NumPy | numba ms | posfb / numba | "
-        "evals | steps | us/eval | us/update | floor s | posfb / floor |"
+        "| controller | posfb s | NumPy arrays s | arrays / posfb | NumPy scalar s | "
+        "posfb / scalar | numba ms | posfb / numba | evals | steps | us/eval | us/update | "
+        "floor s | posfb / floor | arm floor s | posfb / arm floor |"
     )
-    print("|---|" + "---:|" * 11, flush=True)
+    print("|---|" + "---:|" * 15, flush=True)
     accuracy = []
     for variant in variants:
         posfb = posfb_run(variant, args.repeat)
         loops = [numpy_loop(variant, m) for _ in range(args.repeat)]
         numpy_wall = min(loop.wall_s for loop in loops)
         numpy_rms = loops[0].rms(variant)
+        arrays = [numpy_array_loop(variant, m) for _ in range(args.repeat)]
+        arrays_wall = min(loop.wall_s for loop in arrays)
+        array_gap = float(np.max(np.abs(arrays[0].q - loops[0].q)))
         compiled = ("skipped", "-")
         compiled_rms = agreement = "-"
         if bound is not None:
@@ -735,25 +805,29 @@ def main() -> None:
             agreement = f"{np.max(np.abs(run.q - loops[0].q)):.1e}"
         updates = variant.updates
         drake_floor = posfb.evaluations * cost + updates * floor
+        arm_floor = posfb.evaluations * whole_arm + updates * floor
         print(
-            f"| {variant.label} | {posfb.wall_s:.3f} | {numpy_wall:.3f} | "
+            f"| {variant.label} | {posfb.wall_s:.3f} | {arrays_wall:.2f} | "
+            f"{arrays_wall / posfb.wall_s:.1f} | {numpy_wall:.3f} | "
             f"{posfb.wall_s / numpy_wall:.2f} | {compiled[0]} | {compiled[1]} | "
             f"{posfb.evaluations} | {posfb.steps} | "
             f"{posfb.wall_s / posfb.evaluations * 1e6:.1f} | "
             f"{posfb.wall_s / updates * 1e6:.0f} | {drake_floor:.3f} | "
-            f"{posfb.wall_s / drake_floor:.1f} |",
+            f"{posfb.wall_s / drake_floor:.1f} | {arm_floor:.3f} | "
+            f"{posfb.wall_s / arm_floor:.1f} |",
             flush=True,
         )
         accuracy.append(
             f"| {variant.label} | {_pair(posfb.rms)} | {_pair(numpy_rms)} | "
-            f"{_percent(numpy_rms, posfb.rms)} | {compiled_rms} | {agreement} |"
+            f"{_percent(numpy_rms, posfb.rms)} | {array_gap:.1e} | {compiled_rms} | "
+            f"{agreement} |"
         )
     print("\nRMS(q~) over k = 1..N0 (rad, joint 1, joint 2)\n")
     print(
-        "| controller | posfb | NumPy loop | NumPy vs posfb | numba | "
-        "max abs(q_numba - q_NumPy) rad |"
+        "| controller | posfb | NumPy scalar loop | scalar vs posfb | "
+        "max abs(q_arrays - q_scalar) rad | numba | max abs(q_numba - q_scalar) rad |"
     )
-    print("|---|---|---|---|---|---:|")
+    print("|---|---|---|---|---:|---|---:|")
     print("\n".join(accuracy))
 
 

@@ -58,8 +58,8 @@ class SampledController(LeafSystem):
         self.internals_names = internals
         self._q_port = self.DeclareVectorInputPort("q_measured", joints)
         self._desired_port = self.DeclareVectorInputPort("desired", 3 * joints)
-        self._memory = self.DeclareDiscreteState(memory_size)
-        self._phase = self.DeclareDiscreteState(1)
+        # One state group, [memory, phase]: one read and one write per sample.
+        self._state = self.DeclareDiscreteState(memory_size + 1)
         self._voltage_end = joints
         self._internals_end = joints + len(internals)
         self._step_cache = self.DeclareCacheEntry(
@@ -78,12 +78,13 @@ class SampledController(LeafSystem):
     def _calc_step(self, context: Context, value: AbstractValue) -> None:
         q = self._q_port.Eval(context)
         desired = self._desired_port.Eval(context)
-        if context.get_discrete_state(self._phase).GetAtIndex(0) < 2.0:
-            memory = self._start(q, desired)
-        else:
-            memory = context.get_discrete_state(self._memory).CopyToVector()
+        state = context.get_discrete_state(self._state).value()
+        memory = self._start(q, desired) if state[-1] < 2.0 else state[:-1].copy()
         voltage, internals = self._step(q, desired, memory)
-        value.set_value(np.concatenate([voltage, internals, memory]))
+        step = value.get_mutable_value()
+        step[: self._voltage_end] = voltage
+        step[self._voltage_end : self._internals_end] = internals
+        step[self._internals_end :] = memory
 
     def _calc_voltage(self, context: Context, output: BasicVector) -> None:
         output.SetFromVector(self._step_cache.Eval(context)[: self._voltage_end])
@@ -93,13 +94,12 @@ class SampledController(LeafSystem):
         output.SetFromVector(step[self._voltage_end : self._internals_end])
 
     def _update(self, context: Context, discrete_state: DiscreteValues) -> None:
-        phase = context.get_discrete_state(self._phase).GetAtIndex(0)
-        if phase == 0.0:  # t_0: the holds take the first sample now; nothing to step
-            discrete_state.get_mutable_vector(self._phase).SetAtIndex(0, 1.0)
+        state = discrete_state.get_mutable_vector(self._state).get_mutable_value()
+        if state[-1] == 0.0:  # t_0: the holds take the first sample now; nothing to step
+            state[-1] = 1.0
             return
-        step = self._step_cache.Eval(context)
-        discrete_state.get_mutable_vector(self._memory).SetFromVector(step[self._internals_end :])
-        discrete_state.get_mutable_vector(self._phase).SetAtIndex(0, 2.0)
+        state[:-1] = self._step_cache.Eval(context)[self._internals_end :]
+        state[-1] = 2.0
 
     def split_desired(self, desired: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """``(q_d, qdot_d, qddot_d)`` of the stacked desired input."""
