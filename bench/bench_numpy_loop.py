@@ -34,7 +34,12 @@ table row:
   Coulomb ``SymbolicVectorSystem``s, mux and demux) in place of the bare plant, and
   posfb s / arm floor s: what is left above it is the closed loop's own share (the
   controller's Python beyond the callback floor, the encoder, the holds, saturation,
-  the logger, and RK3's error control and event bookkeeping per step).
+  the logger, and RK3's error control and event bookkeeping per step);
+* **C++ arm bound / floor**: ``evals x`` (the all-C++ ``MultilayerPerceptron`` arm's
+  cost, ``mlp_arm_cost``) ``+ updates x`` (the callback floor), over the Drake floor: the
+  least a run could cost with that arm, a free controller, encoder and integrator.
+  Above 1.3, issue 11's "within 1.3x of the Drake floor" is out of reach at posfb's
+  evaluation count.
 
 **The NumPy loops.** The plant is the lumped model of Sec. 4.1 with theta *identified from
 the shipped URDF* (``models.identify.identify_urdf``: it reproduces the MultibodyPlant's
@@ -101,7 +106,12 @@ from pydrake.multibody.parsing import Parser
 from pydrake.multibody.plant import MultibodyPlant
 from pydrake.systems.analysis import ApplySimulatorConfig, Simulator, SimulatorConfig
 from pydrake.systems.framework import DiagramBuilder, LeafSystem
-from pydrake.systems.primitives import ConstantVectorSource
+from pydrake.systems.primitives import (
+    ConstantVectorSource,
+    Demultiplexer,
+    MultilayerPerceptron,
+    PerceptronActivationType,
+)
 
 from posfb.analysis.metrics import run_metrics
 from posfb.diagrams.closed_loop import ClosedLoopConfig, ClosedLoopRunner
@@ -680,6 +690,46 @@ def arm_cost(variant: Variant, duration: float = 2.0, step: float = 1e-4) -> flo
     return _cost_per_evaluation(diagram, context, duration, step)
 
 
+def mlp_arm_cost(variant: Variant, duration: float = 2.0, step: float = 1e-4) -> float:
+    """The same for the cheapest all-C++ arm with per-Context parameters that Drake
+    offers: the bare plant, ``tau = kappa u`` and ``-f_c tanh(v / v_s)`` as
+    ``MultilayerPerceptron``s (no energy states). Not posfb's arm: it computes
+    ``v (1 / v_s)`` where posfb computes ``v / v_s``; it only bounds what replacing the
+    symbolic blocks could gain."""
+    config = variant.config
+    parameters = build_arm_diagram(config.plant)[1].default_parameters
+    builder = DiagramBuilder()
+    plant = builder.AddSystem(MultibodyPlant(0.0))
+    Parser(plant).AddModels(config.plant.urdf)
+    plant.WeldFrames(plant.world_frame(), plant.GetFrameByName("base"), RigidTransform())
+    plant.Finalize()
+    n = plant.num_velocities()
+    identity, tanh = PerceptronActivationType.kIdentity, PerceptronActivationType.kTanh
+    motor = builder.AddSystem(MultilayerPerceptron([n, n], identity))
+    friction = builder.AddSystem(MultilayerPerceptron([n, n, n], [tanh, identity]))
+    split = builder.AddSystem(Demultiplexer([n, n]))
+    builder.Connect(plant.get_state_output_port(), split.get_input_port(0))
+    builder.Connect(split.get_output_port(1), friction.get_input_port())
+    builder.Connect(friction.get_output_port(), plant.get_applied_generalized_force_input_port())
+    builder.Connect(motor.get_output_port(), plant.get_actuation_input_port())
+    builder.ExportInput(motor.get_input_port(), "voltage")
+    diagram = builder.Build()
+    context = diagram.CreateDefaultContext()
+    motor_context = motor.GetMyMutableContextFromRoot(context)
+    motor.SetWeights(motor_context, 0, np.diag(parameters.motor_constant))
+    motor.SetBiases(motor_context, 0, np.zeros(n))
+    friction_context = friction.GetMyMutableContextFromRoot(context)
+    friction.SetWeights(friction_context, 0, np.eye(n) / config.plant.friction_velocity)
+    friction.SetBiases(friction_context, 0, np.zeros(n))
+    friction.SetWeights(friction_context, 1, -np.diag(parameters.coulomb))
+    friction.SetBiases(friction_context, 1, np.zeros(n))
+    diagram.get_input_port(0).FixValue(context, np.zeros(n))
+    plant.SetPositions(
+        plant.GetMyMutableContextFromRoot(context), config.trajectory.evaluate(0.0)[0]
+    )
+    return _cost_per_evaluation(diagram, context, duration, step)
+
+
 def _cost_per_evaluation(system, context, duration: float, step: float) -> float:
     best = math.inf
     for _ in range(3):
@@ -769,10 +819,12 @@ def main() -> None:
         print(f"|q(20.01 s; h) - q(20.01 s; h/2)| (rad, ideal encoder): {checks}")
     cost = plant_cost(first)
     whole_arm = arm_cost(first)
+    mlp_arm = mlp_arm_cost(first)
     floor = callback_floor(T)
     print(
         f"MultibodyPlant alone: {cost * 1e6:.2f} us per derivative evaluation "
-        f"(posfb's arm with motor and friction blocks: {whole_arm * 1e6:.2f} us); "
+        f"(posfb's arm with motor and friction blocks: {whole_arm * 1e6:.2f} us; all-C++ "
+        f"MultilayerPerceptron arm: {mlp_arm * 1e6:.2f} us); "
         f"Python callback floor: {floor * 1e6:.2f} us per update"
     )
     bound = None
@@ -784,9 +836,9 @@ def main() -> None:
     print(
         "| controller | posfb s | NumPy arrays s | arrays / posfb | NumPy scalar s | "
         "posfb / scalar | numba ms | posfb / numba | evals | steps | us/eval | us/update | "
-        "floor s | posfb / floor | arm floor s | posfb / arm floor |"
+        "floor s | posfb / floor | arm floor s | posfb / arm floor | C++ arm bound / floor |"
     )
-    print("|---|" + "---:|" * 15, flush=True)
+    print("|---|" + "---:|" * 16, flush=True)
     accuracy = []
     for variant in variants:
         posfb = posfb_run(variant, args.repeat)
@@ -806,6 +858,7 @@ def main() -> None:
         updates = variant.updates
         drake_floor = posfb.evaluations * cost + updates * floor
         arm_floor = posfb.evaluations * whole_arm + updates * floor
+        mlp_floor = posfb.evaluations * mlp_arm + updates * floor
         print(
             f"| {variant.label} | {posfb.wall_s:.3f} | {arrays_wall:.2f} | "
             f"{arrays_wall / posfb.wall_s:.1f} | {numpy_wall:.3f} | "
@@ -814,7 +867,7 @@ def main() -> None:
             f"{posfb.wall_s / posfb.evaluations * 1e6:.1f} | "
             f"{posfb.wall_s / updates * 1e6:.0f} | {drake_floor:.3f} | "
             f"{posfb.wall_s / drake_floor:.1f} | {arm_floor:.3f} | "
-            f"{posfb.wall_s / arm_floor:.1f} |",
+            f"{posfb.wall_s / arm_floor:.1f} | {mlp_floor / drake_floor:.2f} |",
             flush=True,
         )
         accuracy.append(
