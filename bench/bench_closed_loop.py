@@ -1,6 +1,6 @@
 """Simulated seconds per wall second of one closed-loop run, per controller.
 
-    .venv/bin/python bench/bench_closed_loop.py [--duration 20] [--repeat 5] [--arms]
+    .venv/bin/python bench/bench_closed_loop.py [--duration 20] [--repeat 5] [--arms | --blocks]
 
 The shipped paper scenarios (``analysis/scenarios/paper_*.yaml``: T_s = 0.01 s,
 RK3 at accuracy 3e-3, 20000-count encoder) on the nominal and the payload arm,
@@ -17,6 +17,11 @@ included, computed once per process), the best run, the integrator's steps and
 derivative evaluations, and wall microseconds per evaluation. The arms differ in
 trajectory, gains and stiffness: a row is what a user of that arm pays, not the
 same motion on more joints.
+
+``--blocks``: the paper's cases with each implementation of the motor and friction
+blocks (``plant.motor_friction_blocks``, ``models.drive``): best wall time, derivative
+evaluations and RMS(q~) of each, the speed-up, and the largest RMS difference,
+absolute (rad) and relative, of ``perceptron`` from ``symbolic``.
 """
 
 from __future__ import annotations
@@ -26,10 +31,14 @@ import statistics
 import time
 from pathlib import Path
 
+import numpy as np
+
 from posfb.analysis.experiment import case_scenario
+from posfb.analysis.metrics import run_metrics
 from posfb.diagrams.closed_loop import ClosedLoopResult, ClosedLoopRunner
 from posfb.diagrams.resolve import LoadedScenario, load_scenario, resolve
 from posfb.models.controllers import CONTROLLER_KINDS
+from posfb.models.drive import MOTOR_FRICTION_BLOCKS
 
 SCENARIOS = Path(__file__).resolve().parent.parent / "analysis" / "scenarios"
 
@@ -86,13 +95,46 @@ def arms(duration: float, repeat: int) -> None:
             )
 
 
+def blocks(duration: float, repeat: int) -> None:
+    symbolic, perceptron = MOTOR_FRICTION_BLOCKS
+    print(f"{duration:g} s runs, best of {repeat}: {symbolic} against {perceptron}")
+    print(
+        f"| controller | case | {symbolic} s | {perceptron} s | speed-up | evaluations | "
+        f"RMS q~ {symbolic} (rad) | RMS q~ {perceptron} (rad) | max abs diff (rad) | "
+        "max rel diff |"
+    )
+    print("|---|---|---:|---:|---:|---|---|---|---:|---:|")
+    for label, settings in VARIANTS:
+        for case in ("nominal", "payload"):
+            best = {}
+            for kind in MOTOR_FRICTION_BLOCKS:
+                extra = (f"timing.duration={duration}", f"plant.motor_friction_blocks={kind}")
+                _, runs = timed_runs(case_scenario(case, (*settings, *extra)), repeat)
+                best[kind] = min(runs, key=lambda run: run.wall_time_s)
+            rms = {kind: np.array(run_metrics(run).rms_q) for kind, run in best.items()}
+            difference = np.abs(rms[perceptron] - rms[symbolic])
+            print(
+                f"| {label} | {case} | {best[symbolic].wall_time_s:.3f} | "
+                f"{best[perceptron].wall_time_s:.3f} | "
+                f"{best[symbolic].wall_time_s / best[perceptron].wall_time_s:.2f} | "
+                f"{best[symbolic].derivative_evaluations} / "
+                f"{best[perceptron].derivative_evaluations} | "
+                + " | ".join(", ".join(f"{x:.6g}" for x in rms[kind]) for kind in rms)
+                + f" | {difference.max():.1e} | {(difference / rms[symbolic]).max():.1e} |",
+                flush=True,
+            )
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--duration", type=float, default=20.0)
     parser.add_argument("--repeat", type=int, default=5)
-    parser.add_argument("--arms", action="store_true", help="cost against the number of joints")
+    mode = parser.add_mutually_exclusive_group()
+    mode.add_argument("--arms", action="store_true", help="cost against the number of joints")
+    mode.add_argument("--blocks", action="store_true", help="symbolic against perceptron blocks")
     args = parser.parse_args()
-    (arms if args.arms else paper_cases)(args.duration, args.repeat)
+    run = arms if args.arms else blocks if args.blocks else paper_cases
+    run(args.duration, args.repeat)
 
 
 if __name__ == "__main__":

@@ -36,8 +36,9 @@ table row:
   controller's Python beyond the callback floor, the encoder, the holds, saturation,
   the logger, and RK3's error control and event bookkeeping per step);
 * **C++ arm bound / floor**: ``evals x`` (the all-C++ ``MultilayerPerceptron`` arm's
-  cost, ``mlp_arm_cost``) ``+ updates x`` (the callback floor), over the Drake floor: the
-  least a run could cost with that arm, a free controller, encoder and integrator.
+  cost, ``mlp_arm_cost``: ``plant.motor_friction_blocks = perceptron``) ``+ updates x``
+  (the callback floor), over the Drake floor: the least a run could cost with that
+  arm, a free controller, encoder and integrator.
   Above 1.3, issue 11's "within 1.3x of the Drake floor" is out of reach at posfb's
   evaluation count.
 
@@ -98,7 +99,7 @@ from __future__ import annotations
 import argparse
 import math
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 from pydrake.math import RigidTransform
@@ -106,12 +107,7 @@ from pydrake.multibody.parsing import Parser
 from pydrake.multibody.plant import MultibodyPlant
 from pydrake.systems.analysis import ApplySimulatorConfig, Simulator, SimulatorConfig
 from pydrake.systems.framework import DiagramBuilder, LeafSystem
-from pydrake.systems.primitives import (
-    ConstantVectorSource,
-    Demultiplexer,
-    MultilayerPerceptron,
-    PerceptronActivationType,
-)
+from pydrake.systems.primitives import ConstantVectorSource
 
 from posfb.analysis.metrics import run_metrics
 from posfb.diagrams.closed_loop import ClosedLoopConfig, ClosedLoopRunner
@@ -691,41 +687,15 @@ def arm_cost(variant: Variant, duration: float = 2.0, step: float = 1e-4) -> flo
 
 
 def mlp_arm_cost(variant: Variant, duration: float = 2.0, step: float = 1e-4) -> float:
-    """The same for the cheapest all-C++ arm with per-Context parameters that Drake
-    offers: the bare plant, ``tau = kappa u`` and ``-f_c tanh(v / v_s)`` as
-    ``MultilayerPerceptron``s (no energy states). Not posfb's arm: it computes
-    ``v (1 / v_s)`` where posfb computes ``v / v_s``; it only bounds what replacing the
-    symbolic blocks could gain."""
-    config = variant.config
-    parameters = build_arm_diagram(config.plant)[1].default_parameters
-    builder = DiagramBuilder()
-    plant = builder.AddSystem(MultibodyPlant(0.0))
-    Parser(plant).AddModels(config.plant.urdf)
-    plant.WeldFrames(plant.world_frame(), plant.GetFrameByName("base"), RigidTransform())
-    plant.Finalize()
-    n = plant.num_velocities()
-    identity, tanh = PerceptronActivationType.kIdentity, PerceptronActivationType.kTanh
-    motor = builder.AddSystem(MultilayerPerceptron([n, n], identity))
-    friction = builder.AddSystem(MultilayerPerceptron([n, n, n], [tanh, identity]))
-    split = builder.AddSystem(Demultiplexer([n, n]))
-    builder.Connect(plant.get_state_output_port(), split.get_input_port(0))
-    builder.Connect(split.get_output_port(1), friction.get_input_port())
-    builder.Connect(friction.get_output_port(), plant.get_applied_generalized_force_input_port())
-    builder.Connect(motor.get_output_port(), plant.get_actuation_input_port())
-    builder.ExportInput(motor.get_input_port(), "voltage")
-    diagram = builder.Build()
-    context = diagram.CreateDefaultContext()
-    motor_context = motor.GetMyMutableContextFromRoot(context)
-    motor.SetWeights(motor_context, 0, np.diag(parameters.motor_constant))
-    motor.SetBiases(motor_context, 0, np.zeros(n))
-    friction_context = friction.GetMyMutableContextFromRoot(context)
-    friction.SetWeights(friction_context, 0, np.eye(n) / config.plant.friction_velocity)
-    friction.SetBiases(friction_context, 0, np.zeros(n))
-    friction.SetWeights(friction_context, 1, -np.diag(parameters.coulomb))
-    friction.SetBiases(friction_context, 1, np.zeros(n))
-    diagram.get_input_port(0).FixValue(context, np.zeros(n))
+    """The same for the arm with ``plant.motor_friction_blocks = perceptron``
+    (``models.drive``: the cheapest all-C++ motor and friction with per-Context
+    parameters that Drake offers)."""
+    config = replace(variant.config.plant, motor_friction_blocks="perceptron")
+    diagram, arm, context = build_arm_diagram(config)
+    diagram.get_input_port(0).FixValue(context, np.zeros(arm.size))
+    plant = arm.plant
     plant.SetPositions(
-        plant.GetMyMutableContextFromRoot(context), config.trajectory.evaluate(0.0)[0]
+        plant.GetMyMutableContextFromRoot(context), variant.config.trajectory.evaluate(0.0)[0]
     )
     return _cost_per_evaluation(diagram, context, duration, step)
 

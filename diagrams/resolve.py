@@ -125,6 +125,7 @@ _SECTIONS = {
     "controller": "controller.kind",
     "payload_mass": "plant",
     "friction_velocity": "plant",
+    "motor_friction_blocks": "plant",
 }
 
 
@@ -293,7 +294,11 @@ def resolve(loaded: LoadedScenario) -> ResolvedScenario:
     plant = scenario.plant
     urdf = resolve_path(plant.urdf, base)
     try:
-        plant_config = PlantConfig(urdf=str(urdf), friction_velocity=plant.friction_velocity)
+        plant_config = PlantConfig(
+            urdf=str(urdf),
+            friction_velocity=plant.friction_velocity,
+            motor_friction_blocks=plant.motor_friction_blocks,
+        )
         config = ClosedLoopConfig(
             controller=settings.kind,
             design=design,

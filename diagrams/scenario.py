@@ -7,7 +7,8 @@ it omits keeps the paper's value, and each default is read from the one place
 the code defines it (``ControllerConfig``, ``ClosedLoopConfig``, ``PlantConfig``,
 ``LumpedParameters``, ``models.trajectory.PAPER_TRAJECTORY``)::
 
-    plant:          URDF, tip payload, physical parameter overrides (Monte-Carlo names)
+    plant:          URDF, tip payload, friction smoothing, motor/friction blocks,
+                    physical parameter overrides (Monte-Carlo names)
     nominal_model:  what the controllers believe: !Table1 {}, !IdentifiedFromUrdf, !Theta,
                     !UrdfModel (any serial arm, computed by Drake)
     trajectory:     !Wave {joints: [...]}, !Waypoints {times, positions}, !CsvFile {path}
@@ -117,11 +118,16 @@ class ParameterOverrides:
 @dataclass
 class PlantSettings:
     """The true arm: its URDF, a point payload (kg) at the link-2 tip, the Coulomb
-    smoothing velocity (rad/s, ``models.plant``) and parameter overrides."""
+    smoothing velocity (rad/s, ``models.plant``), the implementation of the motor and
+    friction blocks (``symbolic`` or ``perceptron``, ``models.drive``) and parameter
+    overrides."""
 
     urdf: str = SHIPPED_URDF
     payload_mass: float = field(default_factory=_default(ArmParameters, "payload_mass"))
     friction_velocity: float = field(default_factory=_default(PlantConfig, "friction_velocity"))
+    motor_friction_blocks: str = field(
+        default_factory=_default(PlantConfig, "motor_friction_blocks")
+    )
     parameters: ParameterOverrides = field(default_factory=ParameterOverrides)
 
 

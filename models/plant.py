@@ -6,9 +6,11 @@ Signal path (all C++ systems, no Python in the integrator's inner loop)::
     voltage u (V) --> [motor: tau = kappa * u] --> plant actuation (N m)
     plant velocity v --> [coulomb: -f_c tanh(v / v_s)] --> plant applied generalized force
 
-The motor and friction blocks each carry one state that integrates energy
-(work delivered by the motors, energy dissipated by friction), which the
-energy-balance tests and reports read.
+The motor and friction blocks are ``models.drive``'s: ``SymbolicVectorSystem``s by
+default, each with one state that integrates energy (work delivered by the motors,
+energy dissipated by friction, which the energy-balance tests read), or, with
+``PlantConfig.motor_friction_blocks = "perceptron"``, faster ``MultilayerPerceptron``s
+without energy states.
 
 Coulomb friction ``f_c sgn(v)`` is regularised as ``f_c tanh(v / v_s)`` with
 the smoothing velocity ``v_s`` (``PlantConfig.friction_velocity``, default
@@ -34,8 +36,6 @@ and rotor inertias, can change per Context without rebuilding
 
 from __future__ import annotations
 
-import functools
-import operator
 from dataclasses import dataclass, fields, replace
 from pathlib import Path
 
@@ -51,10 +51,10 @@ from pydrake.multibody.tree import (
     SpatialInertia,
     UnitInertia,
 )
-from pydrake.symbolic import Variable, tanh
 from pydrake.systems.framework import Context, Diagram, DiagramBuilder
-from pydrake.systems.primitives import Demultiplexer, Multiplexer, SymbolicVectorSystem
+from pydrake.systems.primitives import Demultiplexer
 
+from posfb.models.drive import MotorFriction, add_motor_friction, require_blocks
 from posfb.models.serial_model import SerialArmModel
 from posfb.models.urdf_check import SerialChain, check_serial_urdf
 from posfb.models.validation import require_finite, require_nonnegative, require_positive
@@ -73,15 +73,21 @@ class PlantConfig:
     ``time_step = 0`` gives a continuous plant (the default: Coulomb friction
     is then evaluated at every integrator stage); ``time_step > 0`` gives a
     discrete one (keep it <= 1 ms where friction matters, docs/drake-notes.md).
+    ``motor_friction_blocks`` picks the C++ blocks of the motor stage and the Coulomb
+    friction (``models.drive``): ``"symbolic"`` (the default; energy states, NaN
+    parameter defaults) or ``"perceptron"`` (15-20 % faster runs, no energy states,
+    results that differ by round-off and its growth).
     """
 
     urdf: str = str(DEFAULT_URDF)
     time_step: float = 0.0
     friction_velocity: float = 1e-2
+    motor_friction_blocks: str = "symbolic"
 
     def __post_init__(self) -> None:
         require_nonnegative("time_step", self.time_step)
         require_positive("friction_velocity", self.friction_velocity)
+        require_blocks(self.motor_friction_blocks)
 
 
 #: The heaviest tip payload accepted (kg). An absolute cap, not a multiple of
@@ -211,9 +217,7 @@ class Arm:
     ``layout`` and the URDF's parameters."""
 
     plant: MultibodyPlant
-    motor: SymbolicVectorSystem
-    motor_input: Multiplexer
-    coulomb: SymbolicVectorSystem
+    motor_friction: MotorFriction
     state_split: Demultiplexer
     config: PlantConfig
     layout: ArmLayout
@@ -226,7 +230,7 @@ class Arm:
 
     def voltage_input_port(self):
         """Motor voltages ``u`` (V), size n."""
-        return self.motor_input.get_input_port(0)
+        return self.motor_friction.voltage_input_port()
 
     def position_output_port(self):
         """True joint positions ``q`` (rad), size n."""
@@ -301,65 +305,18 @@ def _payload(plant: MultibodyPlant, last_link: str) -> str | None:
     return PAYLOAD_BODY
 
 
-def _sum(terms: list) -> object:
-    return functools.reduce(operator.add, terms)
-
-
-def _make_motor(joints: int, actuator_order: list[int]) -> SymbolicVectorSystem:
-    """``tau_j = kappa_j u_j`` with the motor constants as numeric parameters, output
-    in the plant's actuator order (``actuator_order[i]``: the joint of actuator ``i``).
-
-    Input ``[u_1..u_n, v_1..v_n]``; its state integrates the mechanical work the
-    motors deliver, ``W = sum_j tau_j v_j`` (J), for energy bookkeeping. (A
-    stateless SymbolicVectorSystem cannot sit in a continuous diagram in
-    Drake 1.51: its DoCalcTimeDerivatives asserts.)"""
-    u = [Variable(f"u{j + 1}") for j in range(joints)]
-    v = [Variable(f"v{j + 1}") for j in range(joints)]
-    kappa = [Variable(f"kappa{j + 1}") for j in range(joints)]
-    work = Variable("motor_work")
-    torque = [kappa[j] * u[j] for j in range(joints)]
-    system = SymbolicVectorSystem(
-        state=[work],
-        input=[*u, *v],
-        parameter=kappa,
-        dynamics=[_sum([torque[j] * v[j] for j in range(joints)])],
-        output=[torque[j] for j in actuator_order],
-    )
-    system.set_name("motor")
-    return system
-
-
-def _make_coulomb(joints: int) -> SymbolicVectorSystem:
-    """``-f_c tanh(v / v_s)`` per joint; parameters ``[f_c1..f_cn, v_s]``.
-
-    Input: joint velocities. Its state integrates the energy friction
-    dissipates (J, never decreasing)."""
-    v = [Variable(f"v{j + 1}") for j in range(joints)]
-    levels = [Variable(f"fc{j + 1}") for j in range(joints)]
-    v_s = Variable("v_s")
-    loss = Variable("friction_loss")
-    force = [-levels[j] * tanh(v[j] / v_s) for j in range(joints)]
-    system = SymbolicVectorSystem(
-        state=[loss],
-        input=v,
-        parameter=[*levels, v_s],
-        dynamics=[-_sum([force[j] * v[j] for j in range(joints)])],
-        output=force,
-    )
-    system.set_name("coulomb_friction")
-    return system
-
-
 def add_arm(builder: DiagramBuilder, config: PlantConfig | None = None) -> Arm:
     """Add the URDF arm, its motor stage and Coulomb friction to ``builder``.
 
     The MultibodyPlant's defaults come from the URDF, but the motor constants
-    and Coulomb levels are numeric parameters of symbolic systems whose
-    defaults are NaN: every Context of the built diagram must get
+    and Coulomb levels are parameters of ``models.drive``'s blocks whose defaults
+    are not the URDF's (NaN for the symbolic blocks, 0 for the perceptrons): every
+    Context of the built diagram must get
     ``apply_parameters(arm, context, arm.default_parameters)`` (or sampled
     parameters) before it is simulated, as ``build_arm_diagram`` and
-    ``diagrams.closed_loop.ClosedLoopRunner`` do. Forgetting it fails loudly
-    ("Detected NaN in applied generalized force input port")."""
+    ``diagrams.closed_loop.ClosedLoopRunner`` do. With the symbolic blocks,
+    forgetting it fails loudly ("Detected NaN in applied generalized force input
+    port")."""
     config = config or PlantConfig()
     urdf = Path(config.urdf)
     chain = check_serial_urdf(urdf)
@@ -373,18 +330,16 @@ def add_arm(builder: DiagramBuilder, config: PlantConfig | None = None) -> Arm:
     links = tuple(plant.GetJointByName(j).child_body().name() for j in chain.joints)
     payload = _payload(plant, links[-1])
 
-    motor = builder.AddSystem(_make_motor(n, list(range(n))))
-    motor_input = builder.AddSystem(Multiplexer([n, n]))
-    motor_input.set_name("motor_input")
-    coulomb = builder.AddSystem(_make_coulomb(n))
     split = builder.AddSystem(Demultiplexer([n, n]))
     split.set_name("state_split")
     builder.Connect(plant.get_state_output_port(), split.get_input_port(0))
-    builder.Connect(motor_input.get_output_port(0), motor.get_input_port(0))
-    builder.Connect(split.get_output_port(1), motor_input.get_input_port(1))
-    builder.Connect(motor.get_output_port(0), plant.get_actuation_input_port())
-    builder.Connect(split.get_output_port(1), coulomb.get_input_port(0))
-    builder.Connect(coulomb.get_output_port(0), plant.get_applied_generalized_force_input_port())
+    motor_friction = add_motor_friction(
+        builder,
+        config.motor_friction_blocks,
+        split.get_output_port(1),
+        plant.get_actuation_input_port(),
+        plant.get_applied_generalized_force_input_port(),
+    )
 
     context = plant.CreateDefaultContext()
     joints = [plant.GetJointByName(j) for j in chain.joints]
@@ -407,9 +362,7 @@ def add_arm(builder: DiagramBuilder, config: PlantConfig | None = None) -> Arm:
     )
     return Arm(
         plant=plant,
-        motor=motor,
-        motor_input=motor_input,
-        coulomb=coulomb,
+        motor_friction=motor_friction,
         state_split=split,
         config=config,
         layout=layout,
@@ -535,9 +488,7 @@ def apply_parameters(arm: Arm, root_context: Context, parameters: ArmParameters)
             plant_context,
             SpatialInertia(parameters.payload_mass, np.zeros(3), UnitInertia(0.0, 0.0, 0.0)),
         )
-    arm.motor.GetMyMutableContextFromRoot(root_context).get_mutable_numeric_parameter(
-        0
-    ).SetFromVector(np.asarray(parameters.motor_constant, dtype=float))
+    arm.motor_friction.set_motor_constants(root_context, parameters.motor_constant)
     set_coulomb(arm, root_context, parameters.coulomb)
 
 
@@ -555,17 +506,19 @@ def set_coulomb(
         require_nonnegative(f"coulomb[{j}]", level)
     v_s = arm.config.friction_velocity if friction_velocity is None else friction_velocity
     require_positive("friction_velocity", v_s)
-    arm.coulomb.GetMyMutableContextFromRoot(root_context).get_mutable_numeric_parameter(
-        0
-    ).SetFromVector(np.array([*levels, v_s], dtype=float))
+    arm.motor_friction.set_coulomb(root_context, levels, v_s)
 
 
 def read_parameters(arm: Arm, root_context: Context) -> ArmParameters:
     """The physical parameters currently in ``root_context``."""
-    kappa = arm.motor.GetMyContextFromRoot(root_context).get_numeric_parameter(0).value()
-    coulomb = arm.coulomb.GetMyContextFromRoot(root_context).get_numeric_parameter(0).value()
-    plant_context = arm.plant.GetMyContextFromRoot(root_context)
-    return _read(arm.plant, arm.layout, plant_context, tuple(coulomb[: arm.size]), tuple(kappa))
+    blocks = arm.motor_friction
+    return _read(
+        arm.plant,
+        arm.layout,
+        arm.plant.GetMyContextFromRoot(root_context),
+        blocks.coulomb_levels(root_context),
+        blocks.motor_constants(root_context),
+    )
 
 
 def arm_model(arm: Arm, root_context: Context) -> SerialArmModel:
@@ -581,9 +534,7 @@ def arm_model(arm: Arm, root_context: Context) -> SerialArmModel:
 
 def energy_accounts(arm: Arm, root_context: Context) -> tuple[float, float]:
     """(work delivered by the motors, energy dissipated by Coulomb friction), J."""
-    motor = arm.motor.GetMyContextFromRoot(root_context).get_continuous_state_vector()
-    friction = arm.coulomb.GetMyContextFromRoot(root_context).get_continuous_state_vector()
-    return float(motor[0]), float(friction[0])
+    return arm.motor_friction.energy(root_context)
 
 
 def build_arm_diagram(

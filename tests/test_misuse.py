@@ -79,6 +79,10 @@ CASES = {
     "bad index": Case(("simulate", "--set", "sensor.encoder_counts[7]=1"), "out of range"),
     "negative payload": Case(("simulate", "--payload", "-1"), "plant.payload_mass"),
     "absurd payload": Case(("simulate", "--set", "plant.payload_mass=1e6"), "payload_mass"),
+    "unknown motor and friction blocks": Case(
+        ("simulate", "--set", "plant.motor_friction_blocks=fast"),
+        "plant.motor_friction_blocks = 'fast'; one of symbolic, perceptron",
+    ),
     "zero voltage": Case(("simulate", "--set", "actuator.voltage_limit=0"), "voltage_limit"),
     "unknown controller": Case(("simulate", "--set", "controller.kind=lqr"), "controller.kind"),
     "negative delay": Case(("simulate", "--set", "sensor.delay_samples=-1"), "delay_samples"),
