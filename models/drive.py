@@ -16,7 +16,7 @@ picked by ``PlantConfig.motor_friction_blocks``:
   control, so they take part in choosing its steps.
 * ``"perceptron"``: two ``MultilayerPerceptron``s, ``kappa`` as a one-layer identity
   network and the friction as a tanh layer (weights ``I / v_s``) followed by a linear
-  one (``-diag(f_c)``). About 15-20 % faster per run (``README.md``, "Performance"),
+  one (``-diag(f_c)``). About 12-24 % faster per run (``README.md``, "Performance"),
   with no energy states (``energy`` refuses) and round-off differences: it computes
   ``v (1 / v_s)`` where the symbolic block computes ``v / v_s``, and without the
   energy states the integrator's steps can differ. Its parameters default to 0

@@ -75,7 +75,7 @@ class PlantConfig:
     discrete one (keep it <= 1 ms where friction matters, docs/drake-notes.md).
     ``motor_friction_blocks`` picks the C++ blocks of the motor stage and the Coulomb
     friction (``models.drive``): ``"symbolic"`` (the default; energy states, NaN
-    parameter defaults) or ``"perceptron"`` (15-20 % faster runs, no energy states,
+    parameter defaults) or ``"perceptron"`` (12-24 % faster runs, no energy states,
     results that differ by round-off and its growth).
     """
 
