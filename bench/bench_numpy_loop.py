@@ -36,7 +36,7 @@ table row:
   controller's Python beyond the callback floor, the encoder, the holds, saturation,
   the logger, and RK3's error control and event bookkeeping per step);
 * **C++ arm bound / floor**: ``evals x`` (the all-C++ ``MultilayerPerceptron`` arm's
-  cost, ``mlp_arm_cost``: ``plant.motor_friction_blocks = perceptron``) ``+ updates x``
+  cost, ``arm_cost(variant, "perceptron")``) ``+ updates x``
   (the callback floor), over the Drake floor: the least a run could cost with that
   arm, a free controller, encoder and integrator.
   Above 1.3, issue 11's "within 1.3x of the Drake floor" is out of reach at posfb's
@@ -675,22 +675,13 @@ def plant_cost(variant: Variant, duration: float = 2.0, step: float = 1e-4) -> f
     return _cost_per_evaluation(plant, context, duration, step)
 
 
-def arm_cost(variant: Variant, duration: float = 2.0, step: float = 1e-4) -> float:
-    """The same for posfb's whole arm (plant + motor + Coulomb friction + mux/demux)."""
-    diagram, arm, context = build_arm_diagram(variant.config.plant)
-    diagram.get_input_port(0).FixValue(context, np.zeros(2))
-    plant = arm.plant
-    plant.SetPositions(
-        plant.GetMyMutableContextFromRoot(context), variant.config.trajectory.evaluate(0.0)[0]
-    )
-    return _cost_per_evaluation(diagram, context, duration, step)
-
-
-def mlp_arm_cost(variant: Variant, duration: float = 2.0, step: float = 1e-4) -> float:
-    """The same for the arm with ``plant.motor_friction_blocks = perceptron``
-    (``models.drive``: the cheapest all-C++ motor and friction with per-Context
-    parameters that Drake offers)."""
-    config = replace(variant.config.plant, motor_friction_blocks="perceptron")
+def arm_cost(
+    variant: Variant, blocks: str = "symbolic", duration: float = 2.0, step: float = 1e-4
+) -> float:
+    """The same for posfb's whole arm (plant, state demux, and the motor and Coulomb
+    friction ``blocks`` of ``models.drive``: ``perceptron`` is the cheapest all-C++
+    motor and friction with per-Context parameters that Drake offers)."""
+    config = replace(variant.config.plant, motor_friction_blocks=blocks)
     diagram, arm, context = build_arm_diagram(config)
     diagram.get_input_port(0).FixValue(context, np.zeros(arm.size))
     plant = arm.plant
@@ -789,7 +780,7 @@ def main() -> None:
         print(f"|q(20.01 s; h) - q(20.01 s; h/2)| (rad, ideal encoder): {checks}")
     cost = plant_cost(first)
     whole_arm = arm_cost(first)
-    mlp_arm = mlp_arm_cost(first)
+    mlp_arm = arm_cost(first, "perceptron")
     floor = callback_floor(T)
     print(
         f"MultibodyPlant alone: {cost * 1e6:.2f} us per derivative evaluation "
