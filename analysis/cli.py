@@ -1,5 +1,7 @@
 """The ``posfb`` command line: parses, calls, prints. Subcommands live in
-``analysis.commands``; each module registers its own parser."""
+``analysis.commands``, one module each; ``build_parser`` imports only the module of the
+command being run, so that ``posfb --help`` and a refused option answer at once (the
+models, Drake and numpy load when a command runs)."""
 
 from __future__ import annotations
 
@@ -12,11 +14,38 @@ from collections.abc import Sequence
 
 from posfb.analysis.errors import InterruptedRunError, UsageError
 
-#: Subcommand modules of ``posfb.analysis.commands``, in the order ``posfb --help`` lists
-#: them. Imported by ``build_parser``, inside ``main``: a Ctrl-C while Drake and numpy load
-#: (the first seconds) is then one line too.
-COMMANDS = ("identify", "design", "scenario", "simulate", "reproduce", "graph", "animate",
-            "montecarlo")  # fmt: skip
+#: Subcommand (a module of ``posfb.analysis.commands`` with ``configure(parser)``) -> its
+#: one-line help, in the order ``posfb --help`` lists them.
+COMMANDS = {
+    "identify": "identify theta_1..theta_11 (Sec. 4.1) from the URDF plant",
+    "design": "design the position-feedback controller (Sec. 3) and check it",
+    "scenario": "print or check a scenario file",
+    "simulate": "one closed-loop run of a scenario: RMS errors and voltages",
+    "compare": "several controllers on one scenario: a table and overlaid figures",
+    "reproduce": "Sec. 4: 3 controllers x {nominal, payload}, tables, figures, report",
+    "graph": "render the closed-loop diagram (.svg/.png/.pdf, or .dot text)",
+    "animate": "write an offline HTML animation of one run (Meshcat recording)",
+    "montecarlo": "Monte-Carlo robustness study over sampled plants",
+}
+
+#: ``posfb --help``, above the list of commands.
+DESCRIPTION = """\
+posfb: robust joint-position-feedback control of robot manipulators (ASME JDSMC 2013)
+on Drake. Design the controller, simulate the closed loop of a scenario (the paper's
+two-link arm by default, or your own URDF, trajectory and settings), reproduce the
+paper's Sec. 4 and study robustness over sampled plants."""
+
+#: ``posfb --help``, below the list of commands.
+EPILOG = """\
+examples:
+  posfb simulate --controller lin_lc --set timing.sample_time=0.005 --duration 1
+      a 1 s run of the Lin + LC controller at T_s = 5 ms, its RMS errors and voltages
+  posfb scenario dump > my.yaml && posfb simulate --scenario my.yaml
+      every setting of a run written to a file, to edit and run again
+  posfb reproduce --out results
+      the paper's Sec. 4: tables, figures and a report in results/
+
+Run posfb COMMAND --help for the options of a command."""
 
 #: Exit code for bad input (argparse uses the same).
 EXIT_BAD_INPUT = 2
@@ -36,18 +65,44 @@ class _Parser(argparse.ArgumentParser):
         raise SystemExit(EXIT_BAD_INPUT)
 
 
-def build_parser() -> argparse.ArgumentParser:
-    parser = _Parser(prog="posfb", description=__doc__)
-    subparsers = parser.add_subparsers(dest="command", required=True, parser_class=_Parser)
-    for name in COMMANDS:
-        importlib.import_module(f"posfb.analysis.commands.{name}").register(subparsers)
+def chosen_command(argv: Sequence[str]) -> str | None:
+    """The subcommand ``argv`` runs: its first token that names one (``None``: none)."""
+    return next((token for token in argv if token in COMMANDS), None)
+
+
+def build_parser(argv: Sequence[str] | None = None) -> argparse.ArgumentParser:
+    """The parser of ``posfb``, for the arguments ``argv`` (default: ``sys.argv[1:]``).
+
+    Only the chosen subcommand's module is imported and its options added; every
+    other subcommand is a stub with its help line, so that ``posfb --help`` lists all."""
+    chosen = chosen_command(sys.argv[1:] if argv is None else argv)
+    parser = _Parser(
+        prog="posfb", description=DESCRIPTION, epilog=EPILOG,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )  # fmt: skip
+    subparsers = parser.add_subparsers(
+        dest="command", required=True, parser_class=_Parser, title="commands", metavar="COMMAND"
+    )
+    for name, text in COMMANDS.items():
+        if name != chosen:
+            subparsers.add_parser(name, help=text)
+            continue
+        module = importlib.import_module(f"posfb.analysis.commands.{name}")
+        module.configure(subparsers.add_parser(name, help=text, description=text))
     return parser
+
+
+def _user_frames(error: BaseException) -> list[traceback.FrameSummary]:
+    """The traceback frames of ``error`` in a user's plug-in controller (none unless a
+    plug-in was loaded)."""
+    plugin = sys.modules.get("posfb.models.controllers.plugin")
+    return plugin.user_frames(error) if plugin is not None else []
 
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Entry point of ``posfb``; returns the exit code."""
     try:
-        parser = build_parser()
+        parser = build_parser(argv)
     except KeyboardInterrupt:
         sys.stderr.write("posfb: interrupted\n")
         return EXIT_INTERRUPTED
@@ -72,7 +127,16 @@ def main(argv: Sequence[str] | None = None) -> int:
         where = f": {error.filename}" if error.filename else ""
         sys.stderr.write(f"posfb {args.command}: error: {error.strerror or error}{where}\n")
         return EXIT_BAD_INPUT
-    except Exception:  # a bug in posfb, not in the input: show everything
+    except Exception as error:  # a bug in posfb, not in the input: show everything
+        frames = _user_frames(error)
+        if frames:  # raised in the user's own controller: show the user's code only
+            sys.stderr.write("".join(traceback.format_list(frames)))
+            sys.stderr.write("".join(traceback.format_exception_only(error)))
+            sys.stderr.write(
+                f"posfb {args.command}: error in your controller ({frames[-1].filename}, "
+                f"line {frames[-1].lineno}): {type(error).__name__}: {error}\n"
+            )
+            return EXIT_BAD_INPUT
         traceback.print_exc()
         sys.stderr.write(
             f"posfb {args.command}: internal error: this is a bug in posfb, not in your "

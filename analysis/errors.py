@@ -8,3 +8,9 @@ class UsageError(Exception):
 class InterruptedRunError(Exception):
     """The user stopped a command (Ctrl-C); the message says what was kept and how to go
     on. Reported as one line with exit code 130."""
+
+
+#: Exit code of ``posfb simulate`` and ``posfb compare`` when a run diverged
+#: (``status == "diverged"``; its metrics and files are still written), so that scripts
+#: and sweeps catch it without parsing the output.
+EXIT_DIVERGED = 4

@@ -1,5 +1,5 @@
-"""The experiments of Sec. 4: cases (shipped scenario files), studies (sets of runs
-that share a setting) and the incremental ``results.json`` store.
+"""The experiments of Sec. 4: cases (shipped scenario files, ``analysis.cases``), studies
+(sets of runs that share a setting) and the incremental ``results.json`` store.
 
 * ``nominal`` (Sec. 4.2, Table 3, Figs. 4-5): ``scenarios/paper_nominal.yaml``,
   the URDF arm as identified from Table 1.
@@ -20,26 +20,12 @@ from dataclasses import dataclass
 from functools import cache, partial
 from pathlib import Path
 
+from posfb.analysis.cases import CASE_FILES, CASES
 from posfb.analysis.metrics import run_metrics
 from posfb.diagrams.closed_loop import ClosedLoopResult
 from posfb.diagrams.resolve import LoadedScenario, load_scenario, resolve, run_scenario
-from posfb.models.controllers import CONTROLLER_KINDS
+from posfb.models.controllers import PAPER_CONTROLLERS
 from posfb.models.plant import Arm, ArmParameters
-
-#: The shipped scenario files of the two experiments of Sec. 4.
-SCENARIO_DIR = Path(__file__).resolve().parent / "scenarios"
-CASE_FILES = {
-    "nominal": SCENARIO_DIR / "paper_nominal.yaml",
-    "payload": SCENARIO_DIR / "paper_payload.yaml",
-}
-CASES = tuple(CASE_FILES)
-
-#: Human-readable names (figure legends, tables).
-CONTROLLER_LABELS = {
-    "pid": "computed torque + PID",
-    "lin_lc": "Lin + LC",
-    "proposed": "Lin + LC + NC (paper)",
-}
 
 
 def require_case(case: str) -> str:
@@ -82,7 +68,7 @@ class Study:
     key: str
     title: str
     description: str
-    controllers: tuple[str, ...] = CONTROLLER_KINDS
+    controllers: tuple[str, ...] = PAPER_CONTROLLERS
     cases: tuple[str, ...] = CASES
     settings: tuple[str, ...] = ()
 

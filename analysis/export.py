@@ -16,7 +16,9 @@ The paper's RMS (``analysis.metrics.rms``) recomputed from the file over rows
 ``1..N`` of ``q - q_desired`` and ``u_applied`` equals the run's metrics.
 
 Then come the controller's internals, each name with its unit appended
-(``INTERNAL_UNITS``; a trailing ``_j`` in a name is the joint). The
+(``ClosedLoopResult.internals_columns``: each built-in controller class's
+``INTERNAL_UNITS``, a trailing ``_j`` in a name being the joint; a plug-in
+controller names its columns with their units). For the paper's controllers: the
 lumped model of Sec. 4.1 (``models.lumped``) is each joint's equation of motion
 divided by its motor constant, so every "torque" of the controllers is an
 armature voltage, in V:
@@ -35,9 +37,6 @@ armature voltage, in V:
 * PID: ``qdot_est_j``, the backward-difference velocity, rad/s; and
   ``error_integral_j = T_s sum q~``, rad s -> ``error_integral_j_rad_s``.
 
-A controller whose internals are not all in ``INTERNAL_UNITS`` is refused with
-``ValueError``: a new controller adds its units here.
-
 Formats (``EXPORT_FORMATS``), chosen by the path's suffix: ``.csv``
 (``DataFrame.to_csv``, shortest round-trip float text, so the values read back
 exactly with ``read_run``), ``.parquet`` (pyarrow), ``.npz`` (``numpy.savez``,
@@ -50,12 +49,13 @@ from __future__ import annotations
 
 import os
 import secrets
-from collections.abc import Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING
 
 import numpy as np
 import pandas as pd
+
+from posfb.analysis.outputs import EXPORT_FORMATS
 
 if TYPE_CHECKING:
     from posfb.diagrams.closed_loop import ClosedLoopResult
@@ -66,8 +66,6 @@ _CSV_READ_OPTIONS = (
     {"float_precision": "round_trip"} if int(pd.__version__.split(".")[0]) < 3 else {}
 )
 
-#: Suffixes ``export_run`` and ``read_run`` understand.
-EXPORT_FORMATS = (".csv", ".parquet", ".npz")
 
 #: The first columns of every exported run, in this order.
 #: The leading column groups: a per-joint name pattern each, in order.
@@ -80,43 +78,6 @@ def leading_columns(joints: int) -> tuple[str, ...]:
     """``time_s``, then each group of ``_LEADING`` for joints ``1..joints``."""
     names = [pattern.format(j=j + 1) for pattern in _LEADING for j in range(joints)]
     return ("time_s", *names)
-
-
-#: Unit suffix of every known controller internal (see the module docstring); a
-#: per-joint internal ``name_j`` takes the unit of ``name``.
-INTERNAL_UNITS = {
-    # Lin+LC and the proposed controller (torques of the lumped model are volts)
-    "tau_lin": "V",
-    "tau_lc": "V",
-    "tau_nc": "V",
-    "alpha": "dimensionless",
-    "phi": "V",
-    "U1": "rad_per_s",
-    "U2": "rad_per_s2",
-    "delta_bar": "V",
-    # PID
-    "qdot_est": "rad_per_s",
-    "error_integral": "rad_s",
-}
-
-
-def _unit(name: str) -> str | None:
-    """The unit of internal ``name`` (``name`` or, for ``stem_j``, ``stem``)."""
-    stem, _, joint = name.rpartition("_")
-    if name in INTERNAL_UNITS:
-        return INTERNAL_UNITS[name]
-    return INTERNAL_UNITS.get(stem) if joint.isdigit() else None
-
-
-def internal_columns(names: Sequence[str]) -> list[str]:
-    """``names`` with their unit suffixes; ``ValueError`` for a name without a known unit."""
-    unknown = [name for name in names if _unit(name) is None]
-    if unknown:
-        raise ValueError(
-            f"controller internals {', '.join(map(repr, unknown))} have no unit in "
-            "posfb.analysis.export.INTERNAL_UNITS; a new controller must add its units there"
-        )
-    return [f"{name}_{_unit(name)}" for name in names]
 
 
 def _columns(name: str, values: np.ndarray, rows: int, width: int) -> np.ndarray:
@@ -139,7 +100,7 @@ def run_table(result: ClosedLoopResult) -> pd.DataFrame:
     rows = len(times)
     n = result.config.joints
     names = tuple(result.internals_names)
-    internal_names = internal_columns(names)
+    internal_names = list(result.internals_columns)
     blocks = [
         times[:, None],
         _columns("q_desired", result.q_desired, rows, n),

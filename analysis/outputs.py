@@ -14,6 +14,9 @@ from pathlib import Path
 
 from posfb.analysis.errors import UsageError
 
+#: Suffixes of a run's time series that ``analysis.export`` writes and reads.
+EXPORT_FORMATS = (".csv", ".parquet", ".npz")
+
 
 def _first_existing(path: Path) -> Path:
     """``path`` or its nearest ancestor that exists."""

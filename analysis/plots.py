@@ -5,8 +5,9 @@
 * ``tracking_errors`` (Figs. 5, 7): (a), (b) ``q~ = q - q_d`` over the whole
   run; (c), (d) a 4 s close-up (8-12 s for a 20 s run).
 
-Line styles follow the paper: PID solid, Lin+LC dashed, the proposed
-controller dotted, the desired trajectory dash-dotted.
+Line styles follow the paper (PID solid, Lin+LC dashed, the proposed controller
+dotted, the desired trajectory dash-dotted); each controller's style and legend label
+are its ``ControllerSpec``'s (``models.controllers.registry``).
 """
 
 from __future__ import annotations
@@ -19,14 +20,8 @@ import numpy as np
 from matplotlib.axes import Axes
 from matplotlib.figure import Figure
 
-from posfb.analysis.experiment import CONTROLLER_LABELS
 from posfb.diagrams.closed_loop import ClosedLoopResult
 
-STYLES = {
-    "pid": {"linestyle": "-", "color": "tab:blue"},
-    "lin_lc": {"linestyle": "--", "color": "tab:orange"},
-    "proposed": {"linestyle": ":", "color": "tab:green", "linewidth": 1.6},
-}
 DESIRED_STYLE = {"linestyle": "-.", "color": "black", "linewidth": 0.9}
 
 
@@ -37,8 +32,10 @@ def closeup_window(duration: float) -> tuple[float, float]:
     return 0.4 * duration, 0.6 * duration
 
 
-def _label(kind: str, label_suffix: Mapping[str, str] | None) -> str:
-    return CONTROLLER_LABELS[kind] + (label_suffix or {}).get(kind, "")
+def _label(kind: str, result: ClosedLoopResult, label_suffix: Mapping[str, str] | None) -> str:
+    """The legend entry of ``results[kind]``: its controller's label (``ControllerSpec``)
+    and any suffix given for ``kind``."""
+    return result.config.spec.label + (label_suffix or {}).get(kind, "")
 
 
 def _panel_letter(index: int) -> str:
@@ -69,10 +66,10 @@ def positions_and_voltages(
     for j in range(joints):
         axes[0, j].plot(first.times, first.q_desired[:, j], label="desired", **DESIRED_STYLE)
     for kind, result in results.items():
+        style, label = result.config.spec.style, _label(kind, result, label_suffix)
         for j in range(joints):
-            axes[0, j].plot(result.times, result.q_true[:, j], label=_label(kind, label_suffix),
-                            **STYLES[kind])  # fmt: skip
-            axes[1, j].plot(result.times, result.u_applied[:, j], **STYLES[kind])
+            axes[0, j].plot(result.times, result.q_true[:, j], label=label, **style)
+            axes[1, j].plot(result.times, result.u_applied[:, j], **style)
     for j in range(joints):
         axes[0, j].set_title(f"({_panel_letter(j)}) joint {j + 1} position")
         axes[0, j].set_ylabel(f"q{j + 1} (rad)")
@@ -99,10 +96,10 @@ def tracking_errors(
     for kind, result in results.items():
         error = result.q_error
         window = (result.times >= start) & (result.times <= stop)
+        style, label = result.config.spec.style, _label(kind, result, label_suffix)
         for j in range(joints):
-            axes[0, j].plot(result.times, error[:, j], label=_label(kind, label_suffix),
-                            **STYLES[kind])  # fmt: skip
-            axes[1, j].plot(result.times[window], error[window, j], **STYLES[kind])
+            axes[0, j].plot(result.times, error[:, j], label=label, **style)
+            axes[1, j].plot(result.times[window], error[window, j], **style)
     for j in range(joints):
         axes[0, j].set_title(f"({_panel_letter(j)}) joint {j + 1}: t = 0-{first.times[-1]:g} s")
         axes[1, j].set_title(

@@ -10,7 +10,7 @@ from __future__ import annotations
 from collections.abc import Mapping
 from pathlib import Path
 
-from posfb.analysis.experiment import CASES, CONTROLLER_LABELS, case_title, payload_mass
+from posfb.analysis.experiment import CASES, case_title, payload_mass
 from posfb.analysis.tables import (
     PAPER_TABLES,
     ranking,
@@ -19,7 +19,7 @@ from posfb.analysis.tables import (
     side_by_side,
     theta_table,
 )
-from posfb.models.controllers import CONTROLLER_KINDS
+from posfb.models.controllers import PAPER_CONTROLLERS, spec
 from posfb.models.design import ControllerConfig
 from posfb.models.lumped import TABLE1, LumpedParameters
 
@@ -163,7 +163,7 @@ def _differences(data: Mapping[str, object]) -> list[str]:
     table3, table4 = PAPER_TABLES["nominal"], PAPER_TABLES["payload"]
     lines = ["## Differences from the paper and their causes", ""]
 
-    scale = [_q(nominal[k], 0) / table3[k][0] for k in CONTROLLER_KINDS]
+    scale = [_q(nominal[k], 0) / table3[k][0] for k in PAPER_CONTROLLERS]
     lines += [
         f"1. **Joint-1 errors are {1 / max(scale):.0f}-{1 / min(scale):.0f}x smaller than "
         "measured** for every controller. The simulated arm *is* the Table 1 model (θ1-θ11 "
@@ -177,7 +177,7 @@ def _differences(data: Mapping[str, object]) -> list[str]:
     model_u = evidence.get("model_voltage_rms", {})
     if model_u:
         table1_u, payload_u = model_u["table1"], model_u["payload_arm"]
-        sim_u = [_u(nominal[k], j) for k in CONTROLLER_KINDS for j in range(2)]
+        sim_u = [_u(nominal[k], j) for k in PAPER_CONTROLLERS for j in range(2)]
         lines += [
             "2. **Voltages.** The Table 1 model itself needs RMS(u) = "
             f"({table1_u[0]:.3f}, {table1_u[1]:.3f}) V to follow the trajectory (inverse "
@@ -418,7 +418,7 @@ def build_report(data: Mapping[str, object]) -> str:
         "*true* position, u the *applied* voltage. Tables 3-4 are hardware measurements: "
         "compare orderings and ratios (reading note 11).",
         "",
-        "Labels: " + ", ".join(f"`{k}` = {CONTROLLER_LABELS[k]}" for k in CONTROLLER_KINDS) + ".",
+        "Labels: " + ", ".join(f"`{k}` = {spec(k).label}" for k in PAPER_CONTROLLERS) + ".",
         "",
     ]
     lines += _identification_section(data)

@@ -8,8 +8,7 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 
-from posfb.analysis.experiment import CONTROLLER_LABELS
-from posfb.models.controllers import CONTROLLER_KINDS
+from posfb.models.controllers import PAPER_CONTROLLERS, spec
 from posfb.models.lumped import TABLE1, LumpedParameters
 
 #: ``{controller: (RMS(q~1), RMS(q~2), RMS(u1), RMS(u2))}``: Table 3 (nominal).
@@ -50,7 +49,7 @@ def side_by_side(
     """One row per controller: each figure of merit simulated | paper."""
     header = "| controller | " + " | ".join(f"{c} sim | paper" for c in COLUMNS) + " |"
     lines = [header, "|---|" + "---:|---:|" * len(COLUMNS)]
-    for kind in CONTROLLER_KINDS:
+    for kind in PAPER_CONTROLLERS:
         if kind not in simulated:
             continue
         entry = simulated[kind]
@@ -59,7 +58,7 @@ def side_by_side(
         for i, value in enumerate(values):
             cells += [_number(value, 5 if i < 2 else 3), f"{paper[kind][i]:.4f}"]
         status = "" if entry.get("status", "ok") == "ok" else " (diverged)"
-        lines.append(f"| {CONTROLLER_LABELS[kind]}{status} | " + " | ".join(cells) + " |")
+        lines.append(f"| {spec(kind).label}{status} | " + " | ".join(cells) + " |")
     return "\n".join(lines)
 
 
@@ -74,14 +73,14 @@ def ratios(
         "|---|---:|---:|---:|---:|",
     ]
     base = row_values(simulated[reference])
-    for kind in CONTROLLER_KINDS:
+    for kind in PAPER_CONTROLLERS:
         if kind not in simulated:
             continue
         values = row_values(simulated[kind])
         cells = []
         for j in range(2):
             cells += [f"{values[j] / base[j]:.2f}", f"{paper[kind][j] / paper[reference][j]:.2f}"]
-        lines.append(f"| {CONTROLLER_LABELS[kind]} | " + " | ".join(cells) + " |")
+        lines.append(f"| {spec(kind).label} | " + " | ".join(cells) + " |")
     return "\n".join(lines)
 
 

@@ -37,7 +37,7 @@ from posfb.analysis.experiment import case_scenario
 from posfb.analysis.metrics import run_metrics
 from posfb.diagrams.closed_loop import ClosedLoopResult, ClosedLoopRunner
 from posfb.diagrams.resolve import LoadedScenario, load_scenario, resolve
-from posfb.models.controllers import CONTROLLER_KINDS
+from posfb.models.controllers import PAPER_CONTROLLERS
 from posfb.models.drive import MOTOR_FRICTION_BLOCKS
 
 SCENARIOS = Path(__file__).resolve().parent.parent / "analysis" / "scenarios"
@@ -46,7 +46,7 @@ SCENARIOS = Path(__file__).resolve().parent.parent / "analysis" / "scenarios"
 ARMS = ((2, "paper_nominal.yaml"), (3, "three_link_nominal.yaml"), (6, "six_joint_nominal.yaml"))
 
 #: (label, scenario settings) of every benchmarked variant.
-VARIANTS = [(kind, (f"controller.kind={kind}",)) for kind in CONTROLLER_KINDS] + [
+VARIANTS = [(kind, (f"controller.kind={kind}",)) for kind in PAPER_CONTROLLERS] + [
     ("proposed, alpha*=2.75", ("controller.kind=proposed", "controller.alpha_star=2.75"))
 ]
 
@@ -83,7 +83,7 @@ def arms(duration: float, repeat: int) -> None:
     print("| n | controller | build s | wall s | steps | evaluations | us / evaluation |")
     print("|---:|---|---:|---:|---:|---:|---:|")
     for joints, name in ARMS:
-        for kind in CONTROLLER_KINDS:
+        for kind in PAPER_CONTROLLERS:
             settings = (f"controller.kind={kind}", f"timing.duration={duration}")
             build, runs = timed_runs(load_scenario(SCENARIOS / name, settings), repeat)
             best = min(runs, key=lambda run: run.wall_time_s)

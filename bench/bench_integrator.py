@@ -37,7 +37,7 @@ from posfb.analysis.experiment import case_scenario
 from posfb.analysis.metrics import run_metrics
 from posfb.diagrams.closed_loop import ClosedLoopResult, ClosedLoopRunner
 from posfb.diagrams.resolve import resolve
-from posfb.models.controllers import CONTROLLER_KINDS
+from posfb.models.controllers import PAPER_CONTROLLERS
 
 REFERENCE = ("RK5, 1e-9 (reference)", "runge_kutta5", 1e-9, True)
 
@@ -91,7 +91,7 @@ def main() -> None:
     parser.add_argument("--duration", type=float, default=20.0)
     parser.add_argument("--perturbations", type=int, default=6)
     parser.add_argument("--case", choices=("nominal", "payload"), default="nominal")
-    parser.add_argument("--controllers", nargs="+", default=list(CONTROLLER_KINDS))
+    parser.add_argument("--controllers", nargs="+", default=list(PAPER_CONTROLLERS))
     args = parser.parse_args()
     print(f"{args.case} arm, {args.duration:g} s runs")
     for controller in args.controllers:

@@ -86,12 +86,21 @@ from pydrake.systems.primitives import (
     Multiplexer,
     RandomSource,
     Saturation,
+    TrajectorySource,
     VectorLogSink,
     ZeroOrderHold,
 )
 
 from posfb.diagrams.encoder import DEFAULT_ENCODER_COUNTS, Encoder, per_joint_counts
-from posfb.models.controllers import CONTROLLER_KINDS, ControllerConfig, make_controller
+from posfb.models.controllers import (
+    REGISTRY,
+    ControllerConfig,
+    ControllerSpec,
+    UserPlugin,
+    controller_spec,
+    make_controller,
+)
+from posfb.models.controllers.plugin import user_frames
 from posfb.models.plant import Arm, ArmParameters, PlantConfig, add_arm, apply_parameters
 from posfb.models.trajectory import Trajectory, WaveTrajectory, sampled_source
 from posfb.models.validation import (
@@ -141,26 +150,47 @@ class SensorState:
     noise_seed: int
 
 
+@dataclass(frozen=True)
+class TruePlant:
+    """The true arm's departures from its URDF: a point ``payload_mass`` (kg) at the
+    payload link and absolute ``overrides`` of ``ArmParameters`` fields (name, one value
+    per joint). Part of every ``ClosedLoopConfig``, so that a runner built from a
+    scenario's config runs the scenario's arm: no call can drop them."""
+
+    payload_mass: float = 0.0
+    overrides: tuple[tuple[str, tuple[float, ...]], ...] = ()
+
+    def parameters(self, defaults: ArmParameters) -> ArmParameters:
+        """``defaults`` (the URDF's) with the payload and the overrides."""
+        return dataclasses.replace(defaults, **dict(self.overrides), payload_mass=self.payload_mass)
+
+
 @dataclass(frozen=True, eq=False)
 class ClosedLoopConfig:
     """One closed-loop run, resolved and validated (``diagrams.scenario`` builds it
     from a scenario file; the defaults are the paper's settings).
 
     ``design`` is everything the controller is built from, its sample time ``T_s``
-    included (the only one: ``sample_time`` reads it); ``trajectory`` the desired
+    included (the only one: ``sample_time`` reads it); ``controller_settings`` the
+    settings of a plug-in kind's scenario entry or a user's plug-in
+    (``models.controllers.plugin.UserPlugin``; ``None`` for the paper's three, whose
+    inputs are all in ``design``); ``trajectory`` the desired
     path; the sensor: ``encoder_counts`` per joint revolution (0: ideal; default
     and its justification in ``diagrams.encoder``), ``zero_offset`` (rad, added to
     the true position before quantisation), ``noise_std`` (rad, additive Gaussian
     noise after it, drawn from ``noise_seed``), ``delay_samples`` (whole periods);
     ``voltage_limit`` (V) per joint; ``divergence_bound`` on ``|q~|`` in rad;
     ``simulator`` Drake's integrator settings (the runner caps ``max_step_size`` at
-    ``T_s``: a step never spans more than one control period). The number of joints
+    ``T_s``: a step never spans more than one control period); ``true_plant`` the true
+    arm's payload and parameter overrides (``ClosedLoopRunner.run`` applies them unless
+    it is given other parameters, as a Monte-Carlo sample is). The number of joints
     ``n`` is the design's nominal model's; the trajectory and the plant URDF must
     have as many. Per-joint values take one number for all joints or one per joint.
     """
 
     controller: str = "proposed"
     design: ControllerConfig = field(default_factory=ControllerConfig)
+    controller_settings: object | None = None
     duration: float = 20.0
     trajectory: Trajectory = field(default_factory=WaveTrajectory)
     encoder_counts: int | tuple[int, ...] = DEFAULT_ENCODER_COUNTS
@@ -172,12 +202,18 @@ class ClosedLoopConfig:
     plant: PlantConfig = field(default_factory=PlantConfig)
     divergence_bound: float = DIVERGENCE_BOUND
     simulator: SimulatorConfig = field(default_factory=default_simulator)
+    true_plant: TruePlant = field(default_factory=TruePlant)
 
     def __post_init__(self) -> None:
-        if self.controller not in CONTROLLER_KINDS:
+        plugin = self.controller_settings
+        if isinstance(plugin, UserPlugin) and self.controller != plugin.kind:
             raise ValueError(
-                f"controller = {self.controller!r}; one of {', '.join(CONTROLLER_KINDS)} "
-                "is required"
+                f"controller = {self.controller!r}; the plug-in's kind {plugin.kind!r} is "
+                "required"
+            )
+        if not isinstance(plugin, UserPlugin) and self.controller not in REGISTRY:
+            raise ValueError(
+                f"controller = {self.controller!r}; one of {', '.join(REGISTRY)} is required"
             )
         if not isinstance(self.design, ControllerConfig):
             raise ValueError(f"design = {self.design!r} is not a ControllerConfig")
@@ -215,6 +251,8 @@ class ClosedLoopConfig:
         self._check_simulator()
         if not isinstance(self.plant, PlantConfig):
             raise ValueError(f"plant = {self.plant!r} is not a PlantConfig")
+        if not isinstance(self.true_plant, TruePlant):
+            raise ValueError(f"true_plant = {self.true_plant!r} is not a TruePlant")
 
     def _check_simulator(self) -> None:
         simulator = self.simulator
@@ -233,6 +271,11 @@ class ClosedLoopConfig:
             raise ValueError(
                 f"start_time = {simulator.start_time!r}; 0 is required (a run starts at t = 0)"
             )
+
+    @property
+    def spec(self) -> ControllerSpec:
+        """The controller's spec (label, style, checks, factory; ``models.controllers``)."""
+        return controller_spec(self.controller, self.controller_settings)
 
     @property
     def joints(self) -> int:
@@ -265,11 +308,11 @@ class ClosedLoopResult:
     """One run, sampled at ``t_k = k T_s``, ``k = 0..K`` (``K = N0`` unless diverged).
 
     Arrays have one row per sample: ``q_true``, ``q_measured``, ``q_desired`` (rad,
-    2 columns); ``u_commanded``, ``u_applied`` (V, the voltage computed at ``t_k``
-    and applied on ``[t_k, t_k + T_s)``); ``internals`` (columns
-    ``internals_names``). ``status`` is ``"ok"`` or ``"diverged"``; ``message`` says
-    why a run stopped early (empty if it did not); ``wall_time_s`` is the
-    simulation's wall time (build excluded); ``derivative_evaluations`` and
+    n columns); ``u_commanded``, ``u_applied`` (V, the voltage computed at ``t_k``
+    and applied on ``[t_k, t_k + T_s)``); ``internals`` (columns ``internals_names``;
+    ``internals_columns`` are the same names with their units). ``status`` is ``"ok"``
+    or ``"diverged"``; ``message`` says why a run stopped early (empty if it did not);
+    ``wall_time_s`` is the simulation's wall time (build excluded); ``derivative_evaluations`` and
     ``integrator_steps`` are the integrator's counts over the run. Metrics are
     computed from these logs in ``analysis.metrics``.
     """
@@ -283,6 +326,7 @@ class ClosedLoopResult:
     u_applied: np.ndarray
     internals: np.ndarray
     internals_names: tuple[str, ...]
+    internals_columns: tuple[str, ...]
     status: str
     message: str
     wall_time_s: float
@@ -300,22 +344,35 @@ class ClosedLoopResult:
 
 
 @dataclass(frozen=True, eq=False)
-class ClosedLoop:
-    """A built closed-loop diagram and handles to its parts (``delay`` and
-    ``noise_source`` are ``None`` where the sensor has no delay or noise)."""
+class LoopSystems:
+    """The closed loop's systems, as an ``extend`` callback of ``build_closed_loop``
+    sees them before the diagram is built (``delay`` and ``noise_source`` are ``None``
+    where the sensor has no delay or noise)."""
 
-    diagram: Diagram
     arm: Arm
+    trajectory_source: TrajectorySource
     encoder: Encoder
-    controller: LeafSystem
-    logger: VectorLogSink
-    log_columns: dict[str, slice]
-    scene_graph: SceneGraph
-    visualizer: MeshcatVisualizer | None
     delay: DiscreteTimeDelay | None
     noise_source: RandomSource | None
     encoder_hold: ZeroOrderHold
     desired_hold: ZeroOrderHold
+    controller: LeafSystem
+    saturation: Saturation
+    logger: VectorLogSink
+    log_columns: dict[str, slice]
+    scene_graph: SceneGraph
+
+
+#: ``extend(builder, systems)``: wires more into a closed loop before it is built.
+Extension = Callable[[DiagramBuilder, LoopSystems], None]
+
+
+@dataclass(frozen=True, eq=False)
+class ClosedLoop(LoopSystems):
+    """A built closed-loop diagram and handles to its parts."""
+
+    diagram: Diagram | None = None
+    visualizer: MeshcatVisualizer | None = None
 
 
 def _find_scene_graph(builder: DiagramBuilder) -> SceneGraph:
@@ -375,9 +432,13 @@ def hold_inputs(
     return holds[0], holds[1]
 
 
-def build_closed_loop(config: ClosedLoopConfig, meshcat: Meshcat | None = None) -> ClosedLoop:
+def build_closed_loop(
+    config: ClosedLoopConfig, meshcat: Meshcat | None = None, extend: Extension | None = None
+) -> ClosedLoop:
     """Wire plant, trajectory, sensor, controller, saturation and loggers. With
-    ``meshcat``, a ``MeshcatVisualizer`` of the arm is added (for recordings)."""
+    ``meshcat``, a ``MeshcatVisualizer`` of the arm is added (for recordings); with
+    ``extend``, ``extend(builder, systems)`` wires more (a disturbance, a second
+    logger) before the diagram is built."""
     builder = DiagramBuilder()
     arm = add_arm(builder, config.plant)
     if arm.size != config.joints:
@@ -390,7 +451,14 @@ def build_closed_loop(config: ClosedLoopConfig, meshcat: Meshcat | None = None) 
         sampled_source(config.trajectory, config.sample_time, config.samples + 3)
     )
     encoder, measured, delay, noise_source = _add_sensor(builder, config, arm)
-    controller = builder.AddSystem(make_controller(config.controller, config.design))
+    controller = builder.AddSystem(
+        make_controller(
+            config.controller,
+            config.design,
+            voltage_limit=config.voltage_limit,
+            settings=config.controller_settings,
+        )
+    )
     limit = np.array(config.voltage_limit)
     saturation = builder.AddSystem(Saturation(-limit, limit))
     saturation.set_name("voltage_saturation")
@@ -422,26 +490,38 @@ def build_closed_loop(config: ClosedLoopConfig, meshcat: Meshcat | None = None) 
     logger.set_name("log")
     builder.Connect(signals.get_output_port(0), logger.get_input_port(0))
 
-    scene_graph = _find_scene_graph(builder)
+    systems = LoopSystems(
+        arm, trajectory, encoder, delay, noise_source, encoder_hold, desired_hold, controller,
+        saturation, logger, log_columns, _find_scene_graph(builder),
+    )  # fmt: skip
+    if extend is not None:
+        extend(builder, systems)
     visualizer = (
-        None if meshcat is None else MeshcatVisualizer.AddToBuilder(builder, scene_graph, meshcat)
+        None
+        if meshcat is None
+        else MeshcatVisualizer.AddToBuilder(builder, systems.scene_graph, meshcat)
     )
     diagram = builder.Build()
     diagram.set_name(f"closed_loop_{config.controller}")
-    return ClosedLoop(
-        diagram, arm, encoder, controller, logger, log_columns, scene_graph, visualizer, delay,
-        noise_source, encoder_hold, desired_hold,
-    )  # fmt: skip
+    parts = {f.name: getattr(systems, f.name) for f in dataclasses.fields(LoopSystems)}
+    return ClosedLoop(**parts, diagram=diagram, visualizer=visualizer)
 
 
 class ClosedLoopRunner:
     """Builds the closed loop of ``config`` once; ``run`` simulates it on a fresh
-    Context with given true plant parameters (the controller keeps the model of
-    ``config.design.nominal``)."""
+    Context, on the config's true arm (``config.true_plant``) or on given true plant
+    parameters (the controller keeps the model of ``config.design.nominal``).
+    ``meshcat`` and ``extend``: see ``build_closed_loop``."""
 
-    def __init__(self, config: ClosedLoopConfig, *, meshcat: Meshcat | None = None) -> None:
+    def __init__(
+        self,
+        config: ClosedLoopConfig,
+        *,
+        meshcat: Meshcat | None = None,
+        extend: Extension | None = None,
+    ) -> None:
         self.config = config
-        self.loop = build_closed_loop(config, meshcat)
+        self.loop = build_closed_loop(config, meshcat, extend)
 
     @property
     def diagram(self) -> Diagram:
@@ -451,12 +531,16 @@ class ClosedLoopRunner:
     def arm(self) -> Arm:
         return self.loop.arm
 
+    def true_parameters(self) -> ArmParameters:
+        """The config's true arm: the URDF's parameters with ``config.true_plant``."""
+        return self.config.true_plant.parameters(self.arm.default_parameters)
+
     def new_context(
         self, parameters: ArmParameters | None = None, sensor: SensorState | None = None
     ) -> Context:
-        """A fresh Context: true ``parameters`` (default: the URDF's), the ``sensor``
-        settings (default: the config's), the arm at rest at ``q_d(0)``; a sensor delay
-        line is filled with the first measurement."""
+        """A fresh Context: true ``parameters`` (default: ``true_parameters()``), the
+        ``sensor`` settings (default: the config's), the arm at rest at ``q_d(0)``; a
+        sensor delay line is filled with the first measurement."""
         loop, config = self.loop, self.config
         sensor = config.sensor if sensor is None else sensor
         if any(std > 0.0 for std in sensor.noise_std) and loop.noise_source is None:
@@ -465,7 +549,7 @@ class ClosedLoopRunner:
                 "noise (a config with noise_std > 0)"
             )
         context = loop.diagram.CreateDefaultContext()
-        apply_parameters(loop.arm, context, parameters or loop.arm.default_parameters)
+        apply_parameters(loop.arm, context, parameters or self.true_parameters())
         encoder_context = loop.encoder.GetMyMutableContextFromRoot(context)
         loop.encoder.set_counts(encoder_context, sensor.encoder_counts)
         loop.encoder.set_zero_offset(encoder_context, sensor.zero_offset)
@@ -494,6 +578,15 @@ class ClosedLoopRunner:
         )
         return context
 
+    def new_simulator(
+        self, parameters: ArmParameters | None = None, sensor: SensorState | None = None
+    ) -> Simulator:
+        """A ``Simulator`` on ``new_context(parameters, sensor)`` with the config's
+        integrator (``simulator_config``), not yet initialised."""
+        simulator = Simulator(self.loop.diagram, self.new_context(parameters, sensor))
+        ApplySimulatorConfig(self.simulator_config(), simulator)
+        return simulator
+
     def run(
         self,
         parameters: ArmParameters | None = None,
@@ -501,13 +594,18 @@ class ClosedLoopRunner:
         progress: Callable[[float], None] | None = None,
     ) -> ClosedLoopResult:
         """Simulate ``duration`` seconds on the true ``parameters`` with the ``sensor``
-        settings (defaults: the URDF's and the config's); ``progress`` is called with the
-        simulated time after every ``MONITOR_SAMPLES`` periods. Never raises for a
-        diverging run."""
-        context = self.new_context(parameters, sensor)
-        simulator = Simulator(self.loop.diagram, context)
+        settings (defaults: ``true_parameters()`` and the config's); ``progress`` is
+        called with the simulated time after every ``MONITOR_SAMPLES`` periods. Never
+        raises for a diverging run."""
+        return self.advance(self.new_simulator(parameters, sensor), progress)
+
+    def advance(
+        self, simulator: Simulator, progress: Callable[[float], None] | None = None
+    ) -> ClosedLoopResult:
+        """Run ``simulator`` (from ``new_simulator``) from t = 0 through ``duration``,
+        watching for divergence, and collect its logs (``run``)."""
+        context = simulator.get_mutable_context()
         T_s = self.config.sample_time
-        ApplySimulatorConfig(self.simulator_config(), simulator)
         # One sample past the end: the voltage computed at t_N0 is logged at t_N0+1.
         last = self.config.samples + 1
         status, message = "ok", ""
@@ -523,10 +621,12 @@ class ClosedLoopRunner:
                     status = "diverged"
                     break
         except RuntimeError as error:
+            if user_frames(error):  # raised by a user's plug-in controller, not Drake
+                raise
             status = "diverged"
             message = f"integrator failed: {str(error).strip().splitlines()[0]}"
         wall = time.perf_counter() - start
-        result = self._collect(context, status, message, wall)
+        result = self.collect(context, status, message, wall)
         integrator = simulator.get_integrator()
         return dataclasses.replace(
             result,
@@ -568,9 +668,12 @@ class ClosedLoopRunner:
             )
         return "ok", ""
 
-    def _collect(
-        self, context: Context, status: str, message: str, wall: float
+    def collect(
+        self, context: Context, status: str = "ok", message: str = "", wall: float = 0.0
     ) -> ClosedLoopResult:
+        """The logs in root ``context`` as a ``ClosedLoopResult`` (``status`` is checked
+        against the logged errors; a script that advanced a simulator itself passes only
+        the context)."""
         log = self.loop.logger.FindLog(context)
         samples = log.data().T
         data = {name: samples[:, columns] for name, columns in self.loop.log_columns.items()}
@@ -600,6 +703,7 @@ class ClosedLoopRunner:
             u_applied=shifted["u_applied"],
             internals=shifted["internals"],
             internals_names=tuple(self.loop.controller.internals_names),
+            internals_columns=tuple(self.loop.controller.internals_columns),
             status=status,
             message=message,
             wall_time_s=wall,

@@ -11,14 +11,21 @@ from __future__ import annotations
 
 import copy
 import dataclasses
-from collections.abc import Callable, Iterable
+import json
+from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
 import pandas as pd
+import yaml
 
-from posfb.diagrams.closed_loop import ClosedLoopConfig, ClosedLoopResult, ClosedLoopRunner
+from posfb.diagrams.closed_loop import (
+    ClosedLoopConfig,
+    ClosedLoopResult,
+    ClosedLoopRunner,
+    TruePlant,
+)
 from posfb.diagrams.scenario import (
     SHIPPED_PREFIX,
     ControllerSettings,
@@ -27,6 +34,7 @@ from posfb.diagrams.scenario import (
     IdentifiedFromUrdf,
     NominalModel,
     ParameterOverrides,
+    Python,
     Scenario,
     StateSpaceH,
     Table1,
@@ -36,11 +44,15 @@ from posfb.diagrams.scenario import (
     Wave,
     Waypoints,
     apply_setting,
+    controller_kind,
+    dump_scenario,
+    get_setting,
     resolve_path,
     scenario_chain,
 )
 from posfb.diagrams.yaml_schema import load_typed, read_text
-from posfb.models.controllers import CONTROLLER_KINDS
+from posfb.models.controllers import REGISTRY, PluginError, UserPlugin, make_controller
+from posfb.models.controllers.plugin import load_plugin, module_plugin
 from posfb.models.design import ControllerConfig
 from posfb.models.design.config import (
     LqrWeights,
@@ -69,27 +81,55 @@ from posfb.models.validation import per_joint
 
 @dataclass
 class LoadedScenario:
-    """A scenario and the folder its relative paths are read from."""
+    """A scenario, the folder its relative paths are read from, and where it came from
+    (``source``: the file, or a word for a scenario that has none)."""
 
     scenario: Scenario
     base_dir: Path
+    source: str = "defaults"
+
+    def with_settings(self, settings: Iterable[str]) -> LoadedScenario:
+        """A copy with the ``KEY=VALUE`` ``settings`` applied in order, validated."""
+        loaded = LoadedScenario(self.scenario, self.base_dir, self.source)
+        for setting in settings:
+            loaded.scenario = apply_setting(loaded.scenario, setting, loaded.base_dir)
+        resolve(loaded)
+        return loaded
+
+    def get(self, key: str) -> object:
+        """The value of dotted ``key`` (``timing.duration``, ``sensor.encoder_counts[1]``)."""
+        return get_setting(self.scenario, key)
+
+    def dump(self) -> str:
+        """The complete scenario as YAML, every default written out."""
+        return dump_scenario(self.scenario)
+
+
+def scenario_from_file(path: str | Path, settings: Iterable[str] = ()) -> LoadedScenario:
+    """The scenario of YAML file ``path`` with the ``KEY=VALUE`` ``settings`` applied in
+    order, validated by ``resolve``."""
+    file = Path(path)
+    text = read_text(file, "scenario")
+    scenario = load_typed(Scenario, text, f"scenario {file}", empty_ok=True)
+    return LoadedScenario(scenario, file.resolve().parent, str(path)).with_settings(settings)
+
+
+def scenario_from_mapping(
+    mapping: Mapping[str, object], settings: Iterable[str] = ()
+) -> LoadedScenario:
+    """A scenario from a mapping with a scenario file's keys (relative paths from the
+    working folder), with ``settings`` applied, validated."""
+    text = yaml.safe_dump(dict(mapping), default_flow_style=False, sort_keys=False)
+    scenario = load_typed(Scenario, text, "scenario mapping", empty_ok=True)
+    return LoadedScenario(scenario, Path.cwd(), "mapping").with_settings(settings)
 
 
 def load_scenario(path: str | Path | None = None, settings: Iterable[str] = ()) -> LoadedScenario:
     """The scenario of file ``path`` (the paper's defaults without one), with the
     ``KEY=VALUE`` ``settings`` applied in order, validated by ``resolve``."""
     if path is None:
-        loaded = LoadedScenario(Scenario(), Path.cwd())
-    else:
-        file = Path(path)
-        text = read_text(file, "scenario")
-        scenario = load_typed(Scenario, text, f"scenario {file}", empty_ok=True)
-        loaded = LoadedScenario(scenario, file.resolve().parent)
-    for setting in settings:
-        loaded.scenario = apply_setting(loaded.scenario, setting, loaded.base_dir)
-    resolve(loaded)
-    return loaded
-
+        return LoadedScenario(Scenario(), Path.cwd()).with_settings(settings)
+    return scenario_from_file(path, settings)
 
 
 def h_matrices(settings: FilterH, joints: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -153,6 +193,8 @@ def with_absolute_paths(loaded: LoadedScenario) -> Scenario:
         scenario.nominal_model.urdf = absolute(scenario.nominal_model.urdf)
     if isinstance(scenario.trajectory, CsvFile):
         scenario.trajectory.path = absolute(scenario.trajectory.path)
+    if isinstance(scenario.controller, Python) and scenario.controller.file:
+        scenario.controller.file = absolute(scenario.controller.file)
     return scenario
 
 
@@ -208,6 +250,73 @@ def make_nominal(settings: NominalModel, base_dir: Path) -> NominalForm:
     return identify_urdf(str(resolve_path(settings.urdf, base_dir)), settings.payload_mass)
 
 
+def flat_kind(kind: str) -> str:
+    """``kind`` if the flat controller section (``kind`` + the Sec. 3 design inputs) can
+    hold it: a registered kind without a settings class of its own."""
+    flat = [name for name, entry in REGISTRY.items() if entry.settings is None]
+    if kind not in flat:
+        tags = [f"!{entry.settings.__name__} {{}}" for entry in REGISTRY.values() if entry.settings]
+        hint = (
+            f" ({kind} has its own entry: controller: !{REGISTRY[kind].settings.__name__} {{...}},"
+            f" or --controller {kind})"
+            if kind in REGISTRY
+            else f"; the others are entries of their own ({', '.join(tags)}, "
+            "!Python {file, class})"
+        )
+        raise ValueError(f"controller.kind = {kind!r}; one of {', '.join(flat)} is required{hint}")
+    return kind
+
+
+def load_python_controller(section: Python, base_dir: Path) -> UserPlugin:
+    """The user's controller class of a ``!Python`` entry (file relative to ``base_dir``,
+    or module), with its settings; every problem is one line naming the key."""
+    if bool(section.file) == bool(section.module):
+        raise ValueError(
+            f"controller: !Python has file = {section.file!r} and module = {section.module!r};"
+            " exactly one of them is required"
+        )
+    if not section.class_name:
+        raise ValueError("controller.class is empty; the name of a posfb.Controller subclass "
+                         "is required")  # fmt: skip
+    try:
+        settings = json.loads(section.settings)
+    except json.JSONDecodeError:
+        settings = None
+    if not isinstance(settings, dict):
+        raise ValueError(f"controller.settings = {section.settings!r}; a map of names to values "
+                         "is required")  # fmt: skip
+    label = section.label or section.class_name
+    if section.file:
+        path = resolve_path(section.file, base_dir)
+        if not path.is_file():
+            raise ValueError(f"controller.file = {section.file!r}: {path} does not exist")
+        try:
+            text = path.read_text()
+        except (OSError, UnicodeDecodeError) as error:
+            message = f"controller.file = {section.file!r} cannot be read: {error}"
+            raise ValueError(message) from None
+        return load_plugin(text, str(path), section.class_name, settings, label)
+    return module_plugin(section.module, section.class_name, settings, label)
+
+
+def controller_inputs(
+    section: object, nominal: NominalForm, sample_time: float, base_dir: Path
+) -> tuple[str, ControllerConfig, object | None]:
+    """``(kind, design inputs, settings)`` of the scenario's controller entry: the flat
+    form's design (``make_design``), or a plug-in's settings with ``ControllerConfig.
+    without_design``. A plug-in is built once here, so a bad setting is refused now."""
+    if isinstance(section, ControllerSettings):
+        return flat_kind(section.kind), make_design(section, nominal, sample_time), None
+    design = ControllerConfig.without_design(nominal, sample_time)
+    if isinstance(section, Python):
+        settings: object = load_python_controller(section, base_dir)
+        kind = settings.kind
+    else:
+        settings, kind = copy.deepcopy(section), controller_kind(section)
+    make_controller(kind, design, settings=settings)
+    return kind, design, settings
+
+
 def make_design(
     settings: ControllerSettings, nominal: NominalForm, sample_time: float
 ) -> ControllerConfig:
@@ -242,16 +351,23 @@ def make_design(
 
 @dataclass(frozen=True, eq=False)
 class ResolvedScenario:
-    """A validated scenario: the closed-loop config and the true plant's overrides."""
+    """A validated scenario: the closed-loop config, which carries the true plant's
+    payload and overrides (``ClosedLoopConfig.true_plant``)."""
 
     config: ClosedLoopConfig
-    payload_mass: float
-    overrides: dict[str, tuple[float, ...]]
+
+    @property
+    def payload_mass(self) -> float:
+        return self.config.true_plant.payload_mass
+
+    @property
+    def overrides(self) -> dict[str, tuple[float, ...]]:
+        return dict(self.config.true_plant.overrides)
 
     def true_parameters(self, defaults: ArmParameters) -> ArmParameters:
         """The true arm: the URDF's ``defaults`` with the scenario's overrides."""
         try:
-            return replace(defaults, **self.overrides, payload_mass=self.payload_mass)
+            return self.config.true_plant.parameters(defaults)
         except ValueError as error:
             raise _with_key(error, "plant.parameters") from None
 
@@ -270,11 +386,9 @@ def _overrides(settings: ParameterOverrides, joints: int) -> dict[str, tuple[flo
 def resolve(loaded: LoadedScenario) -> ResolvedScenario:
     """Validate ``loaded`` into a ``ResolvedScenario``; errors name the dotted key."""
     scenario, base = loaded.scenario, loaded.base_dir
-    settings = scenario.controller
-    if settings.kind not in CONTROLLER_KINDS:
-        raise ValueError(
-            f"controller.kind = {settings.kind!r}; one of {', '.join(CONTROLLER_KINDS)} is required"
-        )
+    section = scenario.controller
+    if isinstance(section, ControllerSettings):
+        flat_kind(section.kind)  # a bad kind is refused before any file is read
     chain = scenario_chain(scenario, base)
     joints = len(chain.joints)
     try:
@@ -287,21 +401,36 @@ def resolve(loaded: LoadedScenario) -> ResolvedScenario:
             f"{scenario.plant.urdf!r} has {joints}; the same number is required"
         )
     try:
-        design = make_design(settings, nominal, scenario.timing.sample_time)
+        kind, design, controller_settings = controller_inputs(
+            section, nominal, scenario.timing.sample_time, base
+        )
+    except PluginError:
+        raise  # a plug-in's own message names its key and class
     except ValueError as error:
         raise _with_key(error, "controller") from None
     trajectory = make_trajectory(scenario.trajectory, base)
     plant = scenario.plant
     urdf = resolve_path(plant.urdf, base)
     try:
+        # The payload and overrides are checked against ArmParameters' own rules.
+        if plant.payload_mass != 0.0 and PAYLOAD_BODY not in chain.links:
+            raise ValueError(
+                f"payload_mass = {plant.payload_mass!r} kg, but plant.urdf = {plant.urdf!r} "
+                f"has no link named {PAYLOAD_BODY!r} to carry it; 0 is required"
+            )
+        overrides = _overrides(plant.parameters, joints)
+        probe = ArmParameters(**{name: (1.0,) * joints for name in JOINT_PARAMETERS})
+        replace(probe, **overrides, payload_mass=plant.payload_mass)
+        true_plant = TruePlant(float(plant.payload_mass), tuple(overrides.items()))
         plant_config = PlantConfig(
             urdf=str(urdf),
             friction_velocity=plant.friction_velocity,
             motor_friction_blocks=plant.motor_friction_blocks,
         )
         config = ClosedLoopConfig(
-            controller=settings.kind,
+            controller=kind,
             design=design,
+            controller_settings=controller_settings,
             duration=scenario.timing.duration,
             trajectory=trajectory,
             encoder_counts=tuple(scenario.sensor.encoder_counts),
@@ -313,19 +442,11 @@ def resolve(loaded: LoadedScenario) -> ResolvedScenario:
             plant=plant_config,
             divergence_bound=scenario.timing.divergence_bound,
             simulator=scenario.timing.simulator,
+            true_plant=true_plant,
         )
-        # The payload and overrides are checked against ArmParameters' own rules.
-        if plant.payload_mass != 0.0 and PAYLOAD_BODY not in chain.links:
-            raise ValueError(
-                f"payload_mass = {plant.payload_mass!r} kg, but plant.urdf = {plant.urdf!r} "
-                f"has no link named {PAYLOAD_BODY!r} to carry it; 0 is required"
-            )
-        overrides = _overrides(plant.parameters, joints)
-        probe = ArmParameters(**{name: (1.0,) * joints for name in JOINT_PARAMETERS})
-        replace(probe, **overrides, payload_mass=plant.payload_mass)
     except ValueError as error:
         raise _with_key(error, "plant.parameters") from None
-    return ResolvedScenario(config, float(plant.payload_mass), overrides)
+    return ResolvedScenario(config)
 
 
 def run_scenario(
@@ -340,6 +461,4 @@ def run_resolved(
     resolved: ResolvedScenario, progress: Callable[[float], None] | None = None
 ) -> ClosedLoopResult:
     """``run_scenario`` for a scenario already resolved (no second validation)."""
-    runner = ClosedLoopRunner(resolved.config)
-    parameters = resolved.true_parameters(runner.arm.default_parameters)
-    return runner.run(parameters, progress=progress)
+    return ClosedLoopRunner(resolved.config).run(progress=progress)

@@ -47,7 +47,9 @@ from posfb.diagrams.closed_loop import (
     default_simulator,
 )
 from posfb.diagrams.encoder import DEFAULT_ENCODER_COUNTS
-from posfb.diagrams.yaml_schema import check_shape, parse
+from posfb.diagrams.yaml_schema import check_shape, parse, prepare
+from posfb.models.controllers import REGISTRY
+from posfb.models.controllers.registry import settings_kind
 from posfb.models.design import ControllerConfig
 from posfb.models.design.config import (
     LqrWeights,
@@ -336,6 +338,34 @@ class ControllerSettings:
 
 
 @dataclass
+class Python:
+    """Your own controller (``models.controllers.plugin``, ``posfb.Controller``): the class
+    ``class`` (``class_name``) defined in ``file`` (relative to the scenario's folder) or
+    in the importable ``module``, built with ``settings`` (a map of numbers, lists and
+    strings, passed as keyword arguments); ``label`` names it in legends and tables
+    (default: the class name, which is also its kind)."""
+
+    #: YAML spellings of fields whose name is a Python keyword.
+    ALIASES: typing.ClassVar[dict[str, str]] = {"class": "class_name"}
+    #: Keys whose map is kept as JSON text for the plug-in (``yaml_schema.prepare``).
+    FREEFORM: typing.ClassVar[tuple[str, ...]] = ("settings",)
+
+    file: str = ""
+    module: str = ""
+    class_name: str = ""
+    settings: str = "{}"
+    label: str = ""
+
+
+#: The scenario's controller: the paper's three in the flat form (``kind`` and the Sec. 3
+#: design inputs), a registered plug-in kind's settings (``!PdGravity {}``, ``!Adrc {}``)
+#: or your own controller (``!Python {file, class}``).
+ControllerSection = typing.Union[  # noqa: UP007 - built from the registry
+    (ControllerSettings, *(s.settings for s in REGISTRY.values() if s.settings), Python)
+]
+
+
+@dataclass
 class Scenario:
     """Everything one closed-loop run depends on (module docstring)."""
 
@@ -345,7 +375,39 @@ class Scenario:
     timing: Timing = field(default_factory=Timing)
     sensor: Sensor = field(default_factory=Sensor)
     actuator: Actuator = field(default_factory=Actuator)
-    controller: ControllerSettings = field(default_factory=ControllerSettings)
+    controller: ControllerSection = field(default_factory=ControllerSettings)
+
+
+def controller_kind(section: object) -> str:
+    """The kind of a scenario's ``controller`` entry (a ``!Python`` entry's: its class)."""
+    if isinstance(section, ControllerSettings):
+        return section.kind
+    if isinstance(section, Python):
+        return section.class_name
+    return settings_kind(section)
+
+
+def with_controller(scenario: Scenario, kind: str) -> Scenario:
+    """A copy of ``scenario`` whose controller is ``kind``: the flat form's ``kind`` for the
+    paper's three (the form's other inputs kept), a plug-in kind's own entry (kept if the
+    scenario has it, its defaults otherwise), or the scenario's ``!Python`` class."""
+    section = scenario.controller
+    result = copy.deepcopy(scenario)
+    if kind == controller_kind(section):
+        return result
+    if kind not in REGISTRY:
+        own = f", {controller_kind(section)}" if isinstance(section, Python) else ""
+        raise ValueError(
+            f"controller.kind = {kind!r}; one of {', '.join(REGISTRY)}{own} is required "
+            "(or a !Python {file, class} entry for your own controller)"
+        )
+    settings = REGISTRY[kind].settings
+    if settings is None:
+        flat = section if isinstance(section, ControllerSettings) else ControllerSettings()
+        result.controller = dataclasses.replace(copy.deepcopy(flat), kind=kind)
+    else:
+        result.controller = settings()
+    return result
 
 
 # --- dump, --set ------------------------------------------------------------------
@@ -474,6 +536,11 @@ def apply_setting(scenario: Scenario, setting: str, base_dir: Path | None = None
     key, text = key.strip(), text.strip()
     if not equals or not key:
         raise ValueError(f"--set {setting!r}; KEY=VALUE is required (e.g. timing.duration=5)")
+    if key == "controller.kind":
+        kind = parse(text, f"--set {key}")
+        if not isinstance(kind, str):
+            raise ValueError(f"--set controller.kind={text}; a controller kind is required")
+        return with_controller(scenario, kind)
     result = copy.deepcopy(scenario)
     parent, name, index = _walk(result, key)
     schema = type(parent)
@@ -487,7 +554,7 @@ def apply_setting(scenario: Scenario, setting: str, base_dir: Path | None = None
         text = f"[{', '.join(rendered)}]"
     elif _is_list(_field_types(schema)[name]) and not isinstance(parse(text, f"--set {key}"), list):
         text = f"[{text}]"
-    document = f"{name}: {text}"
+    document = prepare(f"{name}: {text}", schema)
     prefix = key.rpartition(".")[0]
     check_shape(parse(document, f"--set {key}"), schema, prefix)
     try:

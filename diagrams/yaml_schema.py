@@ -10,6 +10,7 @@ then lets Drake fill the dataclasses. Every problem is one ``ValueError`` line.
 from __future__ import annotations
 
 import dataclasses
+import json
 import re
 import types
 import typing
@@ -162,12 +163,94 @@ def parse(text: str, source: str) -> object:
         raise ValueError(f"{source}: not a YAML document ({type(error).__name__})") from None
 
 
+class _TaggedDumper(yaml.SafeDumper):
+    """Writes the nodes ``prepare`` rewrote, with YAML 1.2 floats left plain."""
+
+
+_TaggedDumper.add_implicit_resolver("tag:yaml.org,2002:float", _FLOAT, list("-+0123456789."))
+
+#: Scalar types of a per-joint list (``list[float]``, ``list[int]``).
+_SCALARS = (float, int)
+
+
+def _list_of_scalars(schema: object) -> bool:
+    """Whether ``schema`` is ``list[float]``/``list[int]`` (or that ``| None``)."""
+    options = typing.get_args(schema) if typing.get_origin(schema) in (
+        typing.Union, types.UnionType) else (schema,)  # fmt: skip
+    return any(
+        typing.get_origin(option) is list and typing.get_args(option)[0] in _SCALARS
+        for option in options
+    )
+
+
+def _prepare_node(node: yaml.Node, schema: object) -> None:
+    """Rewrite ``node`` in place for ``schema`` (``prepare``)."""
+    origin, args = typing.get_origin(schema), typing.get_args(schema)
+    if dataclasses.is_dataclass(schema) or hasattr(schema, "__fields__"):
+        if not isinstance(node, yaml.MappingNode):
+            return
+        allowed = _field_types(schema)
+        aliases = getattr(schema, "ALIASES", {})
+        freeform = getattr(schema, "FREEFORM", ())
+        for index, (key, value) in enumerate(node.value):
+            if not isinstance(key, yaml.ScalarNode):
+                continue
+            key.value = aliases.get(key.value, key.value)
+            if key.value in freeform and not isinstance(value, yaml.ScalarNode):
+                data = yaml.load(yaml.serialize(value, Dumper=_TaggedDumper), Loader=_TaggedLoader)
+                text = json.dumps(data)
+                node.value[index] = (key, yaml.ScalarNode("tag:yaml.org,2002:str", text))
+            elif key.value in allowed:
+                _prepare_node(value, allowed[key.value])
+    elif origin in (typing.Union, types.UnionType):
+        options = [a for a in args if a is not types.NoneType]
+        if _list_of_scalars(schema):
+            _prepare_node(node, next(o for o in options if typing.get_origin(o) is list))
+            return
+        by_tag = {f"!{o.__name__}": o for o in options if dataclasses.is_dataclass(o)}
+        _prepare_node(node, by_tag.get(node.tag, options[0]))
+    elif origin is list:
+        if isinstance(node, yaml.SequenceNode):
+            for item in node.value:
+                _prepare_node(item, args[0])
+        elif (
+            isinstance(node, yaml.ScalarNode)
+            and args[0] in _SCALARS
+            and node.tag != "tag:yaml.org,2002:null"
+        ):
+            # A per-joint key given one value: every joint (as --set does).
+            scalar = yaml.ScalarNode(node.tag, node.value, style=node.style)
+            node.__class__, node.tag = yaml.SequenceNode, "tag:yaml.org,2002:seq"
+            node.value, node.flow_style = [scalar], True
+    elif origin is dict and isinstance(node, yaml.MappingNode):
+        for _, value in node.value:
+            _prepare_node(value, args[1])
+
+
+def prepare(text: str, schema: type) -> str:
+    """``text`` rewritten for ``schema`` before it is checked and loaded: a scalar where
+    a per-joint list (``list[float]``) is expected becomes a one-value list (one value
+    means every joint); a key in a dataclass's ``ALIASES`` is renamed (``class`` ->
+    ``class_name``); a map under a ``FREEFORM`` key (a plug-in's ``settings``) becomes its
+    JSON text, for the plug-in to read. A document that does not parse is returned as
+    it is, for ``parse`` to report."""
+    try:
+        root = yaml.compose(text, Loader=_TaggedLoader)
+    except yaml.YAMLError:
+        return text
+    if root is None:
+        return text
+    _prepare_node(root, schema)
+    return yaml.serialize(root, Dumper=_TaggedDumper)
+
+
 def load_typed(
     schema: type, text: str, source: str, defaults: object | None = None, empty_ok: bool = False
 ) -> object:
     """``text`` loaded into ``schema`` (over ``defaults`` where given) after ``check_shape``.
     A document with no content (empty or comments only) is ``schema()`` where
     ``empty_ok``, and an error otherwise."""
+    text = prepare(text, schema)
     raw = parse(text, source)
     if raw is None:
         if empty_ok:

@@ -7,12 +7,12 @@ import math
 
 import numpy as np
 import pytest
+from loop_checks import assert_position_only
 
 from posfb.analysis.experiment import case_parameters, payload_mass
 from posfb.analysis.metrics import run_metrics
 from posfb.diagrams.closed_loop import ClosedLoopConfig, ClosedLoopRunner
-from posfb.diagrams.graph import edges, reachable
-from posfb.models.controllers import CONTROLLER_KINDS
+from posfb.models.controllers import kinds
 from posfb.models.trajectory import desired
 
 #: Short runs keep the module fast; 3 s covers the transient and a joint-2 period.
@@ -23,7 +23,7 @@ DURATION = 3.0
 def runners():
     return {
         kind: ClosedLoopRunner(ClosedLoopConfig(controller=kind, duration=DURATION))
-        for kind in CONTROLLER_KINDS
+        for kind in kinds()  # every registered controller, the plug-in baselines included
     }
 
 
@@ -36,32 +36,9 @@ def payload_runs(runners):
     }
 
 
-@pytest.mark.parametrize("kind", CONTROLLER_KINDS)
+@pytest.mark.parametrize("kind", kinds())
 def test_the_only_path_from_plant_to_controller_is_the_quantised_position(runners, kind):
-    loop = runners[kind].loop
-    graph = edges(loop.diagram)
-    plant, encoder = loop.arm.plant.get_name(), loop.encoder.get_name()
-    controller = loop.controller.get_name()
-    into_controller = {(e.source, e.output, e.input) for e in graph if e.target == controller}
-    assert into_controller == {
-        ("encoder_hold", "y", "q_measured"),  # Drake's ZeroOrderHold names its ports u, y
-        ("desired_hold", "y", "desired"),
-    }
-    into_holds = {(e.source, e.output, e.target) for e in graph if e.target.endswith("_hold")}
-    assert into_holds == {
-        (encoder, "q_measured", "encoder_hold"),
-        ("desired_trajectory", "y0", "desired_hold"),  # TrajectorySource names it y0
-    }
-    # the encoder reads the position half of the plant state, nothing else
-    position = loop.arm.position_output_port()
-    into_encoder = [(e.source, e.output) for e in graph if e.target == encoder]
-    assert into_encoder == [(position.get_system().get_name(), position.get_name())]
-    assert position.get_name() != loop.arm.velocity_output_port().get_name()
-    # every path from the plant to the controller passes through the encoder
-    assert controller in reachable(graph, plant)
-    assert controller not in reachable(graph, plant, blocked=frozenset({encoder}))
-    # and the trajectory depends on nothing
-    assert not [e for e in graph if e.target == "desired_trajectory"]
+    assert_position_only(runners[kind].loop)
 
 
 def test_voltage_computed_at_t_k_uses_the_measurement_at_t_k(runners):

@@ -10,7 +10,7 @@ import pytest
 from lumped_plant import exact_model_config, simulate
 from pydrake.systems.analysis import Simulator
 
-from posfb.models.controllers import CONTROLLER_KINDS, internals_names, make_controller
+from posfb.models.controllers import PAPER_CONTROLLERS, internals_names, make_controller
 from posfb.models.design import ControllerConfig, NonlinearTorqueConfig
 from posfb.models.lumped import LumpedModel
 from posfb.models.trajectory import desired
@@ -40,7 +40,7 @@ def _samples(controller, positions) -> tuple[np.ndarray, np.ndarray]:
     return np.array(voltages), np.array(internals)
 
 
-@pytest.mark.parametrize("kind", CONTROLLER_KINDS)
+@pytest.mark.parametrize("kind", PAPER_CONTROLLERS)
 def test_ports_take_positions_and_no_velocity(kind):
     controller = make_controller(kind)
     inputs = [controller.get_input_port(i) for i in range(controller.num_input_ports())]
@@ -55,7 +55,7 @@ def test_ports_take_positions_and_no_velocity(kind):
     ]
 
 
-@pytest.mark.parametrize("kind", CONTROLLER_KINDS)
+@pytest.mark.parametrize("kind", PAPER_CONTROLLERS)
 def test_outputs_feed_through_the_held_input_and_the_state_updates_every_period(kind):
     controller = make_controller(kind)
     assert controller.num_continuous_states() == 0

@@ -73,7 +73,7 @@ def test_workers_are_capped_and_a_fixed_study_is_flagged(tmp_path):
 #: command ``argv[2:]``.
 SECOND_RUN = """
 import pathlib, sys, time
-import posfb.analysis.commands.montecarlo
+import posfb.analysis.montecarlo.scheduler  # what ``montecarlo run`` loads: Drake, numpy
 from posfb.analysis.cli import main
 go = pathlib.Path(sys.argv[1])
 while not go.exists():

@@ -18,7 +18,7 @@ from matplotlib.image import imread
 
 from posfb.analysis.cli import main
 from posfb.analysis.experiment import ResultsFile
-from posfb.models.controllers import CONTROLLER_KINDS
+from posfb.models.controllers import PAPER_CONTROLLERS
 
 FIGURES = [f"fig{n}{suffix}" for n in (4, 5, 6, 7) for suffix in ("", "_alpha_star")]
 
@@ -43,7 +43,7 @@ def test_results_json_has_the_documented_shape(reproduction):
     _, out, _ = reproduction
     data = json.loads((out / "results.json").read_text())
     for case in ("nominal", "payload"):
-        assert set(data[case]) == set(CONTROLLER_KINDS)
+        assert set(data[case]) == set(PAPER_CONTROLLERS)
         for entry in data[case].values():
             assert len(entry["rms_q"]) == len(entry["rms_u"]) == 2
             assert all(isinstance(v, float) and v >= 0 for v in entry["rms_q"] + entry["rms_u"])

@@ -18,7 +18,7 @@ from posfb.diagrams.encoder import quantise
 from posfb.diagrams.resolve import load_scenario, resolve, run_scenario
 from posfb.diagrams.scenario import Scenario, dump_scenario
 from posfb.diagrams.yaml_schema import load_typed
-from posfb.models.controllers import CONTROLLER_KINDS
+from posfb.models.controllers import PAPER_CONTROLLERS
 from posfb.models.plant import DEFAULT_URDF
 from posfb.models.trajectory import desired
 
@@ -47,7 +47,7 @@ def test_a_dumped_scenario_loads_and_dumps_back_byte_for_byte(tmp_path):
 
 
 @pytest.mark.parametrize("case", ["nominal", "payload"])
-@pytest.mark.parametrize("kind", CONTROLLER_KINDS)
+@pytest.mark.parametrize("kind", PAPER_CONTROLLERS)
 def test_shipped_paper_scenarios_equal_the_hand_built_paper_runs(case, kind):
     loaded = case_scenario(case, (f"controller.kind={kind}", "timing.duration=2"))
     from_file = run_scenario(loaded)
@@ -65,7 +65,7 @@ def _tracks(result, bound):
     assert np.max(np.abs(result.q_error)) < bound
 
 
-@pytest.mark.parametrize("kind", CONTROLLER_KINDS)
+@pytest.mark.parametrize("kind", PAPER_CONTROLLERS)
 def test_waypoints_are_tracked_from_the_right_initial_state(tmp_path, kind):
     path = _write(tmp_path, WAYPOINTS + "timing: {duration: 4.0}\n")
     result = run_scenario(load_scenario(path, [f"controller.kind={kind}"]))
@@ -73,7 +73,7 @@ def test_waypoints_are_tracked_from_the_right_initial_state(tmp_path, kind):
     np.testing.assert_allclose(result.q_desired[-1], [-1.4, 0.3], atol=1e-12)  # held at rest
 
 
-@pytest.mark.parametrize("kind", CONTROLLER_KINDS)
+@pytest.mark.parametrize("kind", PAPER_CONTROLLERS)
 def test_a_csv_trajectory_is_tracked_and_follows_the_samples(tmp_path, kind):
     times = np.arange(0.0, 3.0 + 1e-9, 0.02)
     table = pd.DataFrame({"time_s": times})

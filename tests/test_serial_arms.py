@@ -17,7 +17,7 @@ from pydrake.multibody.plant import MultibodyPlant
 from posfb.analysis.export import run_table
 from posfb.analysis.plots import positions_and_voltages, tracking_errors
 from posfb.diagrams.resolve import load_scenario, run_scenario
-from posfb.models.controllers import CONTROLLER_KINDS
+from posfb.models.controllers import PAPER_CONTROLLERS
 from posfb.models.controllers.feedforward import nominal_torques
 from posfb.models.design import ControllerConfig, compute_design
 from posfb.models.identify import identify_urdf
@@ -110,7 +110,7 @@ def test_three_link_proposed_converges_below_lin_lc(tmp_path):
     assert worst["proposed"] < 0.5 * worst["lin_lc"], worst
 
 
-@pytest.mark.parametrize("kind", CONTROLLER_KINDS)
+@pytest.mark.parametrize("kind", PAPER_CONTROLLERS)
 def test_every_controller_tracks_the_three_link_scenario(kind):
     """Quantised encoders and saturated voltages, the shipped scenario: each run
     finishes with every joint's error bounded well inside the divergence bound."""

@@ -4,17 +4,11 @@ from __future__ import annotations
 
 import argparse
 
-from posfb.analysis import progress
 from posfb.analysis.commands.scenario_args import add_scenario_arguments, scenario_from_args
 from posfb.analysis.errors import UsageError
-from posfb.analysis.outputs import output_file
-from posfb.diagrams.animate import record_animation
 
 
-def register(subparsers: argparse._SubParsersAction) -> None:
-    parser = subparsers.add_parser(
-        "animate", help="write an offline HTML animation of one run (Meshcat recording)"
-    )
+def configure(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--out", required=True, help="HTML file to write, e.g. arm.html")
     add_scenario_arguments(parser, ("controller", "duration", "payload", "alpha_star"))
     parser.add_argument("--no-progress", action="store_true", help="no progress bar on stderr")
@@ -22,6 +16,10 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    from posfb.analysis import progress
+    from posfb.analysis.outputs import output_file
+    from posfb.diagrams.animate import record_animation
+
     out = output_file("--out", args.out, (".html", ".htm"))
     loaded = scenario_from_args(args)
     try:

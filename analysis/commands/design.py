@@ -13,22 +13,20 @@ from __future__ import annotations
 import argparse
 import json
 from dataclasses import asdict
-
-import numpy as np
+from typing import TYPE_CHECKING
 
 from posfb.analysis.commands.scenario_args import add_scenario_arguments, scenario_from_args
-from posfb.diagrams.resolve import resolve
-from posfb.models.design import ControllerConfig, Design, compute_design
-from posfb.models.design.discretise import DISCRETISATION_NAMES
+
+if TYPE_CHECKING:
+    import numpy as np
+
+    from posfb.models.design import ControllerConfig, Design
 
 #: Exit code of ``--strict`` when a check fails.
 EXIT_FAILED_CHECK = 1
 
 
-def register(subparsers: argparse._SubParsersAction) -> None:
-    parser = subparsers.add_parser(
-        "design", help="design the position-feedback controller (Sec. 3) and check it"
-    )
+def configure(parser: argparse.ArgumentParser) -> None:
     add_scenario_arguments(parser, ("sample_time", "alpha_star"))
     parser.add_argument("--json", action="store_true", help="print one JSON object")
     parser.add_argument(
@@ -39,6 +37,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
 def design_config(args: argparse.Namespace) -> ControllerConfig:
     """The design inputs of the scenario the command line describes."""
+    from posfb.diagrams.resolve import resolve
+
     return resolve(scenario_from_args(args)).config.design
 
 
@@ -97,6 +97,8 @@ def _pole_text(poles: np.ndarray) -> str:
 
 def format_report(design: Design) -> str:
     """The readable report: the design, then every check with ``ok`` or ``FAILED``."""
+    from posfb.models.design.discretise import DISCRETISATION_NAMES
+
     config = design.config
     lines = [
         f"Design of Sec. 3 at T_s = {config.sample_time:g} s, alpha* = "
@@ -121,6 +123,8 @@ def format_report(design: Design) -> str:
 
 
 def run(args: argparse.Namespace) -> int:
+    from posfb.models.design import compute_design
+
     design = compute_design(design_config(args))
     print(json.dumps(design_to_dict(design)) if args.json else format_report(design))
     return EXIT_FAILED_CHECK if args.strict and design.warnings else 0

@@ -6,22 +6,20 @@ import argparse
 import sys
 
 from posfb.analysis.commands.scenario_args import add_scenario_arguments, scenario_from_args
-from posfb.analysis.outputs import output_file
-from posfb.diagrams.closed_loop import ClosedLoopRunner
-from posfb.diagrams.graph import GRAPH_SUFFIXES, graphviz_source, render
-from posfb.diagrams.resolve import resolve
 
 
-def register(subparsers: argparse._SubParsersAction) -> None:
-    parser = subparsers.add_parser(
-        "graph", help="render the closed-loop diagram (.svg/.png/.pdf, or .dot text)"
-    )
+def configure(parser: argparse.ArgumentParser) -> None:
     add_scenario_arguments(parser, ("controller",))
     parser.add_argument("--out", required=True, help="file to write, e.g. closed_loop.svg")
     parser.set_defaults(handler=run)
 
 
 def run(args: argparse.Namespace) -> int:
+    from posfb.analysis.outputs import output_file
+    from posfb.diagrams.closed_loop import ClosedLoopRunner
+    from posfb.diagrams.graph import GRAPH_SUFFIXES, graphviz_source, render
+    from posfb.diagrams.resolve import resolve
+
     out = output_file("--out", args.out, GRAPH_SUFFIXES)
     diagram = ClosedLoopRunner(resolve(scenario_from_args(args)).config).diagram
     path, note = render(graphviz_source(diagram), out)

@@ -16,24 +16,13 @@ import argparse
 import os
 import sys
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from posfb.analysis.errors import InterruptedRunError, UsageError
-from posfb.analysis.export import write_table
-from posfb.analysis.montecarlo.config import Study, load_study, with_overrides
-from posfb.analysis.montecarlo.cost import advice, calibrate
-from posfb.analysis.montecarlo.provenance import code_version
-from posfb.analysis.montecarlo.replay import (
-    chosen_controllers,
-    compare,
-    require_stored,
-    write_outputs,
-)
-from posfb.analysis.montecarlo.report import write_report
-from posfb.analysis.montecarlo.scheduler import run_study
-from posfb.analysis.montecarlo.store import ResultStore
-from posfb.analysis.montecarlo.table import TABLE_FORMATS, study_table
-from posfb.analysis.montecarlo.worker import ClosedLoopEvaluator
 from posfb.analysis.outputs import output_file, output_folder
+
+if TYPE_CHECKING:
+    from posfb.analysis.montecarlo.config import Study
 
 
 def _integer_at_least(minimum: int):
@@ -66,10 +55,7 @@ _positive_int = _integer_at_least(1)
 _seed = _integer_at_least(0)
 
 
-def register(subparsers: argparse._SubParsersAction) -> None:
-    parser = subparsers.add_parser(
-        "montecarlo", help="Monte-Carlo robustness study over sampled plants"
-    )
+def configure(parser: argparse.ArgumentParser) -> None:
     actions = parser.add_subparsers(dest="action", required=True, parser_class=type(parser))
 
     run = actions.add_parser("run", help="run (or resume) a study into an SQLite store")
@@ -129,6 +115,11 @@ def available_cores() -> int:
 
 
 def run_command(args: argparse.Namespace) -> int:
+    from posfb.analysis.montecarlo.config import load_study, with_overrides
+    from posfb.analysis.montecarlo.provenance import code_version
+    from posfb.analysis.montecarlo.scheduler import run_study
+    from posfb.analysis.montecarlo.store import ResultStore
+
     study = with_overrides(load_study(args.study), samples=args.samples, seed=args.seed)
     output_file("--db", args.db)
     if args.dask_scheduler and args.workers != 1:
@@ -178,6 +169,9 @@ def run_command(args: argparse.Namespace) -> int:
 
 def dry_run(study: Study, db: str, workers: int, cores: int) -> int:
     """Print the cost model's prediction for the samples ``db`` does not hold yet."""
+    from posfb.analysis.montecarlo.cost import advice, calibrate
+    from posfb.analysis.montecarlo.store import ResultStore
+
     finished = 0
     if Path(db).is_file() and Path(db).stat().st_size:
         with ResultStore.open_existing(db) as store:
@@ -189,6 +183,10 @@ def dry_run(study: Study, db: str, workers: int, cores: int) -> int:
 
 
 def export_command(args: argparse.Namespace) -> int:
+    from posfb.analysis.export import write_table
+    from posfb.analysis.montecarlo.store import ResultStore
+    from posfb.analysis.montecarlo.table import TABLE_FORMATS, study_table
+
     out = output_file("--out", args.out, TABLE_FORMATS)
     with ResultStore.open_existing(args.db) as store:
         table = study_table(store)
@@ -198,6 +196,9 @@ def export_command(args: argparse.Namespace) -> int:
 
 
 def report_command(args: argparse.Namespace) -> int:
+    from posfb.analysis.montecarlo.report import write_report
+    from posfb.analysis.montecarlo.store import ResultStore
+
     out = output_folder("--out", args.out)
     with ResultStore.open_existing(args.db) as store:
         path = write_report(store, out)
@@ -214,6 +215,16 @@ def report_command(args: argparse.Namespace) -> int:
 def replay_command(args: argparse.Namespace) -> int:
     """Rebuild sample ``--sample`` from the store's study, compare it with the stored rows
     (one line each), write its files; 0 if every row matches, 1 if any differs."""
+    from posfb.analysis.montecarlo.provenance import code_version
+    from posfb.analysis.montecarlo.replay import (
+        chosen_controllers,
+        compare,
+        require_stored,
+        write_outputs,
+    )
+    from posfb.analysis.montecarlo.store import ResultStore
+    from posfb.analysis.montecarlo.worker import ClosedLoopEvaluator
+
     out = output_folder("--out", args.out)
     with ResultStore.open_existing(args.db) as store:
         study, schema = store.study(), store.meta().get("schema_version")

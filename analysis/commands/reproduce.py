@@ -5,16 +5,8 @@ from __future__ import annotations
 
 import argparse
 
-from posfb.analysis import progress
-from posfb.analysis.outputs import output_folder
-from posfb.analysis.reproduce import reproduce
 
-
-def register(subparsers: argparse._SubParsersAction) -> None:
-    parser = subparsers.add_parser(
-        "reproduce",
-        help="Sec. 4: 3 controllers x {nominal, payload}, tables, figures, report",
-    )
+def configure(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--out", default="results", help="output folder (default: results)")
     parser.add_argument(
         "--duration", type=float, default=20.0, help="simulated seconds per run (paper: 20)"
@@ -24,6 +16,10 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    from posfb.analysis import progress
+    from posfb.analysis.outputs import output_folder
+    from posfb.analysis.reproduce import reproduce
+
     out = output_folder("--out", args.out)
     artefacts = reproduce(
         out,

@@ -1,5 +1,10 @@
 """``posfb simulate``: one closed-loop run of a scenario (default: the paper's
-nominal experiment), its metrics, and optionally its time series as a file."""
+nominal experiment), its metrics, and optionally its time series as a file.
+
+It is ``posfb.simulate`` (``analysis.api``) with the scenario from the command line:
+the same numbers as a script. Exit codes: 0 for a run that finished, 4
+(``analysis.errors.EXIT_DIVERGED``) for one that diverged (its metrics and time series
+are still written), 2 for bad input."""
 
 from __future__ import annotations
 
@@ -7,21 +12,13 @@ import argparse
 import json
 import sys
 
-from posfb.analysis import plots, progress
 from posfb.analysis.commands.scenario_args import add_scenario_arguments, scenario_from_args
-from posfb.analysis.experiment import CONTROLLER_LABELS, result_entry
-from posfb.analysis.export import EXPORT_FORMATS, export_run
-from posfb.analysis.feasibility import trajectory_warnings
-from posfb.analysis.metrics import run_metrics
-from posfb.analysis.outputs import output_file, output_folder
-from posfb.diagrams.resolve import resolve, run_resolved
-from posfb.models.controllers import failed_checks, require_design
+from posfb.analysis.commands.warnings_io import printed_warnings
+from posfb.analysis.errors import EXIT_DIVERGED
+from posfb.analysis.outputs import EXPORT_FORMATS, output_file, output_folder
 
 
-def register(subparsers: argparse._SubParsersAction) -> None:
-    parser = subparsers.add_parser(
-        "simulate", help="one closed-loop run of a scenario: RMS errors and voltages"
-    )
+def configure(parser: argparse.ArgumentParser) -> None:
     add_scenario_arguments(
         parser,
         ("controller", "duration", "sample_time", "encoder_counts", "payload", "alpha_star",
@@ -38,51 +35,38 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser.set_defaults(handler=run)
 
 
-def summary_name(args: argparse.Namespace) -> str:
-    """The scenario's name in reports: its file, or the shipped case."""
-    return str(args.scenario or args.case or "nominal")
-
-
 def run(args: argparse.Namespace) -> int:
     out = output_file("--out", args.out, EXPORT_FORMATS) if args.out else None
     figures = output_folder("--figure", args.figure) if args.figure else None
     loaded = scenario_from_args(args)
-    resolved = resolve(loaded)
-    config = resolved.config
-    require_design(config.controller, config.design)  # a refused design is bad input
-    warnings = trajectory_warnings(resolved)
-    warnings += [
-        f"the {config.controller} design fails a check: {detail}"
-        for detail in failed_checks(config.controller, config.design)
-    ]
-    for warning in warnings:
-        sys.stderr.write(f"posfb simulate: warning: {warning}\n")
-    show = progress.wanted(args.no_progress)
-    with progress.run_progress(config.duration, config.controller, show) as update:
-        result = run_resolved(resolved, progress=update)
-    written = export_run(result, out) if out else None
+    from posfb.analysis import progress
+    from posfb.analysis.api import simulate
+
+    with printed_warnings("simulate"):
+        run = simulate(loaded, progress=progress.wanted(args.no_progress))
+    written = run.save(out) if out else None
     if figures:
-        runs, title = {config.controller: result}, f"scenario {summary_name(args)}"
+        from posfb.analysis import plots
+
         figures.mkdir(parents=True, exist_ok=True)
-        plots.save(plots.positions_and_voltages(runs, title), figures, "positions")
-        plots.save(plots.tracking_errors(runs, title), figures, "errors")
-    summary = {
-        "controller": config.controller,
-        "scenario": summary_name(args),
-        "duration": config.duration,
-        "sample_time": config.sample_time,
-        "encoder_counts": list(config.encoder_counts),
-        **result_entry(result),
-    }
+        title = f"{run.label}, scenario {loaded.source}"
+        plots.save(run.plot("positions", title), figures, "positions")
+        plots.save(run.plot("errors", title), figures, "errors")
+    summary = run.summary()
     if written:
         summary["out"] = str(written)
     if args.json:
         print(json.dumps(summary))
-        return 0
-    m, label = run_metrics(result), CONTROLLER_LABELS[config.controller]
-    print(f"{label}, {summary['scenario']}, {config.duration:g} s: {result.status}")
-    if result.message:
-        print(f"  {result.message}")
+    else:
+        _print_summary(run, written)
+    return EXIT_DIVERGED if run.status == "diverged" else 0
+
+
+def _print_summary(run: object, written: object) -> None:
+    config, m = run.result.config, run.metrics
+    print(f"{run.label}, {run.scenario.source}, {config.duration:g} s: {run.status}")
+    if run.message:
+        print(f"  {run.message}")
     rms_q = ", ".join(f"{v:.5f}" for v in m.rms_q)
     rms_u = ", ".join(f"{v:.3f}" for v in m.rms_u)
     print(f"  RMS(q~) = ({rms_q}) rad, max |q~| = {m.max_abs_q_err:.5f}")
@@ -92,4 +76,4 @@ def run(args: argparse.Namespace) -> int:
     print(f"  wall time {m.wall_time_s:.2f} s ({rate:.1f} simulated s per wall s)")
     if written:
         print(f"  time series: {written}")
-    return 0
+    sys.stdout.flush()

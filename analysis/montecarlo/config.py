@@ -77,14 +77,18 @@ from posfb.diagrams.resolve import (
     with_absolute_paths,
 )
 from posfb.diagrams.scenario import (
+    ControllerSettings,
     PlantSettings,
+    Python,
     Scenario,
     apply_setting,
+    controller_kind,
     get_setting,
     scenario_joints,
+    with_controller,
 )
 from posfb.diagrams.yaml_schema import load_typed, read_text
-from posfb.models.controllers import CONTROLLER_KINDS, require_design
+from posfb.models.controllers import PAPER_CONTROLLERS, REGISTRY, require_design
 from posfb.models.design import ControllerConfig
 from posfb.models.plant import JOINT_PARAMETERS, PARAMETER_UNITS
 
@@ -205,7 +209,7 @@ class Study:
     base: Scenario = field(default_factory=Scenario)
     duration: float | None = None
     divergence_bound: float | None = None
-    controllers: list[str] = field(default_factory=lambda: list(CONTROLLER_KINDS))
+    controllers: list[str] = field(default_factory=lambda: list(PAPER_CONTROLLERS))
     encoder_counts: list[int] = field(default_factory=list)
     parameters: ParameterDistributions = field(default_factory=ParameterDistributions)
     draws: dict[str, Distribution] = field(default_factory=dict)
@@ -487,10 +491,16 @@ def _check_draws(study: Study, base: Scenario) -> None:
 
 
 def _check_controllers(study: Study, scenario: Scenario) -> None:
-    """``scenario`` is valid and every controller of the study accepts its design."""
+    """``scenario`` is valid and every controller of the study accepts its design (a
+    plug-in kind, or any kind on a scenario whose entry is a plug-in's, is resolved with
+    that controller: it is built once, so a bad setting is refused)."""
     config = resolve(LoadedScenario(scenario, Path.cwd())).config
+    flat = isinstance(scenario.controller, ControllerSettings)
     for controller in study.controllers:
-        require_design(controller, config.design)
+        if flat and REGISTRY.get(controller) and REGISTRY[controller].settings is None:
+            require_design(controller, config.design)
+        else:
+            resolve(LoadedScenario(with_controller(scenario, controller), Path.cwd()))
 
 
 def validate_study(study: Study) -> Study:
@@ -511,10 +521,12 @@ def validate_study(study: Study) -> Study:
     )
     base = study.base_scenario()  # the scenario checks its own keys, naming them
     _require(len(study.controllers) > 0, "controllers is empty; name at least one controller")
+    allowed = [*REGISTRY, *([controller_kind(base.controller)]
+                            if isinstance(base.controller, Python) else [])]  # fmt: skip
     for name in study.controllers:
         _require(
-            name in CONTROLLER_KINDS,
-            f"controllers has {name!r}; each must be one of {CONTROLLER_KINDS}",
+            name in allowed,
+            f"controllers has {name!r}; each must be one of {', '.join(allowed)}",
         )
     _require(
         len(set(study.controllers)) == len(study.controllers),

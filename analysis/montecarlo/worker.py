@@ -14,7 +14,6 @@ the closed-loop runs that a study throws away after taking their metrics.
 
 from __future__ import annotations
 
-import copy
 import dataclasses
 import math
 import threading
@@ -32,7 +31,12 @@ from posfb.analysis.montecarlo.records import ControllerRun, SampleResult, metri
 from posfb.analysis.montecarlo.sampling import SampledPlant, sample_plant, sample_scenario
 from posfb.diagrams.closed_loop import ClosedLoopResult, ClosedLoopRunner, SensorState
 from posfb.diagrams.resolve import LoadedScenario, resolve
-from posfb.diagrams.scenario import ParameterOverrides, Scenario, dump_scenario
+from posfb.diagrams.scenario import (
+    ParameterOverrides,
+    Scenario,
+    dump_scenario,
+    with_controller,
+)
 from posfb.models.controllers import cached_design
 from posfb.models.design import ControllerConfig, plant_spectral_radii
 from posfb.models.identify import identify
@@ -64,8 +68,7 @@ RUNNER_CACHE_SIZE = 16
 
 def structure_key(scenario: Scenario, controller: str) -> str:
     """What a diagram is built from: the scenario without the values a Context holds."""
-    shape = copy.deepcopy(scenario)
-    shape.controller.kind = controller
+    shape = with_controller(scenario, controller)
     shape.plant.payload_mass = 0.0
     shape.plant.parameters = ParameterOverrides()
     noisy = any(std > 0.0 for std in shape.sensor.noise_std)
@@ -94,8 +97,7 @@ class ClosedLoopEvaluator:
         """The (cached) closed loop of ``controller`` for the structure of ``scenario``."""
         key = structure_key(scenario, controller)
         if key not in self._runners:
-            config = resolve(self._loaded(scenario)).config
-            config = dataclasses.replace(config, controller=controller)
+            config = resolve(self._loaded(with_controller(scenario, controller))).config
             self._runners[key] = ClosedLoopRunner(config)
             while len(self._runners) > RUNNER_CACHE_SIZE:
                 self._runners.popitem(last=False)

@@ -1,87 +1,109 @@
-"""The three controllers as discrete Drake systems, and a factory.
+"""The controllers as discrete Drake systems, their registry, and a factory.
 
 Every controller of an ``n``-joint nominal model has inputs ``q_measured`` (n) and
-``desired`` (3n) and outputs ``voltage`` (n) and ``internals`` (columns named by
-``internals_names(kind, n)``); see
-``models.controllers.base`` for the timing.
+``desired`` (3n) and outputs ``voltage`` (n) and ``internals``; see
+``models.controllers.base`` for the timing, ``models.controllers.registry`` for the
+specs (one per kind: label, style, checks, factory) and ``models.controllers.plugin``
+for the public ``Controller`` contract that the PD + gravity and ADRC baselines, and a
+user's own controller, are written against.
+
+Each controller module has a ``SPEC``; the loop below registers them, in the order of
+tables and legends.
 """
 
 from __future__ import annotations
 
-from functools import lru_cache
-
+from posfb.models.controllers import adrc, lin_lc, pd_gravity, pid, proposed
 from posfb.models.controllers.base import SampledController
-from posfb.models.controllers.lin_lc import LinLcController, lin_lc_internals
-from posfb.models.controllers.pid import PidController, pid_internals
-from posfb.models.controllers.proposed import ProposedController, proposed_internals
-from posfb.models.design import ControllerConfig, Design, compute_design
+from posfb.models.controllers.lin_lc import LinLcController
+from posfb.models.controllers.pid import PidController
+from posfb.models.controllers.plugin import Controller, ControllerSetup, PluginError, UserPlugin
+from posfb.models.controllers.proposed import ProposedController
+from posfb.models.controllers.registry import (
+    REGISTRY,
+    ControllerBuild,
+    ControllerSpec,
+    kinds,
+    register,
+    spec,
+)
+from posfb.models.design import ControllerConfig, Design, cached_design
 
-#: The controllers of Sec. 4.2: computed torque + PID, Lin+LC, the paper's.
-CONTROLLER_KINDS = ("pid", "lin_lc", "proposed")
+for _module in (pid, lin_lc, proposed, pd_gravity, adrc):
+    register(_module.SPEC)
 
-_INTERNALS = {"pid": pid_internals, "lin_lc": lin_lc_internals, "proposed": proposed_internals}
+#: The controllers of the paper's Sec. 4.2 (Tables 3-4): computed torque + PID,
+#: Lin+LC, the paper's.
+PAPER_CONTROLLERS = (pid.SPEC.kind, lin_lc.SPEC.kind, proposed.SPEC.kind)
 
 
 def internals_names(kind: str, joints: int) -> tuple[str, ...]:
-    """Column names of controller ``kind``'s ``internals`` output for ``joints`` joints."""
-    return _INTERNALS[kind](joints)
-
-
-#: Designs are pure functions of the (frozen, hashable) config: reuse them.
-cached_design = lru_cache(maxsize=32)(compute_design)
-
-
-#: The design checks (``models.design.synthesis``) that concern each controller: PID has
-#: no Sec. 3 design; Lin+LC uses the linear torque only.
-RELEVANT_CHECKS = {
-    "pid": (),
-    "lin_lc": ("riccati", "lc_filter", "sampled_data_lin_lc"),
-    "proposed": (
-        "riccati", "lc_filter", "spr", "bound_filter", "continuous_with_nc", "sampled_data",
-    ),
-}  # fmt: skip
+    """Names of registered controller ``kind``'s ``internals`` output for ``joints`` joints
+    (a plug-in's names are known once it is built: ``SampledController.internals_names``)."""
+    entry = spec(kind)
+    if entry.internals is None:
+        raise ValueError(f"controller {kind!r} names its internals when it is built")
+    return entry.internals(joints)
 
 
 def failed_checks(kind: str, config: ControllerConfig) -> list[str]:
     """The details of the failed design checks that concern controller ``kind``."""
-    relevant = RELEVANT_CHECKS[kind]
+    relevant = spec(kind).checks if kind in REGISTRY else ()
+    if not relevant:
+        return []
     return [c.detail for c in cached_design(config).checks if c.name in relevant and not c.passed]
 
 
 def require_design(kind: str, config: ControllerConfig) -> None:
     """Raise ``ValueError`` (one line) if controller ``kind`` refuses ``config``'s design
     (``make_controller`` would refuse it the same way)."""
-    if kind == "lin_lc":
-        cached_design(config).require_linear_torque()
-    elif kind == "proposed":
-        cached_design(config).require_nonlinear_torque()
+    if kind in REGISTRY:
+        spec(kind).refuse(config)
 
 
-def make_controller(kind: str, config: ControllerConfig | None = None) -> SampledController:
-    """The controller ``kind`` (one of ``CONTROLLER_KINDS``) for ``config`` (default: the
-    paper's Sec. 4.2 settings)."""
+def controller_spec(kind: str, settings: object | None = None) -> ControllerSpec:
+    """The spec of a scenario's controller: a user plug-in's own (``settings``), or the
+    registered ``kind``'s."""
+    return settings.spec if isinstance(settings, UserPlugin) else spec(kind)
+
+
+def make_controller(
+    kind: str,
+    config: ControllerConfig | None = None,
+    *,
+    voltage_limit: tuple[float, ...] = (),
+    settings: object | None = None,
+) -> SampledController:
+    """The controller ``kind`` for ``config`` (default: the paper's Sec. 4.2 settings),
+    the ``voltage_limit`` per joint (V; plug-ins read it) and the scenario entry's
+    ``settings`` (a plug-in kind's settings object, or a user plug-in,
+    ``models.controllers.plugin.UserPlugin``)."""
     config = ControllerConfig() if config is None else config
-    if kind == "pid":
-        return PidController(config.nominal, config.pid, config.sample_time)
-    if kind == "lin_lc":
-        return LinLcController(cached_design(config))
-    if kind == "proposed":
-        return ProposedController(cached_design(config))
-    raise ValueError(f"kind = {kind!r} is not a controller; one of {CONTROLLER_KINDS} is required")
+    build = ControllerBuild(config, tuple(voltage_limit), settings)
+    return controller_spec(kind, settings).factory(build)
 
 
 __all__ = [
-    "CONTROLLER_KINDS",
+    "PAPER_CONTROLLERS",
+    "REGISTRY",
+    "Controller",
+    "ControllerBuild",
     "ControllerConfig",
+    "ControllerSetup",
+    "ControllerSpec",
     "Design",
     "LinLcController",
     "PidController",
+    "PluginError",
     "ProposedController",
     "SampledController",
-    "RELEVANT_CHECKS",
+    "UserPlugin",
     "cached_design",
+    "controller_spec",
     "failed_checks",
     "internals_names",
+    "kinds",
+    "spec",
     "make_controller",
     "require_design",
 ]

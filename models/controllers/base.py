@@ -27,6 +27,8 @@ update at ``t_1`` steps from there and sets it to 2.
 
 from __future__ import annotations
 
+import typing
+
 import numpy as np
 from pydrake.common.value import AbstractValue
 from pydrake.systems.framework import (
@@ -40,6 +42,17 @@ from pydrake.systems.framework import (
 from posfb.models.validation import require_positive
 
 
+def unit_of(name: str, units: dict[str, str]) -> str:
+    """The unit of internal ``name`` in ``units`` (``name``, or for ``stem_j`` the
+    stem's); ``KeyError`` for a name without one."""
+    stem, _, joint = name.rpartition("_")
+    if name in units:
+        return units[name]
+    if joint.isdigit() and stem in units:
+        return units[stem]
+    raise KeyError(f"controller internal {name!r} has no unit in INTERNAL_UNITS")
+
+
 def joint_names(prefix: str, joints: int) -> tuple[str, ...]:
     """``(prefix_1, ..., prefix_n)``: one internals column per joint."""
     return tuple(f"{prefix}_{j + 1}" for j in range(joints))
@@ -47,7 +60,13 @@ def joint_names(prefix: str, joints: int) -> tuple[str, ...]:
 
 class SampledController(LeafSystem):
     """Ports, state, the cached step and the periodic update; subclasses implement
-    ``_start`` and ``_step``; ``joints`` is ``n``."""
+    ``_start`` and ``_step``; ``joints`` is ``n``. ``INTERNAL_UNITS`` gives the unit of
+    each internal (a per-joint ``name_j`` takes the unit of ``name``; torques of the
+    lumped model are volts), from which ``internals_columns`` names the exported
+    columns (``tau_lin_1`` -> ``tau_lin_1_V``)."""
+
+    #: Unit suffix of each internal, by name or per-joint stem.
+    INTERNAL_UNITS: typing.ClassVar[dict[str, str]] = {}
 
     def __init__(
         self, sample_time: float, joints: int, internals: tuple[str, ...], memory_size: int
@@ -56,6 +75,7 @@ class SampledController(LeafSystem):
         self.sample_time = require_positive("sample_time", sample_time)
         self.joints = joints
         self.internals_names = internals
+        self.memory_size = memory_size
         self._q_port = self.DeclareVectorInputPort("q_measured", joints)
         self._desired_port = self.DeclareVectorInputPort("desired", 3 * joints)
         # One state group, [memory, phase]: one read and one write per sample.
@@ -100,6 +120,12 @@ class SampledController(LeafSystem):
             return
         state[:-1] = self._step_cache.Eval(context)[self._internals_end :]
         state[-1] = 2.0
+
+    @property
+    def internals_columns(self) -> tuple[str, ...]:
+        """The internals' names with their unit suffixes (``INTERNAL_UNITS``)."""
+        units = self.INTERNAL_UNITS
+        return tuple(f"{name}_{unit_of(name, units)}" for name in self.internals_names)
 
     def split_desired(self, desired: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """``(q_d, qdot_d, qddot_d)`` of the stacked desired input."""

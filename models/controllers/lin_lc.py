@@ -11,7 +11,8 @@ import numpy as np
 
 from posfb.models.controllers.base import SampledController, joint_names
 from posfb.models.controllers.feedforward import nominal_torques
-from posfb.models.design import Design
+from posfb.models.controllers.registry import ControllerSpec
+from posfb.models.design import Design, cached_design
 
 
 def lin_lc_internals(joints: int) -> tuple[str, ...]:
@@ -21,6 +22,9 @@ def lin_lc_internals(joints: int) -> tuple[str, ...]:
 
 class LinLcController(SampledController):
     """``u = tau_Lin + tau_LC`` (Eq. 3 without ``tau_NC``); refuses a failed LQR design."""
+
+    #: The torques of the lumped model are armature voltages.
+    INTERNAL_UNITS = {"tau_lin": "V", "tau_lc": "V"}
 
     def __init__(self, design: Design) -> None:
         design.require_linear_torque()
@@ -44,3 +48,15 @@ class LinLcController(SampledController):
         tau_lin = self._torques.linearization(q, qd_dot, qd_ddot)
         tau_lc = self._torques.desired(qd_dot, qd_ddot) + eta
         return tau_lin + tau_lc, np.concatenate([tau_lin, tau_lc])
+
+
+#: Lin + LC (Eq. 4 + 13): the paper's ablation without the nonlinear torque.
+SPEC = ControllerSpec(
+    kind="lin_lc",
+    label="Lin + LC",
+    factory=lambda build: LinLcController(cached_design(build.design)),
+    style={"linestyle": "--", "color": "tab:orange"},
+    checks=("riccati", "lc_filter", "sampled_data_lin_lc"),
+    require=lambda design: cached_design(design).require_linear_torque(),
+    internals=lin_lc_internals,
+)

@@ -15,6 +15,7 @@ from __future__ import annotations
 import numpy as np
 
 from posfb.models.controllers.base import SampledController, joint_names
+from posfb.models.controllers.registry import ControllerBuild, ControllerSpec
 from posfb.models.design.config import PidGains
 from posfb.models.nominal import NominalModel, joint_count, nominal_model
 
@@ -26,6 +27,9 @@ def pid_internals(joints: int) -> tuple[str, ...]:
 
 class PidController(SampledController):
     """``u = tau_PID`` of Eq. 26 from measured positions only."""
+
+    #: ``qdot_est``: the backward-difference velocity; ``error_integral = T_s sum q~``.
+    INTERNAL_UNITS = {"qdot_est": "rad_per_s", "error_integral": "rad_s"}
 
     def __init__(self, nominal: NominalModel, gains: PidGains, sample_time: float) -> None:
         n = joint_count(nominal)
@@ -52,3 +56,18 @@ class PidController(SampledController):
         memory[:n] = q
         memory[n:] = integral + self.sample_time * error
         return voltage, np.concatenate([qdot, integral])
+
+
+def _build(build: ControllerBuild) -> PidController:
+    design = build.design
+    return PidController(design.nominal, design.pid, design.sample_time)
+
+
+#: Computed torque + PID (Eq. 26): the paper's baseline; no Sec. 3 design.
+SPEC = ControllerSpec(
+    kind="pid",
+    label="computed torque + PID",
+    factory=_build,
+    style={"linestyle": "-", "color": "tab:blue"},
+    internals=pid_internals,
+)

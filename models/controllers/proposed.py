@@ -25,7 +25,8 @@ import numpy as np
 
 from posfb.models.controllers.base import SampledController, joint_names
 from posfb.models.controllers.feedforward import nominal_torques
-from posfb.models.design import Design
+from posfb.models.controllers.registry import ControllerSpec
+from posfb.models.design import Design, cached_design
 
 
 def proposed_internals(joints: int) -> tuple[str, ...]:
@@ -38,6 +39,13 @@ def proposed_internals(joints: int) -> tuple[str, ...]:
 class ProposedController(SampledController):
     """``u = tau_Lin + tau_LC + tau_NC``; refuses a failed LQR design, a non-SPR ``H`` or
     ``a <= ln 2 / T_s``."""
+
+    #: Torques, ``phi`` and ``delta_bar`` are armature voltages (``tau_NC = -alpha phi``
+    #: with a dimensionless ``alpha``); ``U1``, ``U2`` bound ``||q~'||``, ``||q~''||``.
+    INTERNAL_UNITS = {
+        "tau_lin": "V", "tau_lc": "V", "tau_nc": "V", "alpha": "dimensionless", "phi": "V",
+        "U1": "rad_per_s", "U2": "rad_per_s2", "delta_bar": "V",
+    }  # fmt: skip
 
     def __init__(self, design: Design) -> None:
         design.require_nonlinear_torque()
@@ -93,3 +101,15 @@ class ProposedController(SampledController):
         tau_nc = -alpha * phi
         internals = np.concatenate([tau_lin, tau_lc, tau_nc, [alpha], phi, [U1, U2, delta_bar]])
         return tau_lin + tau_lc + tau_nc, internals
+
+
+#: The paper's controller (Eq. 3): Lin + LC + NC.
+SPEC = ControllerSpec(
+    kind="proposed",
+    label="Lin + LC + NC (paper)",
+    factory=lambda build: ProposedController(cached_design(build.design)),
+    style={"linestyle": ":", "color": "tab:green", "linewidth": 1.6},
+    checks=("riccati", "lc_filter", "spr", "bound_filter", "continuous_with_nc", "sampled_data"),
+    require=lambda design: cached_design(design).require_nonlinear_torque(),
+    internals=proposed_internals,
+)

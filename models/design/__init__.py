@@ -2,6 +2,8 @@
 SPR/KYP check, bounds, position-only filters, discretisation and the linear
 closed-loop checks. ``compute_design`` puts them together."""
 
+from functools import lru_cache
+
 from posfb.models.design.config import (
     ControllerConfig,
     LqrWeights,
@@ -18,7 +20,11 @@ from posfb.models.design.synthesis import (
     plant_spectral_radii,
 )
 
+#: Designs are pure functions of the (frozen, hashable) config: reuse them.
+cached_design = lru_cache(maxsize=32)(compute_design)
+
 __all__ = [
+    "cached_design",
     "LOOP_CONTROLLERS",
     "plant_spectral_radii",
     "Check",

@@ -274,6 +274,24 @@ class ControllerConfig:
         """``n``: the nominal model's number of joints."""
         return joint_count(self.nominal)
 
+    @classmethod
+    def without_design(cls, nominal: NominalModel, sample_time: float) -> ControllerConfig:
+        """The config of a controller with no Sec. 3 design (a plug-in such as PD +
+        gravity or ADRC): ``nominal`` and ``sample_time`` are what it reads. The design
+        parts are unit placeholders sized to ``nominal`` (identity weights, ``lambda =
+        1``, ``H = diag(1 / (s + 1))``, unit PID gains), never used."""
+        n = joint_count(nominal)
+        ones, identity = (1.0,) * n, diagonal((1.0,) * n)
+        return cls(
+            nominal=nominal,
+            sample_time=sample_time,
+            lqr=LqrWeights(Q1=diagonal((1.0,) * 2 * n), Q2=identity, R=identity, lambdas=ones),
+            nonlinear=NonlinearTorqueConfig(
+                A_zeta=diagonal((-1.0,) * n), B_zeta=identity, C_zeta=identity
+            ),
+            pid=PidGains(Kp=ones, Kv=ones, KI=ones),
+        )
+
     def with_alpha_star(self, alpha_star: float) -> ControllerConfig:
         """This config with the nonlinear torque's steady-state gain ``alpha*`` changed
         (validated by ``NonlinearTorqueConfig``)."""

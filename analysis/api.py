@@ -1,0 +1,486 @@
+"""posfb's public Python API (re-exported by ``posfb``): load a scenario, simulate it,
+build its Drake diagram to wire more, compare controllers.
+
+The command line calls these functions (``posfb simulate`` is ``simulate``, ``posfb
+compare`` is ``compare``), so a script and a command take one code path and give the
+same numbers to the bit. Every setting of the scenario is applied: the true arm's
+payload and parameter overrides travel inside the resolved ``ClosedLoopConfig``
+(``diagrams.closed_loop.TruePlant``), so no lower-level call can drop them.
+
+Warnings about a scenario (a trajectory beyond the voltage limit, a failed design
+check) are issued as ``ScenarioWarning`` with Python's ``warnings`` module; the
+command line prints them on stderr.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import warnings
+from collections.abc import Callable, Iterable, Mapping, Sequence
+from dataclasses import dataclass, field
+from functools import cached_property
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+import numpy as np
+import yaml
+
+from posfb.analysis import progress as progress_bars
+from posfb.analysis.cases import CASE_FILES, SCENARIO_DIR
+from posfb.analysis.metrics import RunMetrics, run_metrics
+from posfb.diagrams.closed_loop import (
+    ClosedLoop,
+    ClosedLoopResult,
+    ClosedLoopRunner,
+    Extension,
+)
+from posfb.diagrams.resolve import (
+    LoadedScenario,
+    ResolvedScenario,
+    resolve,
+    scenario_from_file,
+    scenario_from_mapping,
+)
+from posfb.models.controllers import failed_checks, require_design
+
+if TYPE_CHECKING:
+    import pandas as pd
+    from matplotlib.figure import Figure
+    from pydrake.systems.analysis import Simulator
+    from pydrake.systems.framework import Context, Diagram
+
+#: The paper's nominal experiment (Sec. 4.2): the scenario when none is given.
+DEFAULT_SCENARIO = CASE_FILES["nominal"]
+
+#: Controllers that ``compare`` runs when none are named (Sec. 4.2's three).
+DEFAULT_COMPARISON = ("pid", "lin_lc", "proposed")
+
+#: Figures that ``Run.plot`` and ``Comparison.figure`` draw (Figs. 4/6 and 5/7).
+FIGURES = ("errors", "positions")
+
+ScenarioSource = LoadedScenario | str | Path | Mapping[str, object] | None
+Settings = Mapping[str, object] | Iterable[str]
+
+
+class ScenarioWarning(UserWarning):
+    """Something about a scenario that does not stop a run but may spoil it: a
+    trajectory beyond the voltage limit, a design check the controller fails."""
+
+
+def shipped_scenarios() -> dict[str, Path]:
+    """The scenario files shipped with posfb, by name (``paper_nominal``,
+    ``paper_payload``, ``three_link_nominal``, ...).
+
+    Examples
+    --------
+    >>> import posfb
+    >>> sorted(posfb.shipped_scenarios())[:2]
+    ['paper_nominal', 'paper_payload']
+    """
+    return {path.stem: path for path in sorted(SCENARIO_DIR.glob("*.yaml"))}
+
+
+def yaml_value(value: object) -> str:
+    """``value`` as the YAML text of a ``KEY=VALUE`` setting: a string is taken as it is
+    (``lin_lc``, ``!Theta {theta6: 0}``); numbers, booleans and (nested) sequences,
+    numpy's included, are written as YAML flow text."""
+    if isinstance(value, str):
+        return value
+    plain = np.asarray(value).tolist() if isinstance(value, np.ndarray | np.generic) else value
+    if isinstance(plain, tuple):
+        plain = list(plain)
+    text = yaml.safe_dump(plain, default_flow_style=True, width=math.inf)
+    return text.removesuffix("\n").removesuffix("\n...").strip()
+
+
+def settings_list(settings: Settings | None) -> list[str]:
+    """``KEY=VALUE`` strings from a mapping ``{key: value}`` or an iterable of strings."""
+    if settings is None:
+        return []
+    if isinstance(settings, Mapping):
+        return [f"{key}={yaml_value(value)}" for key, value in settings.items()]
+    if isinstance(settings, str):
+        raise ValueError(
+            f"set = {settings!r}; a mapping {{key: value}} or a list of 'KEY=VALUE' strings "
+            "is required"
+        )
+    return list(settings)
+
+
+def load_scenario(source: ScenarioSource = None, set: Settings | None = None) -> LoadedScenario:  # noqa: A002
+    """A validated scenario: a YAML file, a mapping with the file's structure, or an
+    already loaded scenario, with settings applied in order.
+
+    Parameters
+    ----------
+    source
+        A scenario file's path (relative paths inside it are read from its folder), a
+        mapping of the same keys (relative paths from the working folder), a
+        ``LoadedScenario``, or ``None`` for the paper's nominal experiment
+        (``analysis/scenarios/paper_nominal.yaml``).
+    set
+        ``{dotted.key: value}`` (or ``"KEY=VALUE"`` strings, as the command line's
+        ``--set``), applied in order. A single value for a per-joint key means every
+        joint.
+
+    Returns
+    -------
+    LoadedScenario
+        The settings tree (``.scenario``) and the folder its paths are read from.
+
+    Raises
+    ------
+    ValueError
+        One line naming the key, the value and what is allowed.
+
+    Examples
+    --------
+    >>> import posfb
+    >>> scenario = posfb.load_scenario(set={"controller.kind": "lin_lc", "timing.duration": 1})
+    >>> scenario.get("timing.duration")
+    1.0
+    """
+    if isinstance(source, LoadedScenario):
+        loaded = source.with_settings(settings_list(set))
+    elif isinstance(source, Mapping):
+        loaded = scenario_from_mapping(source, settings_list(set))
+    else:
+        path = DEFAULT_SCENARIO if source is None else Path(source)
+        loaded = scenario_from_file(path, settings_list(set))
+    return loaded
+
+
+def _scenario(source: ScenarioSource, controller: str | None) -> LoadedScenario:
+    loaded = load_scenario(source)
+    return loaded if controller is None else loaded.with_settings([f"controller.kind={controller}"])
+
+
+def scenario_warnings(resolved: ResolvedScenario) -> list[str]:
+    """What may spoil a run of ``resolved`` without stopping it (``ScenarioWarning``)."""
+    from posfb.analysis.feasibility import trajectory_warnings
+
+    config = resolved.config
+    return [
+        *trajectory_warnings(resolved),
+        *(
+            f"the {config.controller} design fails a check: {detail}"
+            for detail in failed_checks(config.controller, config.design)
+        ),
+    ]
+
+
+def _resolve_for_run(loaded: LoadedScenario) -> ResolvedScenario:
+    """Resolve ``loaded``, refuse a design its controller cannot use, warn about the rest."""
+    resolved = resolve(loaded)
+    config = resolved.config
+    require_design(config.controller, config.design)
+    for warning in scenario_warnings(resolved):
+        warnings.warn(ScenarioWarning(warning), stacklevel=3)
+    return resolved
+
+
+@dataclass(frozen=True, eq=False)
+class Run:
+    """One closed-loop run of a scenario: its logs (``result``), the scenario, and the
+    paper's metrics (Sec. 4.2: RMS over the samples ``k = 1..N0``, ``q~`` from the true
+    position, ``u`` the applied voltage)."""
+
+    result: ClosedLoopResult
+    scenario: LoadedScenario
+
+    @cached_property
+    def metrics(self) -> RunMetrics:
+        return run_metrics(self.result)
+
+    @property
+    def controller(self) -> str:
+        """The controller's kind (``pid``, ``lin_lc``, ``proposed``)."""
+        return self.result.controller
+
+    @property
+    def label(self) -> str:
+        """The controller's name for legends and tables."""
+        return self.result.config.spec.label
+
+    @property
+    def rms_q(self) -> tuple[float, ...]:
+        """RMS of the tracking error ``q~`` per joint (rad)."""
+        return self.metrics.rms_q
+
+    @property
+    def rms_u(self) -> tuple[float, ...]:
+        """RMS of the applied voltage per joint (V)."""
+        return self.metrics.rms_u
+
+    @property
+    def status(self) -> str:
+        """``ok``, or ``diverged`` (``message`` says why)."""
+        return self.result.status
+
+    @property
+    def message(self) -> str:
+        return self.result.message
+
+    def summary(self) -> dict[str, object]:
+        """The keys ``posfb simulate --json`` prints: the controller, the scenario's
+        source, duration, sample time and encoder counts, the metrics, ``status`` and
+        ``message`` (a metric that does not exist is ``None``)."""
+        from posfb.analysis.experiment import result_entry
+
+        config = self.result.config
+        return {
+            "controller": config.controller,
+            "scenario": self.scenario.source,
+            "duration": config.duration,
+            "sample_time": config.sample_time,
+            "encoder_counts": list(config.encoder_counts),
+            **result_entry(self.result),
+        }
+
+    def frame(self) -> pd.DataFrame:
+        """The time series, one row per control sample: the columns of ``posfb simulate
+        --out`` (``analysis.export``)."""
+        from posfb.analysis.export import run_table
+
+        return run_table(self.result)
+
+    def save(self, path: str | Path) -> Path:
+        """Write ``frame()`` to ``path`` (``.csv``, ``.parquet`` or ``.npz``); returns it."""
+        from posfb.analysis.export import export_run
+
+        return export_run(self.result, path)
+
+    def plot(self, figure: str = "errors", title: str | None = None) -> Figure:
+        """Fig. 5/7 (``"errors"``: ``q~`` per joint and a close-up) or Fig. 4/6
+        (``"positions"``: positions and applied voltages) of this run."""
+        return _figure({self.controller: self.result}, figure, title or self.label)
+
+
+def _figure(results: Mapping[str, ClosedLoopResult], figure: str, title: str) -> Figure:
+    from posfb.analysis import plots
+
+    draw = {"errors": plots.tracking_errors, "positions": plots.positions_and_voltages}
+    if figure not in draw:
+        raise ValueError(f"figure = {figure!r}; one of {', '.join(FIGURES)} is required")
+    return draw[figure](results, title)
+
+
+def simulate(
+    scenario: ScenarioSource = None, controller: str | None = None, *, progress: bool = False
+) -> Run:
+    """Run a scenario's closed loop on its true arm, as ``posfb simulate`` does.
+
+    Parameters
+    ----------
+    scenario
+        Anything ``load_scenario`` takes (default: the paper's nominal experiment).
+    controller
+        A controller kind that replaces the scenario's ``controller.kind``.
+    progress
+        Show a progress bar on stderr.
+
+    Returns
+    -------
+    Run
+        ``.rms_q``, ``.rms_u``, ``.status``, ``.frame()``, ``.plot()``, ``.save(path)``.
+        A run that diverges returns with ``status == "diverged"``; it does not raise.
+
+    Raises
+    ------
+    ValueError
+        A bad setting, or a design the controller refuses (one line).
+
+    Examples
+    --------
+    >>> import posfb
+    >>> run = posfb.simulate(posfb.load_scenario(set={"timing.duration": 0.5}), "lin_lc")
+    >>> run.status, len(run.rms_q)
+    ('ok', 2)
+    """
+    loaded = _scenario(scenario, controller)
+    resolved = _resolve_for_run(loaded)
+    config = resolved.config
+    with progress_bars.run_progress(config.duration, config.spec.label, progress) as update:
+        result = ClosedLoopRunner(config).run(progress=update)
+    return Run(result, loaded)
+
+
+@dataclass(eq=False)
+class BuiltLoop:
+    """A scenario's closed loop, built: the Drake ``Diagram`` with its named subsystems
+    (``systems``: ``arm``, ``encoder``, ``encoder_hold``, ``desired_hold``,
+    ``controller``, ``saturation``, ``logger``, ...), a fresh ``Simulator`` whose
+    Context holds the scenario's true arm and sensor settings, ready to run."""
+
+    runner: ClosedLoopRunner
+    simulator: Simulator
+    scenario: LoadedScenario
+
+    @property
+    def systems(self) -> ClosedLoop:
+        return self.runner.loop
+
+    @property
+    def diagram(self) -> Diagram:
+        return self.runner.diagram
+
+    @property
+    def context(self) -> Context:
+        """The root Context the simulator advances."""
+        return self.simulator.get_mutable_context()
+
+    def run(self, progress: Callable[[float], None] | None = None) -> Run:
+        """Simulate the scenario's duration from t = 0, stopping early on divergence,
+        and return its ``Run`` (the metrics of ``simulate``)."""
+        if self.context.get_time() != 0.0:
+            raise ValueError(
+                f"the simulator is at t = {self.context.get_time():g} s; run() starts at "
+                "t = 0 (call collect() after advancing it yourself)"
+            )
+        return Run(self.runner.advance(self.simulator, progress), self.scenario)
+
+    def collect(self) -> Run:
+        """The logs up to the simulator's time as a ``Run``, for a script that advanced
+        the simulator itself (``simulator.AdvanceTo(t)``)."""
+        return Run(self.runner.collect(self.context), self.scenario)
+
+
+def build(
+    scenario: ScenarioSource = None,
+    controller: str | None = None,
+    *,
+    extend: Extension | None = None,
+) -> BuiltLoop:
+    """Build a scenario's closed loop as a Drake diagram, for scripts that wire more.
+
+    Parameters
+    ----------
+    scenario, controller
+        As for ``simulate``.
+    extend
+        ``extend(builder, systems)`` is called with the ``DiagramBuilder`` and the
+        loop's systems (``diagrams.closed_loop.LoopSystems``) before the diagram is
+        built: add a disturbance, a visualiser or another logger there. The
+        controller's only input from the arm stays the quantised position.
+
+    Returns
+    -------
+    BuiltLoop
+        ``.diagram``, ``.systems``, ``.simulator``, ``.context``; ``.run()`` gives the
+        same ``Run`` as ``simulate`` when nothing was added.
+
+    Examples
+    --------
+    >>> import posfb
+    >>> loop = posfb.build(posfb.load_scenario(set={"timing.duration": 0.1}))
+    >>> loop.systems.saturation.get_name()
+    'voltage_saturation'
+    """
+    loaded = _scenario(scenario, controller)
+    resolved = _resolve_for_run(loaded)
+    runner = ClosedLoopRunner(resolved.config, extend=extend)
+    return BuiltLoop(runner, runner.new_simulator(), loaded)
+
+
+@dataclass(eq=False)
+class Comparison:
+    """Several controllers on one scenario: ``runs`` by controller kind, in order."""
+
+    scenario: LoadedScenario
+    runs: dict[str, Run] = field(default_factory=dict)
+
+    def table(self) -> pd.DataFrame:
+        """One row per controller: label, status, RMS(q~) and RMS(u) per joint (rad, V),
+        max |q~| (rad) and the share of saturated samples."""
+        import pandas as pd
+
+        rows = []
+        for kind, run in self.runs.items():
+            metrics = run.metrics
+            row: dict[str, object] = {"controller": kind, "label": run.label,
+                                      "status": run.status}  # fmt: skip
+            row |= {f"rms_q{j + 1}_rad": v for j, v in enumerate(metrics.rms_q)}
+            row |= {f"rms_u{j + 1}_V": v for j, v in enumerate(metrics.rms_u)}
+            row |= {"max_abs_q_err_rad": metrics.max_abs_q_err,
+                    "saturated_fraction": metrics.saturated_fraction}  # fmt: skip
+            rows.append(row)
+        return pd.DataFrame(rows)
+
+    def figure(self, figure: str = "errors", title: str | None = None) -> Figure:
+        """All runs overlaid: Fig. 5/7 (``"errors"``) or Fig. 4/6 (``"positions"``)."""
+        results = {kind: run.result for kind, run in self.runs.items()}
+        return _figure(results, figure, title or f"scenario {self.scenario.source}")
+
+    def markdown(self) -> str:
+        """``table()`` as a Markdown table (5 significant digits)."""
+        table = self.table()
+        header = "| " + " | ".join(table.columns) + " |"
+        rule = "|" + "|".join("---" if c in ("controller", "label", "status") else "---:"
+                              for c in table.columns) + "|"  # fmt: skip
+        lines = [header, rule]
+        for row in table.itertuples(index=False):
+            cells = [f"{v:.5g}" if isinstance(v, float) else str(v) for v in row]
+            lines.append("| " + " | ".join(cells) + " |")
+        return "\n".join(lines) + "\n"
+
+    def save(self, directory: str | Path) -> list[Path]:
+        """Write ``comparison.csv``, ``comparison.md``, ``comparison.json`` (every run's
+        ``summary()``) and both figures (PNG, SVG) into ``directory``."""
+        from posfb.analysis import plots
+        from posfb.analysis.export import write_table
+
+        folder = Path(directory)
+        folder.mkdir(parents=True, exist_ok=True)
+        written = [write_table(self.table(), folder / "comparison.csv")]
+        markdown = folder / "comparison.md"
+        markdown.write_text(self.markdown())
+        summary = folder / "comparison.json"
+        summaries = {kind: run.summary() for kind, run in self.runs.items()}
+        summary.write_text(json.dumps(summaries, indent=2) + "\n")
+        written += [markdown, summary]
+        for name in FIGURES:
+            written += plots.save(self.figure(name), folder, name)
+        return written
+
+
+def compare(
+    scenario: ScenarioSource = None,
+    controllers: Sequence[str] = DEFAULT_COMPARISON,
+    *,
+    progress: bool = False,
+) -> Comparison:
+    """Run several controllers on one scenario (each as ``simulate`` runs it).
+
+    Parameters
+    ----------
+    scenario
+        Anything ``load_scenario`` takes (default: the paper's nominal experiment).
+    controllers
+        Controller kinds, in the order of the table and the legends.
+    progress
+        Show a progress bar per run on stderr.
+
+    Returns
+    -------
+    Comparison
+        ``.runs``, ``.table()`` (pandas), ``.figure()``, ``.save(directory)``.
+
+    Examples
+    --------
+    >>> import posfb
+    >>> short = posfb.load_scenario(set={"timing.duration": 0.5})
+    >>> posfb.compare(short, ["pid", "lin_lc"]).table()["controller"].tolist()
+    ['pid', 'lin_lc']
+    """
+    kinds = list(controllers)
+    if not kinds:
+        raise ValueError("controllers = []; at least one controller is required")
+    duplicates = sorted({kind for kind in kinds if kinds.count(kind) > 1})
+    if duplicates:
+        raise ValueError(f"controllers = {kinds}: {', '.join(duplicates)} named twice")
+    loaded = load_scenario(scenario)
+    comparison = Comparison(loaded)
+    for kind in kinds:
+        comparison.runs[kind] = simulate(loaded, kind, progress=progress)
+    return comparison

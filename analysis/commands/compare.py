@@ -1,0 +1,60 @@
+"""``posfb compare``: several controllers on one scenario, side by side: a table (CSV,
+Markdown), every run's summary (JSON) and the overlaid Figs. 4/6 and 5/7. It is
+``posfb.compare`` (``analysis.api``) with the scenario from the command line."""
+
+from __future__ import annotations
+
+import argparse
+import json
+
+from posfb.analysis.commands.scenario_args import add_scenario_arguments, scenario_from_args
+from posfb.analysis.commands.warnings_io import printed_warnings
+from posfb.analysis.errors import EXIT_DIVERGED, UsageError
+from posfb.analysis.outputs import output_folder
+
+
+def configure(parser: argparse.ArgumentParser) -> None:
+    add_scenario_arguments(parser, ("duration", "sample_time", "encoder_counts", "payload"))
+    parser.add_argument(
+        "--controllers", default="pid,lin_lc,proposed", metavar="KIND,KIND,...",
+        help="the controllers to run, comma-separated, in table and legend order "
+        "(default: pid,lin_lc,proposed)",
+    )  # fmt: skip
+    parser.add_argument(
+        "--out", metavar="DIR", help="write comparison.csv/.md/.json and the figures into DIR"
+    )
+    parser.add_argument("--json", action="store_true", help="print one JSON object per run")
+    parser.add_argument("--no-progress", action="store_true", help="no progress bars on stderr")
+    parser.set_defaults(handler=run)
+
+
+def controller_list(text: str) -> list[str]:
+    """The kinds of ``--controllers``, comma-separated; an empty entry is refused."""
+    kinds = [kind.strip() for kind in text.split(",")]
+    if not text.strip() or any(not kind for kind in kinds):
+        raise UsageError(
+            f"--controllers {text!r}; comma-separated controller kinds are required "
+            "(e.g. pid,lin_lc,proposed)"
+        )
+    return kinds
+
+
+def run(args: argparse.Namespace) -> int:
+    from posfb.analysis import progress
+    from posfb.analysis.api import compare
+
+    kinds = controller_list(args.controllers)
+    folder = output_folder("--out", args.out) if args.out else None
+    loaded = scenario_from_args(args)
+    with printed_warnings("compare"):
+        comparison = compare(loaded, kinds, progress=progress.wanted(args.no_progress))
+    written = comparison.save(folder) if folder else []
+    if args.json:
+        print(json.dumps({kind: run.summary() for kind, run in comparison.runs.items()}))
+    else:
+        print(f"scenario {loaded.source}, {loaded.get('timing.duration'):g} s")
+        print(comparison.markdown(), end="")
+        if written:
+            print(f"written: {', '.join(sorted({str(path.parent) for path in written}))}")
+    diverged = any(run.status == "diverged" for run in comparison.runs.values())
+    return EXIT_DIVERGED if diverged else 0

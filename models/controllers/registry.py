@@ -1,0 +1,99 @@
+"""One place per controller: the registry of controller specs.
+
+A spec holds everything posfb knows about a kind of controller: its ``kind`` (the
+scenario's name for it), its ``label`` and plot ``style`` (legends, tables), its
+settings class (a member of the scenario's ``controller:`` union; ``None`` for the
+paper's three, whose inputs are the scenario's flat controller section), the design
+checks that concern it, what it refuses, and its factory. Plots, exports, tables,
+reports, Monte Carlo and replay read the spec; none of them spells a controller's name.
+A new controller is one module with a ``SPEC`` and one line in
+``models.controllers.__init__`` (``register``). A user's own controller
+(``!Python {file, class}``) gets a spec made from its class (``plugin_spec``).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, field
+from types import MappingProxyType
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:
+    from posfb.models.controllers.base import SampledController
+    from posfb.models.design import ControllerConfig
+
+
+@dataclass(frozen=True)
+class ControllerBuild:
+    """What a factory builds a controller from: the design inputs (nominal model,
+    ``T_s``, the Sec. 3 design's settings), the voltage limit per joint (V) and the
+    settings object of the scenario's ``controller:`` entry (``None`` for the flat form)."""
+
+    design: ControllerConfig
+    voltage_limit: tuple[float, ...]
+    settings: object | None = None
+
+
+@dataclass(frozen=True)
+class ControllerSpec:
+    """A kind of controller (module docstring)."""
+
+    kind: str
+    label: str
+    factory: Callable[[ControllerBuild], SampledController]
+    style: Mapping[str, object] = field(default_factory=dict)
+    settings: type | None = None
+    checks: tuple[str, ...] = ()
+    require: Callable[[ControllerConfig], None] | None = None
+    internals: Callable[[int], tuple[str, ...]] | None = None
+
+    def refuse(self, design: ControllerConfig) -> None:
+        """Raise ``ValueError`` (one line) if the controller refuses ``design``."""
+        if self.require is not None:
+            self.require(design)
+
+
+#: Every registered kind, in registration order (the order of tables and legends).
+_REGISTRY: dict[str, ControllerSpec] = {}
+
+#: Read-only view of the registry.
+REGISTRY: Mapping[str, ControllerSpec] = MappingProxyType(_REGISTRY)
+
+#: Line colours given to controllers in registration order (matplotlib's cycle).
+_COLOURS = ("tab:blue", "tab:orange", "tab:green", "tab:red", "tab:purple", "tab:brown",
+            "tab:pink", "tab:olive", "tab:cyan")  # fmt: skip
+
+
+def register(spec: ControllerSpec) -> ControllerSpec:
+    """Add ``spec``; a kind registered twice is a bug."""
+    if spec.kind in _REGISTRY:
+        raise ValueError(f"controller kind {spec.kind!r} is registered twice")
+    if "color" not in spec.style:
+        colour = _COLOURS[len(_REGISTRY) % len(_COLOURS)]
+        spec = ControllerSpec(**{**spec.__dict__, "style": {**spec.style, "color": colour}})
+    _REGISTRY[spec.kind] = spec
+    return spec
+
+
+def kinds() -> tuple[str, ...]:
+    """The registered kinds, in registration order."""
+    return tuple(_REGISTRY)
+
+
+def spec(kind: str) -> ControllerSpec:
+    """The spec of registered ``kind``; ``ValueError`` names the allowed kinds."""
+    try:
+        return _REGISTRY[kind]
+    except KeyError:
+        raise ValueError(
+            f"controller.kind = {kind!r}; one of {', '.join(_REGISTRY)} is required "
+            "(or a !Python {file, class} entry for your own controller)"
+        ) from None
+
+
+def settings_kind(settings: object) -> str | None:
+    """The registered kind whose settings class ``settings`` is (``None``: none)."""
+    for entry in _REGISTRY.values():
+        if entry.settings is not None and isinstance(settings, entry.settings):
+            return entry.kind
+    return None

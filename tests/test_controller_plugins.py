@@ -1,0 +1,206 @@
+"""Controller plug-ins (``models.controllers.plugin``): a user's own controller file in a
+scenario, the contract's refusals, and the two baselines written against it (PD +
+gravity, ``models.controllers.pd_gravity``; linear ADRC, ``models.controllers.adrc``)."""
+
+from __future__ import annotations
+
+import math
+import textwrap
+
+import numpy as np
+import pytest
+from loop_checks import assert_position_only
+
+import posfb
+from posfb.analysis.cli import main
+from posfb.models.controllers import ControllerSetup, PluginError
+from posfb.models.controllers.adrc import AdrcController
+from posfb.models.controllers.plugin import NominalDynamics
+from posfb.models.lumped import TABLE1, LumpedModel
+
+#: A user's controller, written against the public contract only.
+P_GRAVITY = '''
+import numpy as np
+import posfb
+
+class PGravity(posfb.Controller):
+    memory_size = 1
+
+    def __init__(self, setup, Kp=20.0):
+        super().__init__(setup)
+        self.Kp = np.broadcast_to(np.asarray(Kp, dtype=float), (setup.joints,))
+        self.internals = tuple(f"gravity_{j + 1}_V" for j in range(setup.joints)) + ("k_count",)
+
+    def start(self, q, desired):
+        return np.zeros(1)
+
+    def step(self, q, desired, memory):
+        memory[0] += 1.0
+        gravity = self.setup.nominal.gravity(q)
+        return self.Kp * (desired[: self.setup.joints] - q) + gravity, [*gravity, memory[0]]
+'''
+
+
+def write_plugin(
+    folder, body: str = P_GRAVITY, name: str = "my_controller.py",
+    class_name: str = "PGravity", settings: str = "{Kp: [300, 200]}",
+) -> str:  # fmt: skip
+    """A plug-in file and a scenario that names it; returns the scenario's path."""
+    (folder / name).write_text(textwrap.dedent(body))
+    scenario = folder / "scenario.yaml"
+    scenario.write_text(
+        f"controller: !Python\n  file: {name}\n  class: {class_name}\n  settings: {settings}\n"
+        "timing: {duration: 1.0}\n"
+    )
+    return str(scenario)
+
+
+def test_a_user_controller_file_runs_in_simulate_and_compare(tmp_path, capsys):
+    path = write_plugin(tmp_path)
+    run = posfb.simulate(path)
+    assert run.status == "ok" and run.controller == "PGravity" and run.label == "PGravity"
+    # The memory advanced once per sample after the first: the internals count samples.
+    counts = np.arange(1, len(run.result.times) + 1, dtype=float)
+    np.testing.assert_array_equal(run.result.internals[:, -1], counts)
+    assert list(run.frame().columns[-3:]) == ["gravity_1_V", "gravity_2_V", "k_count"]
+    assert_position_only(posfb.build(path).systems)
+    comparison = posfb.compare(path, ["PGravity", "lin_lc"])
+    assert comparison.runs["PGravity"].rms_q == run.rms_q
+    assert main(["compare", "--scenario", path, "--controllers", "PGravity,pid", "--json"]) == 0
+    assert "PGravity" in capsys.readouterr().out
+
+
+def test_the_settings_reach_the_plugin_and_survive_a_dump(tmp_path):
+    path = write_plugin(tmp_path, settings="{Kp: 150}")
+    scenario = posfb.load_scenario(path)
+    built = posfb.build(scenario)
+    np.testing.assert_array_equal(built.systems.controller.plugin.Kp, [150.0, 150.0])
+    dumped = tmp_path / "dumped.yaml"
+    dumped.write_text(scenario.dump())
+    again = posfb.build(posfb.load_scenario(dumped))
+    np.testing.assert_array_equal(again.systems.controller.plugin.Kp, [150.0, 150.0])
+
+
+@pytest.mark.parametrize(
+    ("body", "class_name", "settings", "needle"),
+    [
+        (P_GRAVITY, "Nope", "{}", "has no class 'Nope'; it defines PGravity"),
+        ("class NotOne:\n    pass\n", "NotOne", "{}", "NotOne is not a posfb.Controller"),
+        (P_GRAVITY, "PGravity", "{Ki: 1}", "unexpected keyword argument 'Ki'"),
+        (P_GRAVITY.replace("return self.Kp", "return [1.0] * 3 or self.Kp"), "PGravity", "{}",
+         "step returned 3 voltage values; 2 are required"),
+        (P_GRAVITY.replace("+ gravity, [", "* np.inf, ["), "PGravity", "{}",
+         "step returned a non-finite voltage"),
+        ("def broken(:\n", "X", "{}", "line 1"),
+    ],
+)  # fmt: skip
+def test_a_plugin_that_breaks_the_contract_is_one_line_naming_its_file(
+    tmp_path, capsys, body, class_name, settings, needle
+):
+    path = write_plugin(tmp_path, body, class_name=class_name, settings=settings)
+    assert main(["simulate", "--scenario", path, "--no-progress"]) == 2
+    error = capsys.readouterr().err.strip()
+    assert len(error.splitlines()) == 1, error
+    assert needle in error and ("my_controller.py" in error or class_name in error)
+
+
+def test_a_missing_plugin_file_names_the_key(tmp_path, capsys):
+    scenario = tmp_path / "s.yaml"
+    scenario.write_text("controller: !Python {file: gone.py, class: X}\n")
+    assert main(["simulate", "--scenario", str(scenario)]) == 2
+    assert "controller.file = 'gone.py'" in capsys.readouterr().err
+
+
+def test_an_exception_in_the_users_step_shows_the_users_frames(tmp_path, capsys):
+    body = P_GRAVITY.replace("memory[0] += 1.0", "memory[0] += helper()") + (
+        "\n\ndef helper():\n    raise RuntimeError('my bug')\n"
+    )
+    path = write_plugin(tmp_path, body)
+    assert main(["simulate", "--scenario", path, "--no-progress"]) == 2
+    error = capsys.readouterr().err
+    assert "my_controller.py" in error and "raise RuntimeError('my bug')" in error
+    assert "posfb/" not in error.replace(str(tmp_path), "") and "analysis" not in error
+    with pytest.raises(RuntimeError, match="my bug"):
+        posfb.simulate(path)
+
+
+def test_switching_kinds_keeps_or_replaces_the_controller_entry(tmp_path):
+    path = write_plugin(tmp_path)
+    scenario = posfb.load_scenario(path)
+    assert posfb.load_scenario(scenario, set={"controller.kind": "adrc"}).get(
+        "controller.observer_ratio") == 5.0  # fmt: skip
+    with pytest.raises(ValueError, match="controller.kind = 'nope'.*PGravity"):
+        posfb.load_scenario(scenario, set={"controller.kind": "nope"})
+    flat = posfb.load_scenario(set={"controller.kind": "pd_gravity"})
+    assert flat.get("controller.filter_ratio") == 5.0
+    with pytest.raises(ValueError, match="own entry: controller: !Adrc"):
+        posfb.load_scenario({"controller": {"kind": "adrc"}})
+
+
+# --- the baselines -----------------------------------------------------------------
+
+
+def test_adrc_disturbance_estimate_converges_to_a_constant_torque():
+    # An independent plant: joint j of the nominal lumped model at a fixed pose is a double
+    # integrator m_j qddot = u + d (V), simulated exactly with the held voltage.
+    T_s, d = 0.01, np.array([0.7, -0.4])
+    nominal = LumpedModel(TABLE1)
+    setup = ControllerSetup(T_s, 2, (24.0, 24.0), NominalDynamics(nominal))
+    adrc = AdrcController(setup)
+    m = np.diag(nominal.M0())
+    q, v = np.zeros(2), np.zeros(2)
+    desired = np.zeros(6)
+    memory = adrc.start(q, desired)
+    for _ in range(300):
+        voltage, internals = adrc.step(q.copy(), desired, memory)
+        acceleration = (np.clip(voltage, -24, 24) + d) / m
+        q, v = q + v * T_s + 0.5 * acceleration * T_s**2, v + acceleration * T_s
+    # internals: disturbance_j_V (the estimate of f / b0 = d), then the velocity estimate
+    np.testing.assert_allclose(internals[:2], d, rtol=1e-6)
+    np.testing.assert_allclose(q, 0.0, atol=1e-8)
+
+
+def test_pd_gravity_holds_a_pose_with_zero_error_when_its_gravity_is_exact():
+    # The nominal model is the plant's own URDF model (exact gravity); no Coulomb friction
+    # and an ideal encoder: Kelly's PD + gravity drives the set-point error to zero.
+    scenario = posfb.load_scenario(
+        set={
+            "nominal_model": "!UrdfModel {}",
+            "plant.parameters.coulomb": 0.0,
+            "sensor.encoder_counts": 0,
+            # A soft-started step from (-1.2, 0.4) to (-0.8, 0.9) rad, held from about 2 s.
+            "trajectory": "!Wave {joints: [{offset: -1.2, amplitude: 0.4}, "
+            "{offset: 0.4, amplitude: 0.5}]}",
+            "timing.duration": 6.0,
+            "controller.kind": "pd_gravity",
+        },
+    )
+    run = posfb.simulate(scenario)
+    assert run.status == "ok"
+    np.testing.assert_allclose(run.result.q_desired[-1], [-0.8, 0.9], atol=1e-12)
+    np.testing.assert_allclose(run.result.q_error[-1], 0.0, atol=1e-9)
+
+
+@pytest.mark.parametrize("kind", ["pd_gravity", "adrc"])
+@pytest.mark.parametrize("case", ["paper_nominal", "paper_payload"])
+def test_the_baselines_stay_bounded_on_the_papers_cases(kind, case):
+    run = posfb.simulate(posfb.shipped_scenarios()[case], kind)
+    # Bounded: well inside the divergence bound (1 rad) over the paper's 20 s, within
+    # the +-24 V range most of the time.
+    assert run.status == "ok"
+    assert run.metrics.max_abs_q_err < 0.25
+    assert run.metrics.saturated_fraction < 0.05
+
+
+@pytest.mark.parametrize(
+    ("settings", "needle"),
+    [
+        ({"controller.kind": "adrc", "controller.bandwidth": -1.0}, "controller.bandwidth = -1.0"),
+        ({"controller.kind": "adrc", "controller.observer_ratio": 20.0}, "Nyquist"),
+        ({"controller.kind": "pd_gravity", "controller.damping_ratio": math.nan},
+         "controller.damping_ratio = nan"),
+    ],
+)  # fmt: skip
+def test_bad_baseline_settings_are_refused_naming_the_key(settings, needle):
+    with pytest.raises(PluginError, match=needle.replace("(", "\\(")):
+        posfb.load_scenario(set=settings)
