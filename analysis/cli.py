@@ -8,6 +8,7 @@ from __future__ import annotations
 import argparse
 import importlib
 import os
+import re
 import sys
 import traceback
 from collections.abc import Sequence
@@ -99,8 +100,34 @@ def _user_frames(error: BaseException) -> list[traceback.FrameSummary]:
     return plugin.user_frames(error) if plugin is not None else []
 
 
+def _setting_without_value(argv: Sequence[str]) -> str | None:
+    """The first ``--set KEY`` whose value has no ``=`` (``--set timing.duration 5``)."""
+    for flag, value in zip(argv, argv[1:], strict=False):
+        if flag == "--set" and "=" not in value:
+            return value
+    return None
+
+
+def plain_numbers(message: str) -> str:
+    """``message`` with numpy scalar reprs (``np.float64(1.0)``) written as plain numbers:
+    the last line of defence, for a value that reached a message unconverted."""
+    return _NUMPY_SCALAR.sub(r"\1", message)
+
+
+#: ``np.float64(1.5)``, ``np.int64(3)``, ``np.True_`` ...
+_NUMPY_SCALAR = re.compile(r"np\.(?:float|int|uint|complex)\d*\(([^()]*)\)")
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """Entry point of ``posfb``; returns the exit code."""
+    arguments = sys.argv[1:] if argv is None else list(argv)
+    missing = _setting_without_value(arguments)
+    if missing is not None:
+        sys.stderr.write(
+            f"posfb: error: --set {missing}: KEY=VALUE is required, one argument "
+            f"(e.g. --set {missing.rstrip('=')}=5)\n"
+        )
+        return EXIT_BAD_INPUT
     try:
         parser = build_parser(argv)
     except KeyboardInterrupt:
@@ -111,7 +138,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         return int(args.handler(args) or 0)
     except (UsageError, ValueError, FileNotFoundError) as error:
         message = str(error).strip().splitlines()[0] if str(error).strip() else repr(error)
-        sys.stderr.write(f"posfb {args.command}: error: {message}\n")
+        sys.stderr.write(f"posfb {args.command}: error: {plain_numbers(message)}\n")
         return EXIT_BAD_INPUT
     except InterruptedRunError as interrupt:
         sys.stderr.write(f"posfb {args.command}: interrupted: {interrupt}\n")

@@ -63,8 +63,13 @@ def reachable(graph: Iterable[Edge], start: str, blocked: frozenset[str] = froze
 
 
 def graphviz_source(diagram: Diagram) -> str:
-    """The Graphviz (``dot``) text of ``diagram`` with ``GRAPHVIZ_OPTIONS``."""
-    return diagram.GetGraphvizString(options=GRAPHVIZ_OPTIONS)
+    """The Graphviz (``dot``) text of ``diagram`` with ``GRAPHVIZ_OPTIONS``, laid out top
+    to bottom: Drake's left-to-right layout puts the loop's dozen systems side by side
+    (3625 x 805 px for the paper's loop, unreadable at page width); top to bottom it is
+    about 1040 px wide."""
+    return diagram.GetGraphvizString(options=GRAPHVIZ_OPTIONS).replace(
+        "rankdir=LR", "rankdir=TB", 1
+    )
 
 
 #: The file types ``render`` writes.

@@ -198,6 +198,36 @@ def with_absolute_paths(loaded: LoadedScenario) -> Scenario:
     return scenario
 
 
+def self_contained(loaded: LoadedScenario) -> Scenario:
+    """``with_absolute_paths``, and a ``!Python`` controller file's text stored in its
+    ``source`` (a Monte-Carlo study's scenario: its workers need no shared folder)."""
+    scenario = with_absolute_paths(loaded)
+    section = scenario.controller
+    if isinstance(section, Python) and section.file and not section.source:
+        path = Path(section.file)
+        try:
+            section.source = path.read_text()
+        except (OSError, UnicodeDecodeError) as error:
+            message = f"controller.file = {section.file!r} cannot be read: {error}"
+            raise ValueError(message) from None
+    return scenario
+
+
+def plugin_file_changed(scenario: Scenario) -> str:
+    """A note when the ``!Python`` file of a stored scenario no longer holds its stored
+    ``source`` ("" when it does, or when there is none)."""
+    section = scenario.controller
+    if not (isinstance(section, Python) and section.source and section.file):
+        return ""
+    path = Path(section.file)
+    current = path.read_text() if path.is_file() else None
+    if current == section.source:
+        return ""
+    state = "is gone" if current is None else "has changed"
+    return (f"the controller file {path} {state} since the study ran; the study's stored "
+            "copy of it runs")  # fmt: skip
+
+
 def read_csv_trajectory(path: Path) -> SplineTrajectory:
     """Columns time (s), q1 .. qn (rad) of a CSV file, header row optional."""
     source = f"trajectory.path {path}"
@@ -237,6 +267,27 @@ def make_trajectory(settings: TrajectorySettings, base_dir: Path) -> Trajectory:
     if not settings.path:
         raise ValueError("trajectory.path is empty; the CSV file's path is required")
     return read_csv_trajectory(resolve_path(settings.path, base_dir))
+
+
+def _check_csv(
+    settings: TrajectorySettings, trajectory: Trajectory, duration: float, joints: int
+) -> None:
+    """A CSV trajectory has one position column per joint of the arm, and reaches
+    ``timing.duration`` unless it says to hold its end."""
+    if not isinstance(settings, CsvFile):
+        return
+    if trajectory.joints != joints:
+        raise ValueError(
+            f"trajectory.path {settings.path} has {trajectory.joints + 1} columns; the arm has "
+            f"{joints} joints: the columns time, "
+            f"{', '.join(f'q{j + 1}' for j in range(joints))} are required"
+        )
+    if trajectory.end_time < duration and not settings.hold_after_end:
+        raise ValueError(
+            f"trajectory.path {settings.path} ends at t = {trajectory.end_time:g} s, before "
+            f"timing.duration = {duration:g} s; samples up to {duration:g} s are required (or "
+            "trajectory.hold_after_end: true, to hold its last position at rest)"
+        )
 
 
 def make_nominal(settings: NominalModel, base_dir: Path) -> NominalForm:
@@ -286,6 +337,9 @@ def load_python_controller(section: Python, base_dir: Path) -> UserPlugin:
         raise ValueError(f"controller.settings = {section.settings!r}; a map of names to values "
                          "is required")  # fmt: skip
     label = section.label or section.class_name
+    if section.source:  # stored by a study: the file need not exist here
+        path = resolve_path(section.file, base_dir) if section.file else Path(section.module)
+        return load_plugin(section.source, str(path), section.class_name, settings, label)
     if section.file:
         path = resolve_path(section.file, base_dir)
         if not path.is_file():
@@ -409,6 +463,7 @@ def resolve(loaded: LoadedScenario) -> ResolvedScenario:
     except ValueError as error:
         raise _with_key(error, "controller") from None
     trajectory = make_trajectory(scenario.trajectory, base)
+    _check_csv(scenario.trajectory, trajectory, scenario.timing.duration, joints)
     plant = scenario.plant
     urdf = resolve_path(plant.urdf, base)
     try:

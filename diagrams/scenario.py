@@ -213,10 +213,13 @@ class Waypoints:
 
 @dataclass
 class CsvFile:
-    """Sampled positions: a CSV file whose columns are time (s), q1, q2 (rad), with
-    or without a header row; a not-a-knot cubic spline interpolates them."""
+    """Sampled positions: a CSV file whose columns are time (s), q1 .. qn (rad), with
+    or without a header row; a not-a-knot cubic spline interpolates them. A file that
+    ends before ``timing.duration`` is refused unless ``hold_after_end`` says to hold its
+    last position at rest from its end on."""
 
     path: str = ""
+    hold_after_end: bool = False
 
 
 TrajectorySettings = Wave | Waypoints | CsvFile
@@ -343,7 +346,9 @@ class Python:
     ``class`` (``class_name``) defined in ``file`` (relative to the scenario's folder) or
     in the importable ``module``, built with ``settings`` (a map of numbers, lists and
     strings, passed as keyword arguments); ``label`` names it in legends and tables
-    (default: the class name, which is also its kind)."""
+    (default: the class name, which is also its kind). ``source`` is the file's text, which
+    a Monte-Carlo study stores when it is loaded (``diagrams.resolve.self_contained``), so
+    that its workers need no shared folder; when set, it is run instead of the file."""
 
     #: YAML spellings of fields whose name is a Python keyword.
     ALIASES: typing.ClassVar[dict[str, str]] = {"class": "class_name"}
@@ -355,6 +360,7 @@ class Python:
     class_name: str = ""
     settings: str = "{}"
     label: str = ""
+    source: str = ""
 
 
 #: The scenario's controller: the paper's three in the flat form (``kind`` and the Sec. 3

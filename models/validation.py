@@ -9,14 +9,25 @@ from collections.abc import Sequence
 import numpy as np
 
 
+def shown(value: object) -> str:
+    """``value`` as a message shows it: numpy scalars and arrays as plain Python numbers
+    and lists (``1.0``, not ``np.float64(1.0)``), everything else by its ``repr``."""
+    if isinstance(value, np.generic | np.ndarray):
+        value = value.tolist()
+    elif isinstance(value, list | tuple):
+        value = type(value)(v.tolist() if isinstance(v, np.generic) else v for v in value)
+    return repr(value)
+
+
 def require_finite(name: str, value: float) -> float:
     """Return ``value`` as float, refusing NaN and infinities."""
     try:
         number = float(value)
     except (TypeError, ValueError):
-        raise ValueError(f"{name} = {value!r} is not a number; a finite real is required") from None
+        message = f"{name} = {shown(value)} is not a number; a finite real is required"
+        raise ValueError(message) from None
     if not math.isfinite(number):
-        raise ValueError(f"{name} = {value!r} is not finite; a finite real is required")
+        raise ValueError(f"{name} = {shown(value)} is not finite; a finite real is required")
     return number
 
 
@@ -24,7 +35,7 @@ def require_nonnegative(name: str, value: float) -> float:
     """Return ``value`` if it is finite and >= 0."""
     number = require_finite(name, value)
     if number < 0.0:
-        raise ValueError(f"{name} = {value!r} is negative; a finite value >= 0 is required")
+        raise ValueError(f"{name} = {shown(value)} is negative; a finite value >= 0 is required")
     return number
 
 
@@ -32,7 +43,7 @@ def require_positive(name: str, value: float) -> float:
     """Return ``value`` if it is finite and > 0."""
     number = require_finite(name, value)
     if number <= 0.0:
-        raise ValueError(f"{name} = {value!r} is not positive; a finite value > 0 is required")
+        raise ValueError(f"{name} = {shown(value)} is not positive; a finite value > 0 is required")
     return number
 
 
@@ -44,7 +55,7 @@ def per_joint(name: str, value: object, size: int, kind: str = "number") -> list
         values = values * size
     if len(values) != size:
         raise ValueError(
-            f"{name} = {value!r}; one {kind} for all joints or {size} (one per joint) "
+            f"{name} = {shown(value)}; one {kind} for all joints or {size} (one per joint) "
             "is required"
         )
     return values

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import struct
 import subprocess
 import sys
 import xml.etree.ElementTree as ET
@@ -74,6 +75,14 @@ def test_graph_renders_svg(tmp_path, capsys):
         assert "digraph" in out.with_suffix(".dot").read_text()
 
 
+@pytest.mark.skipif(not graph.shutil.which("dot"), reason="needs Graphviz (bin/setup installs it)")
+def test_graph_png_fits_a_page_width(tmp_path, capsys):
+    out = tmp_path / "loop.png"
+    assert main(["graph", "--controller", "proposed", "--out", str(out)]) == 0
+    width, _ = struct.unpack(">II", out.read_bytes()[16:24])  # the PNG header's IHDR
+    assert width <= 1200
+
+
 def test_graph_without_graphviz_writes_dot_text(tmp_path, monkeypatch, capsys):
     monkeypatch.setattr(graph.shutil, "which", lambda name: None)
     out = tmp_path / "loop.svg"
@@ -88,3 +97,26 @@ def test_animate_writes_a_self_contained_html(tmp_path, capsys):
     text = out.read_text()
     assert text.lstrip().lower().startswith("<!doctype html") or "<html" in text[:2000].lower()
     assert "<script" in text and len(text) > 100_000
+
+
+def test_a_diverged_run_exits_4_and_still_prints_its_metrics(capsys):
+    # A bound far below any tracking error stops the first check as diverged.
+    code = main(["simulate", "--controller", "lin_lc", "--duration", "0.5", "--json",
+                 "--set", "timing.divergence_bound=1e-9"])  # fmt: skip
+    assert code == 4
+    assert json.loads(capsys.readouterr().out)["status"] == "diverged"
+
+
+def test_the_filter_a_that_a_refusal_suggests_runs(capsys):
+    assert main(["simulate", "--sample-time", "0.005", "--duration", "0.5"]) == 2
+    error = capsys.readouterr().err
+    suggestion = error.rsplit("--set ", 1)[1].rstrip(")\n")
+    assert suggestion.startswith("controller.filter_a=")
+    assert main(["simulate", "--sample-time", "0.005", "--duration", "0.5", "--json",
+                 "--set", suggestion]) == 0  # fmt: skip
+
+
+def test_numpy_scalars_in_messages_are_plain_numbers():
+    from posfb.analysis.cli import plain_numbers
+
+    assert plain_numbers("x = np.float64(1.5); y = [np.int64(3)]") == "x = 1.5; y = [3]"

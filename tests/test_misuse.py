@@ -56,6 +56,12 @@ FILES = {
     "csv2.yaml": "trajectory: !CsvFile {path: two_columns.csv}\n",
     "csv3.yaml": "trajectory: !CsvFile {path: backwards.csv}\n",
     "csv4.yaml": "trajectory: !CsvFile {path: nowhere.csv}\n",
+    "short.csv": "0,0,0\n1,0.1,0\n2,0.2,0\n3,0.3,0\n",
+    "short_csv.yaml": "trajectory: !CsvFile {path: short.csv}\n",
+    "flat_adrc.yaml": "controller: {kind: adrc}\n",
+    "plugin_missing.yaml": "controller: !Python {file: gone.py, class: Mine}\n",
+    "not_a_controller.py": "class Mine:\n    pass\n",
+    "plugin_wrong.yaml": "controller: !Python {file: not_a_controller.py, class: Mine}\n",
     "one_waypoint.yaml": "trajectory: !Waypoints {times: [0], positions: [[0, 0]]}\n",
     "prismatic.urdf": PRISMATIC,
     "a_file": "I am a file, not a folder\n",
@@ -92,7 +98,10 @@ CASES = {
     "unknown integrator": Case(
         ("simulate", "--set", "timing.simulator.integration_scheme=magic"), "integration_scheme"
     ),
-    "refused design": Case(("simulate", "--sample-time", "0.005"), "filter_a"),
+    "refused design": Case(
+        ("simulate", "--sample-time", "0.005"),
+        "controller.filter_a = 100 is not above ln 2 / T_s = 138.6",
+    ),
     "bad discretisation": Case(("design", "--set", "controller.discretisation=euler"), "foh"),
     "non-positive alpha*": Case(("design", "--alpha-star", "0"), "controller.alpha_star"),
     "scenario and case": Case(
@@ -107,7 +116,30 @@ CASES = {
     "YAML syntax": Case(("simulate", "--scenario", "{tmp}/syntax.yaml"), "YAML syntax error"),
     "CSV not numeric": Case(("simulate", "--scenario", "{tmp}/csv.yaml"), "non-numeric"),
     "CSV two columns": Case(
-        ("simulate", "--scenario", "{tmp}/csv2.yaml"), "trajectory drives 1 joints; the nominal"
+        ("simulate", "--scenario", "{tmp}/csv2.yaml"),
+        "two_columns.csv has 2 columns; the arm has 2 joints: the columns time, q1, q2",
+    ),
+    "CSV shorter than the run": Case(
+        ("simulate", "--scenario", "{tmp}/short_csv.yaml"),
+        "ends at t = 3 s, before timing.duration = 20 s",
+    ),
+    "--set KEY VALUE": Case(("simulate", "--set", "timing.duration", "5"),
+                            "--set timing.duration: KEY=VALUE is required"),  # fmt: skip
+    "plug-in kind in the flat form": Case(
+        ("simulate", "--scenario", "{tmp}/flat_adrc.yaml"), "own entry: controller: !Adrc"
+    ),
+    "plug-in file missing": Case(
+        ("simulate", "--scenario", "{tmp}/plugin_missing.yaml"), "controller.file = 'gone.py'"
+    ),
+    "plug-in class not a Controller": Case(
+        ("simulate", "--scenario", "{tmp}/plugin_wrong.yaml"), "Mine is not a posfb.Controller"
+    ),
+    "bad baseline setting": Case(
+        ("simulate", "--controller", "adrc", "--set", "controller.bandwidth=-1"),
+        "controller.bandwidth = -1.0 (Adrc)",
+    ),
+    "empty entry in --controllers": Case(
+        ("compare", "--controllers", "pid,,lin_lc"), "comma-separated controller kinds"
     ),
     "nominal and plant joints differ": Case(
         ("simulate", "--set", "plant.urdf=package://posfb/six_joint_arm.urdf"),

@@ -29,7 +29,7 @@ SHIPPED = Path(__file__).resolve().parent.parent / "analysis" / "studies" / "pap
 def test_shipped_study_loads_with_the_documented_choices():
     study = load_study(SHIPPED)
     assert study.samples == 200 and study.duration == 20.0
-    assert set(study.controllers) == {"proposed", "lin_lc", "pid"}
+    assert set(study.controllers) == {"proposed", "lin_lc", "pid", "pd_gravity", "adrc"}
     assert study.parameters.link_mass == [Uniform(min=-0.2, max=0.2, relative=True)]
     assert study.parameters.payload_mass == Uniform(min=0.0, max=0.5, relative=False)
     assert isinstance(study.parameters.motor_constant[0], Gaussian)

@@ -196,3 +196,14 @@ def test_a_study_where_no_run_finished_still_reports(tmp_path, samples):
     assert f"| proposed | 0 | {samples} | 0 |" in path.read_text()  # ok, diverged, error
     for name in FIGURES:
         assert (tmp_path / "report" / f"{name}.png").is_file(), name
+
+
+def test_a_report_on_too_few_runs_gives_no_interval_and_no_p_value(store, tmp_path, capsys):
+    # The fixture's 4 samples are below MIN_INFERENCE_ROWS: the estimates are printed, no
+    # bootstrap interval, no Spearman p-value, nothing in bold.
+    out = tmp_path / "report"
+    assert main(["montecarlo", "report", "--db", str(store.path), "--out", str(out)]) == 0
+    text = (out / "report.md").read_text()
+    assert "(no CI, n < 10)" in text and "too few runs for an interval" in text
+    sensitivity = text.split("## Sensitivity", 1)[1].split("\n## ", 1)[0]
+    assert "**" not in sensitivity.split("|---", 1)[1]

@@ -90,6 +90,26 @@ def test_a_csv_trajectory_is_tracked_and_follows_the_samples(tmp_path, kind):
         np.testing.assert_allclose(trajectory.evaluate(t)[1], desired(t)[1], atol=2e-3)
 
 
+def test_a_short_csv_trajectory_is_held_only_when_the_scenario_says_so(tmp_path):
+    (tmp_path / "short.csv").write_text("0,-1.5,0\n0.5,-1.4,0.1\n1,-1.3,0.2\n1.5,-1.3,0.2\n")
+    text = "trajectory: !CsvFile {path: short.csv}\ntiming: {duration: 2.0}\n"
+    with pytest.raises(ValueError, match="ends at t = 1.5 s, before timing.duration = 2 s"):
+        load_scenario(_write(tmp_path, text))
+    held = load_scenario(_write(tmp_path, text.replace("short.csv}", "short.csv, "
+                                                       "hold_after_end: true}")))  # fmt: skip
+    trajectory = resolve(held).config.trajectory
+    position, velocity, _ = trajectory.evaluate(1.9)
+    np.testing.assert_allclose(position, [-1.3, 0.2], atol=1e-12)
+    np.testing.assert_array_equal(velocity, 0.0)
+
+
+def test_a_yaml_scalar_for_a_per_joint_key_means_every_joint(tmp_path):
+    text = "sensor: {encoder_counts: 4096, noise_std: 1e-4}\nactuator: {voltage_limit: 12}\n"
+    config = resolve(load_scenario(_write(tmp_path, text))).config
+    assert config.encoder_counts == (4096, 4096)
+    assert config.noise_std == (1e-4, 1e-4) and config.voltage_limit == (12.0, 12.0)
+
+
 def test_each_documented_set_changes_the_run(tmp_path, capsys):
     base = ["--duration", "1", "--controller", "lin_lc"]
     out = tmp_path / "run.parquet"

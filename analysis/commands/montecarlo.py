@@ -224,6 +224,7 @@ def replay_command(args: argparse.Namespace) -> int:
     )
     from posfb.analysis.montecarlo.store import ResultStore
     from posfb.analysis.montecarlo.worker import ClosedLoopEvaluator
+    from posfb.diagrams.resolve import plugin_file_changed
 
     out = output_folder("--out", args.out)
     with ResultStore.open_existing(args.db) as store:
@@ -237,6 +238,9 @@ def replay_command(args: argparse.Namespace) -> int:
         f"{stored_sample['code_version']}): replaying {', '.join(controllers)}",
         flush=True,
     )
+    changed = plugin_file_changed(study.base)
+    if changed:
+        print(f"  note: {changed}", flush=True)
     replayed, results = ClosedLoopEvaluator(study).evaluate(args.sample, controllers)
     comparisons = compare(stored_sample, stored_runs, replayed, with_radius=schema != "1")
     for comparison in comparisons:

@@ -74,7 +74,7 @@ from posfb.diagrams.resolve import (
     load_scenario,
     resolve,
     resolve_path,
-    with_absolute_paths,
+    self_contained,
 )
 from posfb.diagrams.scenario import (
     ControllerSettings,
@@ -573,15 +573,15 @@ def study_from_text(text: str, source: str = "study", folder: Path | None = None
     ``folder``, default the working directory)."""
     study = load_typed(Study, text, source)
     try:
-        if study.scenario or study.settings:
-            study = _fold_scenario(study, Path.cwd() if folder is None else folder)
+        study = _fold_scenario(study, Path.cwd() if folder is None else folder)
         return validate_study(study)
     except ValueError as error:
         raise ValueError(f"{source}: {error}") from None
 
 
 def _fold_scenario(study: Study, folder: Path) -> Study:
-    """``study`` with its ``scenario`` file and ``settings`` folded into ``base``."""
+    """``study`` with its ``scenario`` file and ``settings`` folded into ``base``, made
+    self-contained (absolute paths, a ``!Python`` controller's source stored)."""
     if study.scenario:
         _require(
             study.base == Scenario(),
@@ -595,7 +595,7 @@ def _fold_scenario(study: Study, folder: Path) -> Study:
         loaded = LoadedScenario(study.base, folder)
         for setting in study.settings:
             loaded.scenario = apply_setting(loaded.scenario, setting)
-    return replace(study, scenario="", settings=[], base=with_absolute_paths(loaded))
+    return replace(study, scenario="", settings=[], base=self_contained(loaded))
 
 
 def with_overrides(study: Study, samples: int | None = None, seed: int | None = None) -> Study:

@@ -29,7 +29,11 @@ from posfb.analysis.montecarlo.results import (
     ok_values,
     status_counts,
 )
-from posfb.analysis.montecarlo.statistics import Interval, proportion_interval
+from posfb.analysis.montecarlo.statistics import (
+    MIN_INFERENCE_ROWS,
+    Interval,
+    proportion_interval,
+)
 from posfb.analysis.montecarlo.store import ResultStore
 from posfb.analysis.plots import joint_panels, label_joint_panel, save_report_figure
 from posfb.diagrams.scenario import IdentifiedFromUrdf, Scenario, Theta, UrdfModel, Wave
@@ -126,8 +130,13 @@ def _number(value: float) -> str:
     return "-" if not np.isfinite(value) else f"{value:.4g}"
 
 
-def _interval(interval: Interval) -> str:
-    return "-" if not np.isfinite(interval.estimate) else interval.text(4)
+def _interval(interval: Interval, count: int) -> str:
+    """The estimate with its interval; the estimate alone below ``MIN_INFERENCE_ROWS``."""
+    if not np.isfinite(interval.estimate):
+        return "-"
+    if count < MIN_INFERENCE_ROWS:
+        return f"{_number(interval.estimate)} (no CI, n < {MIN_INFERENCE_ROWS})"
+    return interval.text(4)
 
 
 def _share(interval: Interval) -> str:
@@ -192,7 +201,8 @@ def markdown(
         "",
         "## RMS tracking error (rad), runs that finished",
         "",
-        "Medians and 95th percentiles with their percentile-bootstrap 95 % intervals.",
+        "Medians and 95th percentiles with their percentile-bootstrap 95 % intervals "
+        f"(none with fewer than {MIN_INFERENCE_ROWS} runs).",
         "",
         "| controller | joint | runs | mean | median [95 % CI] | 95th pct [95 % CI] | max |",
         "|---|---:|---:|---:|---:|---:|---:|",
@@ -200,7 +210,8 @@ def markdown(
     for s in stats:
         lines.append(
             f"| {s.controller} | {s.joint} | {s.count} | {_number(s.mean)} | "
-            f"{_interval(s.median_interval)} | {_interval(s.p95_interval)} | {_number(s.max)} |"
+            f"{_interval(s.median_interval, s.count)} | {_interval(s.p95_interval, s.count)} | "
+            f"{_number(s.max)} |"
         )
     lines += [
         "",

@@ -26,6 +26,7 @@ from matplotlib.figure import Figure
 
 from posfb.analysis.montecarlo.results import StudyData
 from posfb.analysis.montecarlo.statistics import (
+    MIN_INFERENCE_ROWS,
     RankCorrelation,
     SobolIndex,
     sobol_indices,
@@ -92,7 +93,8 @@ def markdown(found: list[Sensitivity]) -> list[str]:
         "",
         "Spearman rank correlation of each varied parameter with the RMS tracking error "
         f"(finished runs), strongest {TOP} per controller and joint; 95 % bootstrap "
-        f"interval in brackets; **bold** where p < {SIGNIFICANCE:g}.",
+        f"interval in brackets; **bold** where p < {SIGNIFICANCE:g}; no interval or p with "
+        f"fewer than {MIN_INFERENCE_ROWS} runs.",
         "",
         "| controller | joint | parameter | rho [95 % CI] | p | runs |",
         "|---|---:|---|---:|---:|---:|",
@@ -101,12 +103,16 @@ def markdown(found: list[Sensitivity]) -> list[str]:
         if not entry.ranking:
             lines.append(f"| {entry.controller} | {entry.joint} | - | - | - | 0 |")
         for rank in entry.ranking[:TOP]:
-            rho = f"{rank.rho:+.3f} [{rank.low:+.3f}, {rank.high:+.3f}]"
-            if rank.p_value < SIGNIFICANCE:
-                rho = f"**{rho}**"
+            if rank.count < MIN_INFERENCE_ROWS:
+                rho, p = f"{rank.rho:+.3f} (too few runs for an interval)", "-"
+            else:
+                rho = f"{rank.rho:+.3f} [{rank.low:+.3f}, {rank.high:+.3f}]"
+                p = f"{rank.p_value:.2g}"
+                if rank.p_value < SIGNIFICANCE:
+                    rho = f"**{rho}**"
             lines.append(
                 f"| {entry.controller} | {entry.joint} | `{rank.parameter}` | {rho} | "
-                f"{rank.p_value:.2g} | {rank.count} |"
+                f"{p} | {rank.count} |"
             )
     with_sobol = [entry for entry in found if entry.sobol is not None or entry.sobol_note]
     if with_sobol:

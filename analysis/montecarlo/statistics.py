@@ -45,6 +45,14 @@ from scipy import stats
 #: Largest number of array elements one bootstrap batch holds (resamples x sample size).
 _BATCH_ELEMENTS = 1 << 20
 
+#: Fewest rows (finished runs) for which the report gives an interval or a p-value: with
+#: fewer, a percentile-bootstrap interval is built from a handful of distinct resamples
+#: and Spearman's t-approximation p-value is far off (5 identical ranks print rho = 1
+#: [1, 1], p = 1e-24); the report then prints the estimate alone (this project's choice,
+#: the smallest n for which critical values of Spearman's rho are usually tabulated by
+#: their normal approximation, Zar 1972).
+MIN_INFERENCE_ROWS = 10
+
 #: Above this many rows ``spearman_ranking`` uses the Fisher-z (Bonett-Wright) interval.
 BOOTSTRAP_ROWS = 2000
 

@@ -29,7 +29,12 @@ from posfb.analysis.montecarlo.config import Study, study_from_text
 from posfb.analysis.montecarlo.coverage import Coverage, coverage, serial_coverage
 from posfb.analysis.montecarlo.records import ControllerRun, SampleResult, metric_columns
 from posfb.analysis.montecarlo.sampling import SampledPlant, sample_plant, sample_scenario
-from posfb.diagrams.closed_loop import ClosedLoopResult, ClosedLoopRunner, SensorState
+from posfb.diagrams.closed_loop import (
+    ClosedLoopConfig,
+    ClosedLoopResult,
+    ClosedLoopRunner,
+    SensorState,
+)
 from posfb.diagrams.resolve import LoadedScenario, resolve
 from posfb.diagrams.scenario import (
     ParameterOverrides,
@@ -37,7 +42,7 @@ from posfb.diagrams.scenario import (
     dump_scenario,
     with_controller,
 )
-from posfb.models.controllers import cached_design
+from posfb.models.controllers import REGISTRY, cached_design
 from posfb.models.design import ControllerConfig, plant_spectral_radii
 from posfb.models.identify import identify
 from posfb.models.lumped import LumpedParameters
@@ -124,7 +129,7 @@ class ClosedLoopEvaluator:
                 sensor, encoder_counts=(plant.encoder_counts,) * config.joints
             )
         context = self._reference.new_context(plant.parameters)
-        theta, where, radii = self._place(config.design, context)
+        theta, where, radii = self._place(self._designed(scenario, config), context)
         parameters = {
             key: list(value) if isinstance(value, tuple) else value
             for key, value in asdict(plant.parameters).items()
@@ -145,6 +150,19 @@ class ClosedLoopEvaluator:
             runs=tuple(runs),
         )
         return sample, results
+
+    def _designed(self, scenario: Scenario, config: ClosedLoopConfig) -> ControllerConfig:
+        """The Sec. 3 design a sample is placed against: the scenario's own, or, when its
+        controller entry is a plug-in's (no Sec. 3 design), that of the study's first
+        controller that has one (the paper's three share the flat form's inputs)."""
+        if config.controller_settings is None:
+            return config.design
+        designed = [c for c in self.study.controllers if REGISTRY.get(c) and
+                    REGISTRY[c].settings is None]  # fmt: skip
+        if not designed:
+            return config.design
+        switched = with_controller(scenario, designed[0])
+        return resolve(self._loaded(switched)).config.design
 
     def _place(
         self, design: ControllerConfig, context: Context

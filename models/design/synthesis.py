@@ -14,6 +14,7 @@ controllers refuse what they cannot use: Lin+LC a failed LQR design
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -187,11 +188,13 @@ def _bound_filter_check(constants: BoundFilterConstants) -> Check:
             f"{constants.min_a:.4g}: abar = {constants.abar:.4f} < 1/2, c = {constants.c:.4f}"
         )
     else:
+        suggestion = math.ceil(1.1 * constants.min_a)  # 10 % above the limit
         detail = (
-            f"filter_a = {constants.a:g} is not above ln 2 / T_s = {constants.min_a:.4g} at "
-            f"T_s = {constants.sample_time:g} s (abar = exp(-a T_s) = {constants.abar:.4f} >= "
-            "1/2): the bounds U1, U2 of Eq. 24-25 do not hold and the proposed controller "
-            "refuses this setting"
+            f"controller.filter_a = {constants.a:g} is not above ln 2 / T_s = "
+            f"{constants.min_a:.4g} at T_s = {constants.sample_time:g} s (abar = exp(-a T_s) = "
+            f"{constants.abar:.4f} >= 1/2): the bounds U1, U2 of Eq. 24-25 do not hold and the "
+            f"proposed controller refuses this setting; a filter_a above {constants.min_a:.4g} "
+            f"is required (e.g. --set controller.filter_a={suggestion})"
         )
     return Check("bound_filter", constants.valid, detail)
 
