@@ -17,7 +17,6 @@ from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
-import pandas as pd
 import yaml
 
 from posfb.diagrams.closed_loop import (
@@ -235,6 +234,8 @@ def read_csv_trajectory(path: Path) -> SplineTrajectory:
         raise ValueError(f"{source} is a directory; a CSV file is required")
     if not path.is_file():
         raise ValueError(f"{source} does not exist")
+    import pandas as pd  # on use: the CLI's start-up does not pay for it
+
     try:
         table = pd.read_csv(path, header=None, dtype=str, skip_blank_lines=True)
     except (OSError, UnicodeDecodeError, pd.errors.ParserError, pd.errors.EmptyDataError) as err:

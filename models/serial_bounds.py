@@ -30,8 +30,6 @@ from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
-import scipy.optimize
-from scipy.stats import qmc
 
 from posfb.models.serial_model import SerialArmModel
 
@@ -68,6 +66,8 @@ def _maximum(
 ) -> float:
     """The largest ``function`` over ``points``, refined by at most ``steps`` Nelder-Mead
     iterations from each of the ``STARTS`` best."""
+    import scipy.optimize  # on use: the CLI's start-up does not pay for it
+
     values = np.array([function(point) for point in points])
     best = float(values.max())
     for start in points[np.argsort(values)[::-1][:STARTS]]:
@@ -120,6 +120,8 @@ def _workspace_maxima(
 def _sobol_angles(joints: int, samples: int, seed: int) -> np.ndarray:
     if samples < 2 or samples & (samples - 1):
         raise ValueError(f"samples = {samples!r}; a power of 2 >= 2 is required")
+    from scipy.stats import qmc  # on use: the CLI's start-up does not pay for it
+
     sobol = qmc.Sobol(joints, scramble=True, rng=np.random.default_rng(seed))
     return 2.0 * np.pi * sobol.random(samples)
 

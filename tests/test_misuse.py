@@ -138,6 +138,9 @@ CASES = {
         ("simulate", "--controller", "adrc", "--set", "controller.bandwidth=-1"),
         "controller.bandwidth = -1.0 (Adrc)",
     ),
+    "design of a plug-in controller": Case(
+        ("design", "--set", "controller.kind=adrc"), "'adrc' (linear ADRC (ESO)) has no Sec. 3"
+    ),
     "empty entry in --controllers": Case(
         ("compare", "--controllers", "pid,,lin_lc"), "comma-separated controller kinds"
     ),

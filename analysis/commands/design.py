@@ -16,6 +16,7 @@ from dataclasses import asdict
 from typing import TYPE_CHECKING
 
 from posfb.analysis.commands.scenario_args import add_scenario_arguments, scenario_from_args
+from posfb.analysis.errors import UsageError
 
 if TYPE_CHECKING:
     import numpy as np
@@ -36,10 +37,17 @@ def configure(parser: argparse.ArgumentParser) -> None:
 
 
 def design_config(args: argparse.Namespace) -> ControllerConfig:
-    """The design inputs of the scenario the command line describes."""
+    """The design inputs of the scenario the command line describes; a plug-in controller
+    (PD + gravity, ADRC, a ``!Python`` class) has no Sec. 3 design and is refused."""
     from posfb.diagrams.resolve import resolve
 
-    return resolve(scenario_from_args(args)).config.design
+    config = resolve(scenario_from_args(args)).config
+    if config.controller_settings is not None:
+        raise UsageError(
+            f"controller {config.controller!r} ({config.spec.label}) has no Sec. 3 design; "
+            "posfb design designs the paper's controllers (--controller proposed or lin_lc)"
+        )
+    return config.design
 
 
 def _poles(poles: np.ndarray) -> list[list[float]]:

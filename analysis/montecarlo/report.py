@@ -134,9 +134,7 @@ def _interval(interval: Interval, count: int) -> str:
     """The estimate with its interval; the estimate alone below ``MIN_INFERENCE_ROWS``."""
     if not np.isfinite(interval.estimate):
         return "-"
-    if count < MIN_INFERENCE_ROWS:
-        return f"{_number(interval.estimate)} (no CI, n < {MIN_INFERENCE_ROWS})"
-    return interval.text(4)
+    return interval.without_interval(count).text(4)
 
 
 def _share(interval: Interval) -> str:

@@ -24,6 +24,7 @@ import numpy as np
 
 from posfb.analysis.montecarlo.results import StudyData, ok_values
 from posfb.analysis.montecarlo.statistics import (
+    MIN_INFERENCE_ROWS,
     Interval,
     RankCorrelation,
     median_interval,
@@ -56,13 +57,12 @@ def loop_stability(data: StudyData) -> list[LoopStability]:
         if not np.any(known):
             continue
         unstable = known & (radius >= 1.0)
-        medians = {
-            (flag, joint + 1): median_interval(
-                ok_values(data, controller, joint, unstable if flag else known & ~unstable)
-            )
-            for flag in (False, True)
-            for joint in range(data.joints)
-        }
+        medians = {}
+        for flag in (False, True):
+            for joint in range(data.joints):
+                values = ok_values(data, controller, joint, unstable if flag else known & ~unstable)
+                count = int(np.count_nonzero(np.isfinite(values)))
+                medians[flag, joint + 1] = median_interval(values).without_interval(count)
         correlation = {}
         for joint in range(data.joints):
             ranking = spearman_ranking({"rho": radius}, data.rms_q[controller][:, joint])
@@ -110,9 +110,12 @@ def markdown(found: list[LoopStability]) -> list[str]:
     for entry in found:
         share = entry.unstable_share
         correlation = entry.correlation[joints]
-        rank = "-" if correlation is None else (
-            f"{correlation.rho:+.2f} (p = {correlation.p_value:.2g})"
-        )  # fmt: skip
+        if correlation is None:
+            rank = "-"
+        elif correlation.count < MIN_INFERENCE_ROWS:
+            rank = f"{correlation.rho:+.2f} (no p, n < {MIN_INFERENCE_ROWS})"
+        else:
+            rank = f"{correlation.rho:+.2f} (p = {correlation.p_value:.2g})"
         lines.append(
             f"| {entry.controller} | {entry.smallest:.4f} - {entry.largest:.4f} | "
             f"{entry.unstable} of {entry.plants} | {100 * share.estimate:.1f} % "

@@ -34,6 +34,7 @@ Methods (and their sources):
 
 from __future__ import annotations
 
+import math
 import numbers
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
@@ -73,9 +74,19 @@ class Interval:
     confidence: float
 
     def text(self, digits: int = 3) -> str:
-        """``"estimate [low, high]"``, each to ``digits`` significant digits (``g`` format)."""
+        """``"estimate [low, high]"``, each to ``digits`` significant digits (``g`` format);
+        the estimate alone when there is no interval (``without_interval``)."""
         digits = _integer("digits", digits, minimum=1)
+        if not (np.isfinite(self.low) and np.isfinite(self.high)):
+            return f"{self.estimate:.{digits}g} (no CI, n < {MIN_INFERENCE_ROWS})"
         return f"{self.estimate:.{digits}g} [{self.low:.{digits}g}, {self.high:.{digits}g}]"
+
+    def without_interval(self, count: int) -> Interval:
+        """This estimate without its interval when it rests on fewer than
+        ``MIN_INFERENCE_ROWS`` values (``count``); unchanged otherwise."""
+        if count >= MIN_INFERENCE_ROWS:
+            return self
+        return Interval(self.estimate, math.nan, math.nan, self.confidence)
 
 
 @dataclass(frozen=True)

@@ -13,7 +13,6 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-import scipy.optimize
 
 from posfb.models.design.config import UncertaintyBounds
 from posfb.models.lumped import LumpedModel, LumpedParameters
@@ -65,6 +64,8 @@ def coriolis_bound(parameters: LumpedParameters) -> float:
     grid = np.linspace(0.0, np.pi, 721)
     best = grid[int(np.argmax([norm_at(angle) for angle in grid]))]
     step = grid[1] - grid[0]
+    import scipy.optimize  # on use: the CLI's start-up does not pay for it
+
     result = scipy.optimize.minimize_scalar(
         lambda angle: -norm_at(angle),
         bounds=(best - step, best + step),

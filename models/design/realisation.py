@@ -24,7 +24,6 @@ from dataclasses import dataclass
 
 import numpy as np
 import scipy.linalg
-import scipy.signal
 
 from posfb.models.design.discretise import DISCRETISATIONS, first_order_hold, zero_order_hold
 
@@ -61,6 +60,8 @@ class ContinuousFilter:
             Phi, Gamma0 = zero_order_hold(self.A, self.B, sample_time)
             return DiscreteFilter(A=Phi, B=Gamma0, C=self.C, D=self.D, initial=self.rest)
         if method == "tustin":
+            import scipy.signal  # on use: the CLI's start-up does not pay for it
+
             A, B, C, D, _ = scipy.signal.cont2discrete(
                 (self.A, self.B, self.C, self.D), sample_time, method="bilinear"
             )
