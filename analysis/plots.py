@@ -32,10 +32,19 @@ def closeup_window(duration: float) -> tuple[float, float]:
     return 0.4 * duration, 0.6 * duration
 
 
-def _label(kind: str, result: ClosedLoopResult, label_suffix: Mapping[str, str] | None) -> str:
-    """The legend entry of ``results[kind]``: its controller's label (``ControllerSpec``)
-    and any suffix given for ``kind``."""
-    return result.config.spec.label + (label_suffix or {}).get(kind, "")
+def _line(
+    name: str, result: ClosedLoopResult, label_suffix: Mapping[str, str] | None
+) -> tuple[dict[str, object], str]:
+    """The line style and legend entry of ``results[name]``: its controller's
+    (``ControllerSpec``), with any suffix given for ``name``. A run under a name other
+    than its kind (a named entry, e.g. the paper's controller twice) is labelled with
+    that name and takes the next colour of matplotlib's cycle instead of its kind's."""
+    spec = result.config.spec
+    label = spec.label + (label_suffix or {}).get(name, "")
+    if name == spec.kind:
+        return dict(spec.style), label
+    style = {key: value for key, value in spec.style.items() if key != "color"}
+    return style, f"{name}: {label}"
 
 
 def _panel_letter(index: int) -> str:
@@ -66,7 +75,7 @@ def positions_and_voltages(
     for j in range(joints):
         axes[0, j].plot(first.times, first.q_desired[:, j], label="desired", **DESIRED_STYLE)
     for kind, result in results.items():
-        style, label = result.config.spec.style, _label(kind, result, label_suffix)
+        style, label = _line(kind, result, label_suffix)
         for j in range(joints):
             axes[0, j].plot(result.times, result.q_true[:, j], label=label, **style)
             axes[1, j].plot(result.times, result.u_applied[:, j], **style)
@@ -96,7 +105,7 @@ def tracking_errors(
     for kind, result in results.items():
         error = result.q_error
         window = (result.times >= start) & (result.times <= stop)
-        style, label = result.config.spec.style, _label(kind, result, label_suffix)
+        style, label = _line(kind, result, label_suffix)
         for j in range(joints):
             axes[0, j].plot(result.times, error[:, j], label=label, **style)
             axes[1, j].plot(result.times[window], error[window, j], **style)

@@ -27,15 +27,12 @@ from posfb.diagrams.closed_loop import (
 )
 from posfb.diagrams.scenario import (
     SHIPPED_PREFIX,
-    ControllerSettings,
     CsvFile,
-    FilterH,
     IdentifiedFromUrdf,
     NominalModel,
     ParameterOverrides,
     Python,
     Scenario,
-    StateSpaceH,
     Table1,
     Theta,
     TrajectorySettings,
@@ -50,15 +47,9 @@ from posfb.diagrams.scenario import (
     scenario_chain,
 )
 from posfb.diagrams.yaml_schema import load_typed, read_text
-from posfb.models.controllers import REGISTRY, PluginError, UserPlugin, make_controller
+from posfb.models.controllers import PluginError, UserPlugin, make_controller
 from posfb.models.controllers.plugin import load_plugin, module_plugin
 from posfb.models.design import ControllerConfig
-from posfb.models.design.config import (
-    LqrWeights,
-    NonlinearTorqueConfig,
-    PidGains,
-    UncertaintyBounds,
-)
 from posfb.models.identify import identify_urdf
 from posfb.models.lumped import TABLE1, LumpedParameters
 from posfb.models.nominal import NominalModel as NominalForm
@@ -131,19 +122,6 @@ def load_scenario(path: str | Path | None = None, settings: Iterable[str] = ()) 
     return scenario_from_file(path, settings)
 
 
-def h_matrices(settings: FilterH, joints: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """``(A_zeta, B_zeta, C_zeta)`` of either form of ``H(s)`` (one ``gamma`` broadcasts
-    to the ``joints`` joints)."""
-    if isinstance(settings, StateSpaceH):
-        return tuple(np.asarray(m, dtype=float) for m in (settings.A_zeta, settings.B_zeta,
-                                                          settings.C_zeta))  # fmt: skip
-    gamma = np.asarray(per_joint("H.gamma", settings.gamma, joints), dtype=float)
-    if not np.all(np.isfinite(gamma)) or np.any(gamma <= 0.0):
-        raise ValueError(f"H.gamma = {settings.gamma!r}; finite values > 0 are required")
-    return -np.diag(gamma), np.diag(gamma), np.eye(gamma.size)
-
-
-
 #: Which scenario section owns a name that a frozen config's error message starts with.
 _SECTIONS = {
     "sample_time": "timing",
@@ -192,8 +170,8 @@ def with_absolute_paths(loaded: LoadedScenario) -> Scenario:
         scenario.nominal_model.urdf = absolute(scenario.nominal_model.urdf)
     if isinstance(scenario.trajectory, CsvFile):
         scenario.trajectory.path = absolute(scenario.trajectory.path)
-    if isinstance(scenario.controller, Python) and scenario.controller.file:
-        scenario.controller.file = absolute(scenario.controller.file)
+    for entry in python_entries(scenario):
+        entry.file = absolute(entry.file) if entry.file else entry.file
     return scenario
 
 
@@ -201,30 +179,35 @@ def self_contained(loaded: LoadedScenario) -> Scenario:
     """``with_absolute_paths``, and a ``!Python`` controller file's text stored in its
     ``source`` (a Monte-Carlo study's scenario: its workers need no shared folder)."""
     scenario = with_absolute_paths(loaded)
-    section = scenario.controller
-    if isinstance(section, Python) and section.file and not section.source:
-        path = Path(section.file)
-        try:
-            section.source = path.read_text()
-        except (OSError, UnicodeDecodeError) as error:
-            message = f"controller.file = {section.file!r} cannot be read: {error}"
-            raise ValueError(message) from None
+    for section in python_entries(scenario):
+        if section.file and not section.source:
+            try:
+                section.source = Path(section.file).read_text()
+            except (OSError, UnicodeDecodeError) as error:
+                message = f"controller.file = {section.file!r} cannot be read: {error}"
+                raise ValueError(message) from None
     return scenario
+
+
+def python_entries(scenario: Scenario) -> list[Python]:
+    """The ``!Python`` entries of a scenario: its controller and its named entries."""
+    entries = [scenario.controller, *scenario.controllers.values()]
+    return [entry for entry in entries if isinstance(entry, Python)]
 
 
 def plugin_file_changed(scenario: Scenario) -> str:
     """A note when the ``!Python`` file of a stored scenario no longer holds its stored
     ``source`` ("" when it does, or when there is none)."""
-    section = scenario.controller
-    if not (isinstance(section, Python) and section.source and section.file):
-        return ""
-    path = Path(section.file)
-    current = path.read_text() if path.is_file() else None
-    if current == section.source:
-        return ""
-    state = "is gone" if current is None else "has changed"
-    return (f"the controller file {path} {state} since the study ran; the study's stored "
-            "copy of it runs")  # fmt: skip
+    for section in python_entries(scenario):
+        if not (section.source and section.file):
+            continue
+        path = Path(section.file)
+        current = path.read_text() if path.is_file() else None
+        if current != section.source:
+            state = "is gone" if current is None else "has changed"
+            return (f"the controller file {path} {state} since the study ran; the study's "
+                    "stored copy of it runs")  # fmt: skip
+    return ""
 
 
 def read_csv_trajectory(path: Path) -> SplineTrajectory:
@@ -302,23 +285,6 @@ def make_nominal(settings: NominalModel, base_dir: Path) -> NominalForm:
     return identify_urdf(str(resolve_path(settings.urdf, base_dir)), settings.payload_mass)
 
 
-def flat_kind(kind: str) -> str:
-    """``kind`` if the flat controller section (``kind`` + the Sec. 3 design inputs) can
-    hold it: a registered kind without a settings class of its own."""
-    flat = [name for name, entry in REGISTRY.items() if entry.settings is None]
-    if kind not in flat:
-        tags = [f"!{entry.settings.__name__} {{}}" for entry in REGISTRY.values() if entry.settings]
-        hint = (
-            f" ({kind} has its own entry: controller: !{REGISTRY[kind].settings.__name__} {{...}},"
-            f" or --controller {kind})"
-            if kind in REGISTRY
-            else f"; the others are entries of their own ({', '.join(tags)}, "
-            "!Python {file, class})"
-        )
-        raise ValueError(f"controller.kind = {kind!r}; one of {', '.join(flat)} is required{hint}")
-    return kind
-
-
 def load_python_controller(section: Python, base_dir: Path) -> UserPlugin:
     """The user's controller class of a ``!Python`` entry (file relative to ``base_dir``,
     or module), with its settings; every problem is one line naming the key."""
@@ -357,11 +323,12 @@ def load_python_controller(section: Python, base_dir: Path) -> UserPlugin:
 def controller_inputs(
     section: object, nominal: NominalForm, sample_time: float, base_dir: Path
 ) -> tuple[str, ControllerConfig, object | None]:
-    """``(kind, design inputs, settings)`` of the scenario's controller entry: the flat
-    form's design (``make_design``), or a plug-in's settings with ``ControllerConfig.
-    without_design``. A plug-in is built once here, so a bad setting is refused now."""
-    if isinstance(section, ControllerSettings):
-        return flat_kind(section.kind), make_design(section, nominal, sample_time), None
+    """``(kind, design inputs, settings)`` of the scenario's controller entry: the paper's
+    three give their ``ControllerConfig`` (``models.design.settings``) and no settings; a
+    plug-in gives its settings with ``ControllerConfig.without_design``. A plug-in is
+    built once here, so a bad setting is refused now."""
+    if hasattr(section, "config"):
+        return controller_kind(section), section.config(nominal, sample_time), None
     design = ControllerConfig.without_design(nominal, sample_time)
     if isinstance(section, Python):
         settings: object = load_python_controller(section, base_dir)
@@ -370,38 +337,6 @@ def controller_inputs(
         settings, kind = copy.deepcopy(section), controller_kind(section)
     make_controller(kind, design, settings=settings)
     return kind, design, settings
-
-
-def make_design(
-    settings: ControllerSettings, nominal: NominalForm, sample_time: float
-) -> ControllerConfig:
-    """The frozen ``ControllerConfig`` of the controller settings; the per-joint lists
-    (``lambdas``, ``H.gamma``, ``Kp``, ``Kv``, ``KI``) take one value for every joint of
-    ``nominal`` or one per joint."""
-    joints = joint_count(nominal)
-
-    def vector(name: str) -> tuple[float, ...]:
-        return tuple(per_joint(name, getattr(settings, name), joints))
-
-    bounds = dataclasses.asdict(settings.bounds)
-    A_zeta, B_zeta, C_zeta = h_matrices(settings.H, joints)
-    return ControllerConfig(
-        nominal=nominal,
-        sample_time=sample_time,
-        lqr=LqrWeights(Q1=settings.Q1, Q2=settings.Q2, R=settings.R, lambdas=vector("lambdas")),
-        nonlinear=NonlinearTorqueConfig(
-            alpha_star=settings.alpha_star,
-            K_alpha=settings.K_alpha,
-            alpha0=settings.alpha0,
-            A_zeta=A_zeta,
-            B_zeta=B_zeta,
-            C_zeta=C_zeta,
-            filter_a=settings.filter_a,
-        ),
-        bounds=UncertaintyBounds(**bounds),
-        pid=PidGains(Kp=vector("Kp"), Kv=vector("Kv"), KI=vector("KI")),
-        discretisation=settings.discretisation,
-    )
 
 
 @dataclass(frozen=True, eq=False)
@@ -442,8 +377,6 @@ def resolve(loaded: LoadedScenario) -> ResolvedScenario:
     """Validate ``loaded`` into a ``ResolvedScenario``; errors name the dotted key."""
     scenario, base = loaded.scenario, loaded.base_dir
     section = scenario.controller
-    if isinstance(section, ControllerSettings):
-        flat_kind(section.kind)  # a bad kind is refused before any file is read
     chain = scenario_chain(scenario, base)
     joints = len(chain.joints)
     try:

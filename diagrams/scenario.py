@@ -35,7 +35,6 @@ import typing
 from dataclasses import dataclass, field, fields
 from pathlib import Path
 
-import numpy as np
 import yaml
 from pydrake.common.yaml import yaml_dump_typed, yaml_load_typed
 from pydrake.systems.analysis import SimulatorConfig
@@ -51,15 +50,11 @@ from posfb.diagrams.yaml_schema import check_shape, parse, prepare
 from posfb.models.controllers import REGISTRY
 from posfb.models.controllers.registry import settings_kind
 from posfb.models.design import ControllerConfig
-from posfb.models.design.config import (
-    LqrWeights,
-    NonlinearTorqueConfig,
-    PidGains,
-    UncertaintyBounds,
-)
+from posfb.models.design.settings import default_of
 from posfb.models.lumped import TABLE1
 from posfb.models.plant import (
     DEFAULT_URDF,
+    JOINT_PARAMETERS,
     ArmParameters,
     PlantConfig,
 )
@@ -88,33 +83,18 @@ def _rows(matrix: tuple[tuple[float, ...], ...]) -> list[list[float]]:
     return [list(row) for row in matrix]
 
 
-def _default(cls: type, name: str) -> typing.Callable[[], object]:
-    """A default factory that copies the default of ``cls.name`` (tuples become lists)."""
-    value = next(f for f in fields(cls) if f.name == name).default
-
-    def factory() -> object:
-        if isinstance(value, tuple):
-            return [list(v) if isinstance(v, tuple) else v for v in value]
-        return value
-
-    return factory
-
-
 # --- plant -------------------------------------------------------------------------
 
 
-@dataclass
-class ParameterOverrides:
-    """Absolute values (SI units, joint 1 and joint 2) that replace the URDF's; omitted
-    parameters keep the URDF's values. Names as in ``models.plant.ArmParameters``."""
-
-    link_mass: list[float] | None = None
-    link_com: list[float] | None = None
-    link_inertia: list[float] | None = None
-    rotor_inertia: list[float] | None = None
-    damping: list[float] | None = None
-    coulomb: list[float] | None = None
-    motor_constant: list[float] | None = None
+#: Absolute values (SI units, one per joint or one for every joint) that replace the
+#: URDF's; omitted parameters keep the URDF's values. One field per per-joint field of
+#: ``models.plant.ArmParameters``, made from its list (``JOINT_PARAMETERS``), so that
+#: the names are written once.
+ParameterOverrides = dataclasses.make_dataclass(
+    "ParameterOverrides",
+    [(name, list[float] | None, field(default=None)) for name in JOINT_PARAMETERS],
+    namespace={"__doc__": "Absolute per-joint values that replace the URDF's (SI units)."},
+)
 
 
 @dataclass
@@ -125,10 +105,10 @@ class PlantSettings:
     overrides."""
 
     urdf: str = SHIPPED_URDF
-    payload_mass: float = field(default_factory=_default(ArmParameters, "payload_mass"))
-    friction_velocity: float = field(default_factory=_default(PlantConfig, "friction_velocity"))
+    payload_mass: float = field(default_factory=default_of(ArmParameters, "payload_mass"))
+    friction_velocity: float = field(default_factory=default_of(PlantConfig, "friction_velocity"))
     motor_friction_blocks: str = field(
-        default_factory=_default(PlantConfig, "motor_friction_blocks")
+        default_factory=default_of(PlantConfig, "motor_friction_blocks")
     )
     parameters: ParameterOverrides = field(default_factory=ParameterOverrides)
 
@@ -234,8 +214,8 @@ class Timing:
     (s, a whole number of periods), the ``|q~|`` (rad) beyond which a run is stopped
     as diverged, and Drake's integrator settings."""
 
-    sample_time: float = field(default_factory=_default(ControllerConfig, "sample_time"))
-    duration: float = field(default_factory=_default(ClosedLoopConfig, "duration"))
+    sample_time: float = field(default_factory=default_of(ControllerConfig, "sample_time"))
+    duration: float = field(default_factory=default_of(ClosedLoopConfig, "duration"))
     divergence_bound: float = DIVERGENCE_BOUND
     simulator: SimulatorConfig = field(default_factory=default_simulator)
 
@@ -274,73 +254,6 @@ class Actuator:
 
 
 @dataclass
-class Bounds:
-    """Assumption 1 and ``k_C1`` (``models.design.config.UncertaintyBounds``): a bound
-    left empty is ``relative`` times the matching norm of the nominal model."""
-
-    relative: float = field(default_factory=_default(UncertaintyBounds, "relative"))
-    delta_M0: float | None = None
-    delta_M1: float | None = None
-    delta_C: float | None = None
-    delta_G: float | None = None
-    delta_B: float | None = None
-    delta_F: float | None = None
-    k_C1: float | None = None
-
-
-def _paper_h_gamma() -> list[float]:
-    """``gamma_i`` of the paper's ``H(s) = diag(gamma_i / (s + gamma_i))`` (the default
-    ``NonlinearTorqueConfig.B_zeta``'s diagonal)."""
-    return [float(v) for v in np.diag(_default(NonlinearTorqueConfig, "B_zeta")())]
-
-
-@dataclass
-class DiagonalH:
-    """``H(s) = diag(gamma_i / (s + gamma_i))``, the paper's choice (Sec. 3.4, remark 1):
-    ``gamma_i > 0`` above the bandwidth of ``q_id``; SPR with relative degree 1."""
-
-    gamma: list[float] = field(default_factory=_paper_h_gamma)
-
-
-@dataclass
-class StateSpaceH:
-    """``H(s) = C_zeta (sI - A_zeta)^-1 B_zeta`` (n x n each), checked for SPR."""
-
-    A_zeta: list[list[float]] = field(default_factory=_default(NonlinearTorqueConfig, "A_zeta"))
-    B_zeta: list[list[float]] = field(default_factory=_default(NonlinearTorqueConfig, "B_zeta"))
-    C_zeta: list[list[float]] = field(default_factory=_default(NonlinearTorqueConfig, "C_zeta"))
-
-
-FilterH = DiagonalH | StateSpaceH
-
-
-@dataclass
-class ControllerSettings:
-    """The controller ``kind`` and its design inputs (Sec. 3, 4.2): LQR weights ``Q1``,
-    ``Q2``, ``R`` and ``lambdas`` of ``Lambda(s)``; ``alpha_star``, ``K_alpha``, ``alpha0``
-    of Eq. 21; the SPR filter ``H`` (``!DiagonalH {gamma}`` or ``!StateSpaceH {A_zeta,
-    B_zeta, C_zeta}``); the pole ``filter_a`` of
-    ``G(s)``; the Assumption-1 ``bounds``; the PID gains ``Kp``, ``Kv``, ``KI``
-    (Eq. 26); how the filters are sampled (``discretisation``: foh, zoh, tustin)."""
-
-    kind: str = field(default_factory=_default(ClosedLoopConfig, "controller"))
-    discretisation: str = field(default_factory=_default(ControllerConfig, "discretisation"))
-    Q1: list[list[float]] = field(default_factory=_default(LqrWeights, "Q1"))
-    Q2: list[list[float]] = field(default_factory=_default(LqrWeights, "Q2"))
-    R: list[list[float]] = field(default_factory=_default(LqrWeights, "R"))
-    lambdas: list[float] = field(default_factory=_default(LqrWeights, "lambdas"))
-    alpha_star: float = field(default_factory=_default(NonlinearTorqueConfig, "alpha_star"))
-    K_alpha: float = field(default_factory=_default(NonlinearTorqueConfig, "K_alpha"))
-    alpha0: float = field(default_factory=_default(NonlinearTorqueConfig, "alpha0"))
-    H: FilterH = field(default_factory=DiagonalH)
-    filter_a: float = field(default_factory=_default(NonlinearTorqueConfig, "filter_a"))
-    bounds: Bounds = field(default_factory=Bounds)
-    Kp: list[float] = field(default_factory=_default(PidGains, "Kp"))
-    Kv: list[float] = field(default_factory=_default(PidGains, "Kv"))
-    KI: list[float] = field(default_factory=_default(PidGains, "KI"))
-
-
-@dataclass
 class Python:
     """Your own controller (``models.controllers.plugin``, ``posfb.Controller``): the class
     ``class`` (``class_name``) defined in ``file`` (relative to the scenario's folder) or
@@ -363,11 +276,19 @@ class Python:
     source: str = ""
 
 
-#: The scenario's controller: the paper's three in the flat form (``kind`` and the Sec. 3
-#: design inputs), a registered plug-in kind's settings (``!PdGravity {}``, ``!Adrc {}``)
-#: or your own controller (``!Python {file, class}``).
+#: The default controller kind (the paper's, ``ClosedLoopConfig.controller``): its entry
+#: is the union's first member, read from an untagged map.
+DEFAULT_KIND = default_of(ClosedLoopConfig, "controller")()
+
+#: The scenario's controller: one tagged entry of a registered kind (``!Proposed``,
+#: ``!LinLc``, ``!Pid``, ``!PdGravity``, ``!Adrc``; ``models.controllers.registry``) or your
+#: own controller (``!Python {file, class}``).
 ControllerSection = typing.Union[  # noqa: UP007 - built from the registry
-    (ControllerSettings, *(s.settings for s in REGISTRY.values() if s.settings), Python)
+    (
+        REGISTRY[DEFAULT_KIND].settings,
+        *(s.settings for k, s in REGISTRY.items() if k != DEFAULT_KIND),
+        Python,
+    )
 ]
 
 
@@ -381,38 +302,42 @@ class Scenario:
     timing: Timing = field(default_factory=Timing)
     sensor: Sensor = field(default_factory=Sensor)
     actuator: Actuator = field(default_factory=Actuator)
-    controller: ControllerSection = field(default_factory=ControllerSettings)
+    controller: ControllerSection = field(default_factory=REGISTRY[DEFAULT_KIND].settings)
+    controllers: dict[str, ControllerSection] = field(default_factory=dict)
 
 
 def controller_kind(section: object) -> str:
     """The kind of a scenario's ``controller`` entry (a ``!Python`` entry's: its class)."""
-    if isinstance(section, ControllerSettings):
-        return section.kind
     if isinstance(section, Python):
         return section.class_name
     return settings_kind(section)
 
 
 def with_controller(scenario: Scenario, kind: str) -> Scenario:
-    """A copy of ``scenario`` whose controller is ``kind``: the flat form's ``kind`` for the
-    paper's three (the form's other inputs kept), a plug-in kind's own entry (kept if the
-    scenario has it, its defaults otherwise), or the scenario's ``!Python`` class."""
+    """A copy of ``scenario`` whose controller is ``kind``: the entry of that name in
+    ``controllers``; the scenario's own entry if it is one of that kind; otherwise the
+    kind's default entry with every setting the two entries share carried over (Lin+LC
+    keeps the paper's controller's LQR weights, ``lambdas`` and ``discretisation``; the
+    baselines their ``bandwidth``)."""
     section = scenario.controller
     result = copy.deepcopy(scenario)
+    if kind in scenario.controllers:
+        result.controller = copy.deepcopy(scenario.controllers[kind])
+        return result
     if kind == controller_kind(section):
         return result
     if kind not in REGISTRY:
-        own = f", {controller_kind(section)}" if isinstance(section, Python) else ""
+        own = [controller_kind(section)] if isinstance(section, Python) else []
+        names = [*REGISTRY, *own, *scenario.controllers]
         raise ValueError(
-            f"controller.kind = {kind!r}; one of {', '.join(REGISTRY)}{own} is required "
+            f"controller.kind = {kind!r}; one of {', '.join(names)} is required "
             "(or a !Python {file, class} entry for your own controller)"
         )
-    settings = REGISTRY[kind].settings
-    if settings is None:
-        flat = section if isinstance(section, ControllerSettings) else ControllerSettings()
-        result.controller = dataclasses.replace(copy.deepcopy(flat), kind=kind)
-    else:
-        result.controller = settings()
+    entry = REGISTRY[kind].settings()
+    shared = {f.name for f in fields(entry)} & {f.name for f in fields(section)}
+    for name in shared:
+        setattr(entry, name, copy.deepcopy(getattr(section, name)))
+    result.controller = entry
     return result
 
 
@@ -457,9 +382,10 @@ def dump_scenario(scenario: Scenario) -> str:
 
 
 def _field_types(schema: type) -> dict[str, object]:
-    """Field names and types of a dataclass or a Drake config."""
+    """Field names and types of a dataclass (not its class variables) or a Drake config."""
     if dataclasses.is_dataclass(schema):
-        return typing.get_type_hints(schema)
+        hints = typing.get_type_hints(schema)
+        return {f.name: hints[f.name] for f in fields(schema)}
     return {f.name: f.type for f in schema.__fields__}
 
 
@@ -480,10 +406,13 @@ _PART = re.compile(r"^([A-Za-z_][A-Za-z0-9_]*)(?:\[(\d+)\])?$")
 
 
 def _walk(scenario: Scenario, key: str) -> tuple[object, str, int | None]:
-    """The object holding the last part of dotted ``key``, that part's name and index."""
+    """The object holding the last part of dotted ``key``, that part's name and index
+    (a part after a map of named entries names an entry: ``controllers.pid.Kp``)."""
     parts = key.split(".")
     parent: object = scenario
-    for depth, part in enumerate(parts):
+    depth = 0
+    while True:
+        part = parts[depth]
         where = ".".join(parts[: depth + 1])
         match = _PART.match(part)
         if not match:
@@ -500,14 +429,24 @@ def _walk(scenario: Scenario, key: str) -> tuple[object, str, int | None]:
         if depth == len(parts) - 1:
             return parent, name, index
         parent = value if index is None else value[index]
+        if isinstance(parent, dict) and depth + 2 < len(parts):
+            depth += 1
+            if parts[depth] not in parent:
+                raise ValueError(
+                    f"--set {where}.{parts[depth]}: no such entry; entries: "
+                    f"{', '.join(parent) or 'none'} (a new entry is written in the file)"
+                )
+            parent = parent[parts[depth]]
         if not _is_section(parent):
             raise ValueError(f"--set {key}: {where} has no sub-keys")
-    raise AssertionError("unreachable")
+        depth += 1
 
 
 def get_setting(scenario: Scenario, key: str) -> object:
     """The value of dotted ``key`` (``sensor.encoder_counts[1]``: a per-joint list of one
     value reads that value for every joint)."""
+    if key == "controller.kind":
+        return controller_kind(scenario.controller)
     parent, name, index = _walk(scenario, key)
     value = getattr(parent, name)
     if index is None:

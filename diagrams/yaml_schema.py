@@ -91,6 +91,8 @@ def check_shape(value: object, schema: object, key: str) -> None:
             if name == "_tag":
                 continue
             path = f"{key}.{name}" if key else str(name)
+            removed = getattr(schema, "REMOVED", {})
+            _require(name not in removed, f"{path}: {removed.get(name)}")
             renamed = getattr(schema, "RENAMED", {}).get(name)
             _require(
                 renamed is None or renamed in value,

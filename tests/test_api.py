@@ -140,8 +140,9 @@ def test_run_frame_save_and_plot(tmp_path):
 
 def test_load_scenario_from_a_mapping_with_settings_as_values():
     scenario = posfb.load_scenario(
-        {"timing": {"duration": 1.0}, "controller": {"kind": "pid"}},
-        set={"sensor.encoder_counts": np.int64(4096), "actuator.voltage_limit": np.array([12.0])},
+        {"timing": {"duration": 1.0}, "sensor": {"noise_seed": 3}},
+        set={"sensor.encoder_counts": np.int64(4096), "actuator.voltage_limit": np.array([12.0]),
+             "controller.kind": "pid"},  # fmt: skip
     )
     assert scenario.get("controller.kind") == "pid"
     assert scenario.get("sensor.encoder_counts") == [4096]
@@ -181,3 +182,17 @@ def test_import_posfb_is_light_and_every_public_name_resolves():
     assert done.stdout.strip() == "[]"
     for name in posfb.__all__:
         assert getattr(posfb, name) is not None
+
+
+def test_compare_runs_a_named_entry_beside_its_kind(tmp_path):
+    path = tmp_path / "twice.yaml"
+    path.write_text("timing: {duration: 1.0}\n"
+                    "controllers: {proposed_275: !Proposed {alpha_star: 2.75}}\n")  # fmt: skip
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", posfb.ScenarioWarning)
+        comparison = posfb.compare(path, ["proposed", "proposed_275"])
+        alone = posfb.simulate(posfb.load_scenario(path, set={"controller.alpha_star": 2.75}))
+    assert comparison.runs["proposed_275"].rms_q == alone.rms_q
+    assert comparison.runs["proposed"].rms_q != alone.rms_q
+    legend = [t.get_text() for t in comparison.figure().axes[0].get_legend().get_texts()]
+    assert legend == ["Lin + LC + NC (paper)", "proposed_275: Lin + LC + NC (paper)"]

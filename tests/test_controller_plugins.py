@@ -133,7 +133,7 @@ def test_switching_kinds_keeps_or_replaces_the_controller_entry(tmp_path):
         posfb.load_scenario(scenario, set={"controller.kind": "nope"})
     flat = posfb.load_scenario(set={"controller.kind": "pd_gravity"})
     assert flat.get("controller.filter_ratio") == 5.0
-    with pytest.raises(ValueError, match="own entry: controller: !Adrc"):
+    with pytest.raises(ValueError, match="controller.kind: the controller section is now one"):
         posfb.load_scenario({"controller": {"kind": "adrc"}})
 
 

@@ -12,6 +12,7 @@ import time
 from pathlib import Path
 
 from posfb.analysis.cli import main
+from posfb.models.controllers import design_checks, spec
 
 ROOT = Path(__file__).resolve().parent.parent
 CLI = [sys.executable, "-m", "posfb.analysis.cli"]
@@ -24,11 +25,17 @@ def test_design_strict_exits_1_only_when_a_check_fails(capsys):
     capsys.readouterr()
 
 
-def test_scenario_check_strict_looks_at_every_check(capsys):
+def test_scenario_check_strict_looks_at_every_check_of_the_entry(capsys):
+    # A Lin+LC entry determines Lin+LC's checks only; the paper's controller's entry holds
+    # Lin+LC's inputs too, so --strict adds Lin+LC's sampled loop to its own checks.
     nominal = str(ROOT / "analysis" / "scenarios" / "paper_nominal.yaml")
-    assert main(["scenario", "check", nominal, "--set", "controller.kind=lin_lc"]) == 0
-    assert main(["scenario", "check", nominal, "--set", "controller.kind=lin_lc", "--strict"]) == 1
+    assert main(["scenario", "check", nominal, "--set", "controller.kind=lin_lc", "--strict"]) == 0
+    assert "every check of the design passed" in capsys.readouterr().out
+    assert main(["scenario", "check", nominal, "--strict"]) == 1
     assert "fails sampled_data" in capsys.readouterr().out
+    assert set(design_checks("proposed")) == set(design_checks("lin_lc")) | set(
+        spec("proposed").checks
+    ) and "sampled_data_lin_lc" not in spec("proposed").checks
 
 
 def test_simulate_warns_when_its_design_fails_a_check(capsys):

@@ -125,8 +125,9 @@ CASES = {
     ),
     "--set KEY VALUE": Case(("simulate", "--set", "timing.duration", "5"),
                             "--set timing.duration: KEY=VALUE is required"),  # fmt: skip
-    "plug-in kind in the flat form": Case(
-        ("simulate", "--scenario", "{tmp}/flat_adrc.yaml"), "own entry: controller: !Adrc"
+    "the former flat controller section": Case(
+        ("simulate", "--scenario", "{tmp}/flat_adrc.yaml"),
+        "controller.kind: the controller section is now one tagged entry",
     ),
     "plug-in file missing": Case(
         ("simulate", "--scenario", "{tmp}/plugin_missing.yaml"), "controller.file = 'gone.py'"

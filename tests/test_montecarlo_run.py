@@ -197,11 +197,35 @@ def test_a_failing_worker_stops_the_run_and_keeps_what_finished(tmp_path):
         assert {0, 1} <= store.finished() <= {0, 1, 3}
 
 
-def test_a_study_alpha_star_reaches_every_runner():
+def test_a_study_alpha_star_reaches_the_runner_of_every_entry_that_has_one():
     study = study_from_text(
         "seed: 1\nsamples: 1\nduration: 0.5\ncontrollers: [proposed, lin_lc]\nalpha_star: 2.75\n"
+        "entries:\n  proposed_again: !Proposed {}\n"
     )
     evaluator = ClosedLoopEvaluator(study)
-    for controller in study.controllers:
-        runner = evaluator.runner(study.base_scenario(), controller)
-        assert runner.config.design.nonlinear.alpha_star == 2.75
+    runner = evaluator.runner(study.base_scenario(), "proposed")
+    assert runner.config.design.nonlinear.alpha_star == 2.75
+    # A named entry holds its own settings: the study's alpha* sets the base's entry.
+    again = evaluator.runner(study.base_scenario(), "proposed_again")
+    assert again.config.design.nonlinear.alpha_star == 4.0
+
+
+def test_a_study_runs_one_kind_twice_as_named_entries():
+    # The paper's controller at alpha* = 4 and, as a named entry, at 2.75, in one study:
+    # the entry's runs and per-sample radii equal those of a study of alpha* = 2.75 alone
+    # (an independent evaluation of the same plants).
+    base = "seed: 4\nsamples: 2\nduration: 1.0\nparameters:\n" \
+        "  payload_mass: !Uniform {min: 0.0, max: 0.4}\n"  # fmt: skip
+    both = study_from_text(base + "controllers: [proposed, proposed_275]\n"
+                           "entries:\n  proposed_275: !Proposed {alpha_star: 2.75}\n")  # fmt: skip
+    alone = study_from_text(base + "controllers: [proposed]\nalpha_star: 2.75\n")
+    for index in range(2):
+        runs = {run.controller: run for run in ClosedLoopEvaluator(both)(index).runs}
+        (reference,) = ClosedLoopEvaluator(alone)(index).runs
+        def timeless(metrics: dict) -> dict:
+            return {key: value for key, value in metrics.items() if "wall" not in key}
+
+        assert timeless(runs["proposed_275"].metrics) == timeless(reference.metrics)
+        assert runs["proposed_275"].spectral_radius == reference.spectral_radius
+        # Each entry has its own design: a larger alpha* gives a larger radius (Sec. 4).
+        assert runs["proposed"].spectral_radius > reference.spectral_radius

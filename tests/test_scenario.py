@@ -10,13 +10,14 @@ import numpy as np
 import pandas as pd
 import pytest
 
+from posfb.analysis.cases import SCENARIO_DIR
 from posfb.analysis.cli import main
 from posfb.analysis.experiment import CASE_FILES, case_scenario
 from posfb.analysis.metrics import rms
 from posfb.diagrams.closed_loop import ClosedLoopConfig, ClosedLoopRunner
 from posfb.diagrams.encoder import quantise
 from posfb.diagrams.resolve import load_scenario, resolve, run_scenario
-from posfb.diagrams.scenario import Scenario, dump_scenario
+from posfb.diagrams.scenario import Scenario, controller_kind, dump_scenario
 from posfb.diagrams.yaml_schema import load_typed
 from posfb.models.controllers import PAPER_CONTROLLERS
 from posfb.models.plant import DEFAULT_URDF
@@ -204,7 +205,7 @@ def test_bad_scenarios_get_one_line_naming_the_key(tmp_path, capsys, text, needl
 
 def test_a_trajectory_beyond_the_voltage_limit_runs_with_a_warning(tmp_path, capsys):
     fast = "trajectory: !Waypoints {times: [0, 0.3], positions: [[-1.5707963, 0], [0, 1.5]]}\n"
-    path = _write(tmp_path, fast + "controller: {kind: lin_lc}\ntiming: {duration: 0.5}\n")
+    path = _write(tmp_path, fast + "controller: !LinLc {}\ntiming: {duration: 0.5}\n")
     assert main(["simulate", "--scenario", str(path)]) == 0
     err = capsys.readouterr().err
     assert "warning" in err and "voltage limit" in err
@@ -236,7 +237,8 @@ def test_scenario_dump_and_check_on_the_command_line(tmp_path, capsys):
     dumped = capsys.readouterr().out
     path = _write(tmp_path, dumped)
     loaded = load_scenario(path).scenario
-    assert loaded.plant.payload_mass == PAPER_PAYLOAD and loaded.controller.kind == "pid"
+    assert loaded.plant.payload_mass == PAPER_PAYLOAD
+    assert controller_kind(loaded.controller) == "pid"
     assert dump_scenario(loaded) == dumped
     # The paper's proposed controller fails its sampled-data check at 100 Hz (exit 1);
     # Lin+LC passes its own checks; a bad key is bad input (exit 2).
@@ -277,3 +279,21 @@ def test_the_default_h_is_the_papers_and_both_forms_agree():
     diagonal = resolve(load_scenario(None, ["controller.H.gamma=[7, 9]"])).config.design
     state_space = resolve(load_scenario(None, [same])).config.design
     assert diagonal.nonlinear == state_space.nonlinear
+
+
+def test_switching_kinds_keeps_the_shared_settings_and_finds_named_entries(tmp_path):
+    three_link = str(SCENARIO_DIR / "three_link_nominal.yaml")
+    lin_lc = load_scenario(three_link, ["controller.kind=lin_lc"]).scenario.controller
+    proposed = load_scenario(three_link).scenario.controller
+    assert type(lin_lc).__name__ == "LinLc" and lin_lc.Q1 == proposed.Q1
+    pid = load_scenario(three_link, ["controller.kind=pid"]).scenario.controller
+    assert pid.Kp == [800.0, 500.0, 500.0]  # the file's named entry, not the 2-joint default
+    with pytest.raises(ValueError, match="controller.Kp"):
+        load_scenario(three_link, ["controller.kind=pid", "controller.Kp=[1, 2]"])
+    # Only the chosen controller's settings are required: a three-link Lin+LC entry
+    # without any PID gains is a complete scenario.
+    alone = load_scenario(three_link, ["controller.kind=lin_lc"]).scenario
+    alone.controllers = {}
+    path = _write(tmp_path, dump_scenario(alone))
+    assert "Kp" not in path.read_text()
+    assert resolve(load_scenario(path)).config.controller == "lin_lc"

@@ -35,6 +35,7 @@ def run_dump(args: argparse.Namespace) -> int:
 def run_check(args: argparse.Namespace) -> int:
     from posfb.analysis.feasibility import trajectory_warnings
     from posfb.diagrams.resolve import load_scenario, resolve
+    from posfb.models.controllers import design_checks
     from posfb.models.design import cached_design
 
     loaded = load_scenario(args.file, args.settings)
@@ -50,8 +51,7 @@ def run_check(args: argparse.Namespace) -> int:
         return 0
     design = cached_design(config.design)
     print(format_report(design))
-    every = {check.name for check in design.checks}
-    relevant = every if args.strict else config.spec.checks
+    relevant = design_checks(config.controller) if args.strict else config.spec.checks
     failed = [c.name for c in design.checks if c.name in relevant and not c.passed]
     whose = "the design" if args.strict else f"the {config.controller} controller"
     if failed:

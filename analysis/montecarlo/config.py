@@ -59,6 +59,8 @@ loaded ``Study`` as read-only. ``validate_study`` then checks every value,
 naming the key.
 """
 
+import copy
+import dataclasses
 import functools
 import hashlib
 import math
@@ -77,7 +79,7 @@ from posfb.diagrams.resolve import (
     self_contained,
 )
 from posfb.diagrams.scenario import (
-    ControllerSettings,
+    ControllerSection,
     PlantSettings,
     Python,
     Scenario,
@@ -152,25 +154,28 @@ def _nominal() -> list[Distribution]:
     return [Deterministic()]
 
 
-@dataclass
-class ParameterDistributions:
-    """One entry per physical parameter of ``ArmParameters``; each per-joint list holds
-    one distribution (every joint draws its own value from it) or one per joint.
-    Omitted: the URDF value."""
+def _for_joint(self: object, name: str, joint: int) -> Distribution:
+    """The distribution of ``name`` at ``joint`` (0-based; one entry serves all)."""
+    entries = getattr(self, name)
+    return entries[joint] if len(entries) > 1 else entries[0]
 
-    link_mass: list[Distribution] = field(default_factory=_nominal)
-    link_com: list[Distribution] = field(default_factory=_nominal)
-    link_inertia: list[Distribution] = field(default_factory=_nominal)
-    rotor_inertia: list[Distribution] = field(default_factory=_nominal)
-    damping: list[Distribution] = field(default_factory=_nominal)
-    coulomb: list[Distribution] = field(default_factory=_nominal)
-    motor_constant: list[Distribution] = field(default_factory=_nominal)
-    payload_mass: Distribution = field(default_factory=Deterministic)
 
-    def for_joint(self, name: str, joint: int) -> Distribution:
-        """The distribution of ``name`` at ``joint`` (0-based; one entry serves all)."""
-        entries = getattr(self, name)
-        return entries[joint] if len(entries) > 1 else entries[0]
+#: One entry per physical parameter of ``ArmParameters`` (made from its field list,
+#: ``JOINT_PARAMETERS``, so that the names are written once); each per-joint list holds
+#: one distribution (every joint draws its own value from it) or one per joint.
+#: Omitted: the URDF value.
+ParameterDistributions = dataclasses.make_dataclass(
+    "ParameterDistributions",
+    [
+        *((name, list[Distribution], field(default_factory=_nominal))
+          for name in JOINT_PARAMETERS),
+        ("payload_mass", Distribution, field(default_factory=Deterministic)),
+    ],  # fmt: skip
+    namespace={
+        "__doc__": "A distribution per physical parameter of ArmParameters.",
+        "for_joint": _for_joint,
+    },
+)
 
 
 @dataclass
@@ -198,7 +203,15 @@ class Study:
     numeric scenario key a distribution (``relative: true`` reads it as a fraction of
     the base value; a per-joint key without ``[j]`` gives every joint the same draw).
     ``sampling`` is the design the draws follow (``SAMPLING_DESIGNS``,
-    ``analysis.montecarlo.sampling``).
+    ``analysis.montecarlo.sampling``). ``controllers`` lists what every sample runs, by
+    name: a registered kind (the base scenario's entry switched to it,
+    ``diagrams.scenario.with_controller``) or a named entry of the base scenario's
+    ``controllers``; ``entries`` adds named entries of its own (folded into the base's
+    ``controllers`` when the study is loaded), e.g. the paper's controller twice::
+
+        controllers: [proposed, proposed_275, pid]
+        entries:
+          proposed_275: !Proposed {alpha_star: 2.75}
     """
 
     seed: int = 0
@@ -215,6 +228,7 @@ class Study:
     draws: dict[str, Distribution] = field(default_factory=dict)
     overrides: list[SampleOverride] = field(default_factory=list)
     alpha_star: float | None = None
+    entries: dict[str, ControllerSection] = field(default_factory=dict)
 
     def draws_anything(self) -> bool:
         """Whether two samples can differ: some distribution is not a single value."""
@@ -491,16 +505,11 @@ def _check_draws(study: Study, base: Scenario) -> None:
 
 
 def _check_controllers(study: Study, scenario: Scenario) -> None:
-    """``scenario`` is valid and every controller of the study accepts its design (a
-    plug-in kind, or any kind on a scenario whose entry is a plug-in's, is resolved with
-    that controller: it is built once, so a bad setting is refused)."""
-    config = resolve(LoadedScenario(scenario, Path.cwd())).config
-    flat = isinstance(scenario.controller, ControllerSettings)
+    """``scenario`` is valid and every controller of the study accepts its design: each
+    is resolved on it (a plug-in is built once, so a bad setting is refused)."""
     for controller in study.controllers:
-        if flat and REGISTRY.get(controller) and REGISTRY[controller].settings is None:
-            require_design(controller, config.design)
-        else:
-            resolve(LoadedScenario(with_controller(scenario, controller), Path.cwd()))
+        config = resolve(LoadedScenario(with_controller(scenario, controller), Path.cwd())).config
+        require_design(config.controller, config.design)
 
 
 def validate_study(study: Study) -> Study:
@@ -521,8 +530,8 @@ def validate_study(study: Study) -> Study:
     )
     base = study.base_scenario()  # the scenario checks its own keys, naming them
     _require(len(study.controllers) > 0, "controllers is empty; name at least one controller")
-    allowed = [*REGISTRY, *([controller_kind(base.controller)]
-                            if isinstance(base.controller, Python) else [])]  # fmt: skip
+    own = [controller_kind(base.controller)] if isinstance(base.controller, Python) else []
+    allowed = [*REGISTRY, *own, *base.controllers]
     for name in study.controllers:
         _require(
             name in allowed,
@@ -595,7 +604,9 @@ def _fold_scenario(study: Study, folder: Path) -> Study:
         loaded = LoadedScenario(study.base, folder)
         for setting in study.settings:
             loaded.scenario = apply_setting(loaded.scenario, setting)
-    return replace(study, scenario="", settings=[], base=self_contained(loaded))
+    loaded.scenario = copy.deepcopy(loaded.scenario)
+    loaded.scenario.controllers = {**loaded.scenario.controllers, **study.entries}
+    return replace(study, scenario="", settings=[], base=self_contained(loaded), entries={})
 
 
 def with_overrides(study: Study, samples: int | None = None, seed: int | None = None) -> Study:

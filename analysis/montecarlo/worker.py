@@ -42,8 +42,8 @@ from posfb.diagrams.scenario import (
     dump_scenario,
     with_controller,
 )
-from posfb.models.controllers import REGISTRY, cached_design
-from posfb.models.design import ControllerConfig, plant_spectral_radii
+from posfb.models.controllers import cached_design
+from posfb.models.design import LOOP_CONTROLLERS, ControllerConfig, plant_spectral_radii
 from posfb.models.identify import identify
 from posfb.models.lumped import LumpedParameters
 from posfb.models.nominal import nominal_model
@@ -129,13 +129,16 @@ class ClosedLoopEvaluator:
                 sensor, encoder_counts=(plant.encoder_counts,) * config.joints
             )
         context = self._reference.new_context(plant.parameters)
-        theta, where, radii = self._place(self._designed(scenario, config), context)
+        chosen = self.study.controllers if controllers is None else controllers
+        configs = {c: self.runner(scenario, c).config for c in chosen}
+        theta, where, linear_plant = self._place(self._designed(config, configs), context)
+        radii = self._radii(configs, linear_plant)
         parameters = {
             key: list(value) if isinstance(value, tuple) else value
             for key, value in asdict(plant.parameters).items()
         }
         runs, results = [], {}
-        for controller in self.study.controllers if controllers is None else controllers:
+        for controller in chosen:
             run, result = self._run(scenario, controller, plant, sensor, radii.get(controller))
             runs.append(run)
             if result is not None:
@@ -151,36 +154,50 @@ class ClosedLoopEvaluator:
         )
         return sample, results
 
-    def _designed(self, scenario: Scenario, config: ClosedLoopConfig) -> ControllerConfig:
-        """The Sec. 3 design a sample is placed against: the scenario's own, or, when its
-        controller entry is a plug-in's (no Sec. 3 design), that of the study's first
-        controller that has one (the paper's three share the flat form's inputs)."""
+    @staticmethod
+    def _designed(
+        config: ClosedLoopConfig, configs: dict[str, ClosedLoopConfig]
+    ) -> ControllerConfig:
+        """The Sec. 3 design a sample is placed against (its Assumption-1 bounds): the
+        base scenario's entry's, or, when that entry is a plug-in's (no Sec. 3 design),
+        that of the study's first controller that has one."""
         if config.controller_settings is None:
             return config.design
-        designed = [c for c in self.study.controllers if REGISTRY.get(c) and
-                    REGISTRY[c].settings is None]  # fmt: skip
-        if not designed:
-            return config.design
-        switched = with_controller(scenario, designed[0])
-        return resolve(self._loaded(switched)).config.design
+        designed = [c.design for c in configs.values() if c.controller_settings is None]
+        return designed[0] if designed else config.design
 
     def _place(
         self, design: ControllerConfig, context: Context
-    ) -> tuple[dict[str, float], Coverage, dict[str, float]]:
+    ) -> tuple[dict[str, float], Coverage, object]:
         """The sampled plant in ``context`` against the design: its theta (Table 1's,
         identified, for a theta nominal model; empty otherwise), where it lies against
-        the Assumption-1 bounds, and the sampled-data spectral radius of each designed
-        loop on its linear part."""
-        designed = cached_design(design)
-        bounds, arm = designed.bounds, self._reference.arm
+        the Assumption-1 bounds, and its linear part as the sampled-data check takes it
+        (the identified theta, or the sampled arm's own Drake model)."""
+        bounds, arm = cached_design(design).bounds, self._reference.arm
         if isinstance(design.nominal, LumpedParameters):
             theta = identify(arm, context)
             where = coverage(theta, design.nominal, bounds)
-            radii = plant_spectral_radii(designed, theta)
-            return {key: float(value) for key, value in theta.as_dict().items()}, where, radii
+            return {key: float(value) for key, value in theta.as_dict().items()}, where, theta
         true = arm_model(arm, context)
-        where = serial_coverage(true, nominal_model(design.nominal), bounds)
-        return {}, where, plant_spectral_radii(designed, true)
+        return {}, serial_coverage(true, nominal_model(design.nominal), bounds), true
+
+    @staticmethod
+    def _radii(configs: dict[str, ClosedLoopConfig], linear_plant: object) -> dict[str, float]:
+        """The sampled-data spectral radius of each controller's designed loop (its own
+        design) closed around the sampled plant's linear part; none for a controller
+        without one (PID, the plug-ins)."""
+        radii, by_design = {}, {}
+        for name, config in configs.items():
+            if config.controller_settings is not None or config.controller not in LOOP_CONTROLLERS:
+                continue
+            if config.design not in by_design:
+                by_design[config.design] = plant_spectral_radii(
+                    cached_design(config.design), linear_plant
+                )
+            radius = by_design[config.design].get(config.controller)
+            if radius is not None:
+                radii[name] = radius
+        return radii
 
     def _run(
         self,

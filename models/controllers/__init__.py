@@ -13,6 +13,8 @@ tables and legends.
 
 from __future__ import annotations
 
+from dataclasses import fields
+
 from posfb.models.controllers import adrc, lin_lc, pd_gravity, pid, proposed
 from posfb.models.controllers.base import SampledController
 from posfb.models.controllers.lin_lc import LinLcController
@@ -44,6 +46,18 @@ def internals_names(kind: str, joints: int) -> tuple[str, ...]:
     if entry.internals is None:
         raise ValueError(f"controller {kind!r} names its internals when it is built")
     return entry.internals(joints)
+
+
+def design_checks(kind: str) -> tuple[str, ...]:
+    """Every design check that the entry of controller ``kind`` determines: its own, and
+    those of each kind whose settings it holds all of (the paper's controller's entry
+    holds Lin+LC's inputs, so it also answers for Lin+LC's sampled loop)."""
+    own = {f.name for f in fields(spec(kind).settings)}
+    found: list[str] = []
+    for entry in REGISTRY.values():
+        if {f.name for f in fields(entry.settings)} <= own:
+            found += [name for name in entry.checks if name not in found]
+    return tuple(found)
 
 
 def failed_checks(kind: str, config: ControllerConfig) -> list[str]:
@@ -99,6 +113,7 @@ __all__ = [
     "SampledController",
     "UserPlugin",
     "cached_design",
+    "design_checks",
     "controller_spec",
     "failed_checks",
     "internals_names",

@@ -13,6 +13,7 @@ from posfb.models.controllers.base import SampledController, joint_names
 from posfb.models.controllers.feedforward import nominal_torques
 from posfb.models.controllers.registry import ControllerSpec
 from posfb.models.design import Design, cached_design
+from posfb.models.design.settings import LinLc
 
 
 def lin_lc_internals(joints: int) -> tuple[str, ...]:
@@ -59,4 +60,5 @@ SPEC = ControllerSpec(
     checks=("riccati", "lc_filter", "sampled_data_lin_lc"),
     require=lambda design: cached_design(design).require_linear_torque(),
     internals=lin_lc_internals,
+    settings=LinLc,
 )

@@ -17,6 +17,7 @@ import numpy as np
 from posfb.models.controllers.base import SampledController, joint_names
 from posfb.models.controllers.registry import ControllerBuild, ControllerSpec
 from posfb.models.design.config import PidGains
+from posfb.models.design.settings import Pid
 from posfb.models.nominal import NominalModel, joint_count, nominal_model
 
 
@@ -70,4 +71,5 @@ SPEC = ControllerSpec(
     factory=_build,
     style={"linestyle": "-", "color": "tab:blue"},
     internals=pid_internals,
+    settings=Pid,
 )

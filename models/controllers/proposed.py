@@ -27,6 +27,7 @@ from posfb.models.controllers.base import SampledController, joint_names
 from posfb.models.controllers.feedforward import nominal_torques
 from posfb.models.controllers.registry import ControllerSpec
 from posfb.models.design import Design, cached_design
+from posfb.models.design.settings import Proposed
 
 
 def proposed_internals(joints: int) -> tuple[str, ...]:
@@ -112,4 +113,5 @@ SPEC = ControllerSpec(
     checks=("riccati", "lc_filter", "spr", "bound_filter", "continuous_with_nc", "sampled_data"),
     require=lambda design: cached_design(design).require_nonlinear_torque(),
     internals=proposed_internals,
+    settings=Proposed,
 )

@@ -2,9 +2,9 @@
 
 A spec holds everything posfb knows about a kind of controller: its ``kind`` (the
 scenario's name for it), its ``label`` and plot ``style`` (legends, tables), its
-settings class (a member of the scenario's ``controller:`` union; ``None`` for the
-paper's three, whose inputs are the scenario's flat controller section), the design
-checks that concern it, what it refuses, and its factory. Plots, exports, tables,
+settings class (a member of the scenario's ``controller:`` union: ``!Proposed``,
+``!LinLc``, ``!Pid``, ...), the design checks that concern it, what it refuses, and its
+factory. Plots, exports, tables,
 reports, Monte Carlo and replay read the spec; none of them spells a controller's name.
 A new controller is one module with a ``SPEC`` and one line in
 ``models.controllers.__init__`` (``register``). A user's own controller
@@ -92,8 +92,9 @@ def spec(kind: str) -> ControllerSpec:
 
 
 def settings_kind(settings: object) -> str | None:
-    """The registered kind whose settings class ``settings`` is (``None``: none)."""
+    """The registered kind whose settings class ``settings`` is, exactly (``Proposed``
+    extends ``LinLc``; ``None``: none)."""
     for entry in _REGISTRY.values():
-        if entry.settings is not None and isinstance(settings, entry.settings):
+        if entry.settings is not None and type(settings) is entry.settings:
             return entry.kind
     return None
