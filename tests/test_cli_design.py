@@ -77,3 +77,20 @@ def test_end_to_end_bad_input_is_one_line_and_nonzero():
     lines = result.stderr.strip().splitlines()
     assert len(lines) == 1 and "alpha-star" in lines[0]
     assert "Traceback" not in result.stderr
+
+
+def test_a_lin_lc_entry_reports_only_its_own_design(capsys):
+    # Lin+LC's entry holds the linear torque's inputs only: its report shows no alpha*, no
+    # E, no proposed loop, and its three checks.
+    assert main(["design"]) == 0
+    proposed = capsys.readouterr().out
+    assert main(["design", "--set", "controller.kind=lin_lc"]) == 0
+    text = capsys.readouterr().out
+    assert "alpha*" not in text and "E = " not in text and "(proposed" not in text
+    # The same LQR inputs carried over: the same Lin+LC loop as in the paper's entry.
+    line = next(row for row in text.splitlines() if "spectral radius (Lin+LC)" in row)
+    assert text.count("[ok]") == 3 and line in proposed
+    assert main(["design", "--set", "controller.kind=lin_lc", "--json"]) == 0
+    data = json.loads(capsys.readouterr().out)
+    assert set(data["checks"]) == {"riccati", "lc_filter", "sampled_data_lin_lc"}
+    assert data["sampled_data_spectral_radius"] is None and data["E"] is None

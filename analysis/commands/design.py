@@ -36,28 +36,43 @@ def configure(parser: argparse.ArgumentParser) -> None:
     parser.set_defaults(handler=run)
 
 
-def design_config(args: argparse.Namespace) -> ControllerConfig:
-    """The design inputs of the scenario the command line describes; a plug-in controller
-    (PD + gravity, ADRC, a ``!Python`` class) has no Sec. 3 design and is refused."""
+def design_config(args: argparse.Namespace) -> tuple[ControllerConfig, tuple[str, ...]]:
+    """The design inputs of the scenario the command line describes and the design checks
+    its controller entry determines (``models.controllers.design_checks``); PID and the
+    plug-ins (PD + gravity, ADRC, a ``!Python`` class) have no Sec. 3 design: refused."""
     from posfb.diagrams.resolve import resolve
+    from posfb.models.controllers import design_checks
 
     config = resolve(scenario_from_args(args)).config
-    if config.controller_settings is not None:
+    relevant = design_checks(config.controller)
+    if not relevant:
         raise UsageError(
             f"controller {config.controller!r} ({config.spec.label}) has no Sec. 3 design; "
-            "posfb design designs the paper's controllers (--controller proposed or lin_lc)"
+            "posfb design designs the paper's controller and Lin+LC "
+            "(--set controller.kind=proposed or lin_lc)"
         )
-    return config.design
+    return config.design, relevant
 
 
 def _poles(poles: np.ndarray) -> list[list[float]]:
     return [[float(p.real), float(p.imag)] for p in poles]
 
 
-def design_to_dict(design: Design) -> dict:
-    """The JSON object of ``posfb design --json``."""
+#: The checks that need the nonlinear torque's inputs (an entry without them, Lin+LC's,
+#: shows none of its numbers).
+NONLINEAR_CHECKS = frozenset({"spr", "bound_filter", "continuous_with_nc", "sampled_data"})
+
+#: The ``--json`` keys that belong to the nonlinear torque.
+_NONLINEAR_KEYS = ("alpha_star", "E", "E1", "E2", "E3", "Gamma", "kyp_gamma", "P2_M0inv_norm",
+                   "continuous_poles_with_nc", "sampled_data_spectral_radius", "bound_filter",
+                   "uncertainty_bounds")  # fmt: skip
+
+
+def design_to_dict(design: Design, relevant: tuple[str, ...] | None = None) -> dict:
+    """The JSON object of ``posfb design --json``; with ``relevant``, only those checks, and
+    the nonlinear torque's numbers ``null`` when none of its checks is relevant."""
     constants = design.bound_filter
-    return {
+    result = {
         "sample_time": design.config.sample_time,
         "alpha_star": design.config.nonlinear.alpha_star,
         "discretisation": design.config.discretisation,
@@ -90,6 +105,14 @@ def design_to_dict(design: Design) -> dict:
         "checks": {c.name: {"passed": c.passed, "detail": c.detail} for c in design.checks},
         "warnings": design.warnings,
     }
+    if relevant is None:
+        return result
+    checks = [c for c in design.checks if c.name in relevant]
+    result["checks"] = {c.name: {"passed": c.passed, "detail": c.detail} for c in checks}
+    result["warnings"] = [c.detail for c in checks if not c.passed]
+    if not NONLINEAR_CHECKS & set(relevant):
+        result |= dict.fromkeys(_NONLINEAR_KEYS)
+    return result
 
 
 def _matrix(name: str, matrix: np.ndarray) -> list[str]:
@@ -103,29 +126,43 @@ def _pole_text(poles: np.ndarray) -> str:
     )
 
 
-def format_report(design: Design) -> str:
-    """The readable report: the design, then every check with ``ok`` or ``FAILED``."""
+def format_report(design: Design, relevant: tuple[str, ...] | None = None) -> str:
+    """The readable report: the design, then every check (``relevant``: those only) with
+    ``ok`` or ``FAILED``; an entry without the nonlinear torque (Lin+LC's) shows only the
+    linear torque's numbers."""
     from posfb.models.design.discretise import DISCRETISATION_NAMES
 
     config = design.config
+    checks = [c for c in design.checks if relevant is None or c.name in relevant]
+    nonlinear = relevant is None or bool(NONLINEAR_CHECKS & set(relevant))
+    header = f"Design of Sec. 3 at T_s = {config.sample_time:g} s"
+    if nonlinear:
+        header += (f", alpha* = {config.nonlinear.alpha_star:g}, K_alpha = "
+                   f"{config.nonlinear.K_alpha:g}, G(s) pole a = {config.nonlinear.filter_a:g}")
     lines = [
-        f"Design of Sec. 3 at T_s = {config.sample_time:g} s, alpha* = "
-        f"{config.nonlinear.alpha_star:g}, K_alpha = {config.nonlinear.K_alpha:g}, "
-        f"G(s) pole a = {config.nonlinear.filter_a:g}, filters discretised by "
-        f"{DISCRETISATION_NAMES[config.discretisation]}",
+        f"{header}, filters discretised by {DISCRETISATION_NAMES[config.discretisation]}",
         *_matrix("K = [K1 K2 K3] (Eq. 14)", design.K),
         *_matrix("P (Eq. 15)", design.P),
-        *_matrix("E = (M0*)^-T P2^T = [E1 E2 E3] (Eq. 20)", design.E),
         f"continuous poles of A_a - B_a1 K: {_pole_text(design.continuous_poles)}",
-        f"continuous poles with tau_NC at alpha*: {_pole_text(design.continuous_poles_with_nc)}",
-        f"sampled-data spectral radius (proposed, alpha = alpha*): "
-        f"{design.sampled_data_spectral_radius:.4f}",
-        f"sampled-data spectral radius (Lin+LC): {design.sampled_data_spectral_radius_lin_lc:.4f}",
-        f"||P2 (M0*)^-1|| = {design.coupling_norm:.4g}, k_C1 = {design.bounds.k_C1:.4g}",
-        "checks:",
     ]
-    lines += [f"  [{'ok' if c.passed else 'FAILED'}] {c.detail}" for c in design.checks]
-    failed = len(design.warnings)
+    if nonlinear:
+        lines[-1:-1] = _matrix("E = (M0*)^-T P2^T = [E1 E2 E3] (Eq. 20)", design.E)
+        lines += [
+            f"continuous poles with tau_NC at alpha*: "
+            f"{_pole_text(design.continuous_poles_with_nc)}",
+            f"sampled-data spectral radius (proposed, alpha = alpha*): "
+            f"{design.sampled_data_spectral_radius:.4f}",
+        ]
+    lines.append(
+        f"sampled-data spectral radius (Lin+LC): {design.sampled_data_spectral_radius_lin_lc:.4f}"
+    )
+    if nonlinear:
+        lines.append(
+            f"||P2 (M0*)^-1|| = {design.coupling_norm:.4g}, k_C1 = {design.bounds.k_C1:.4g}"
+        )
+    lines.append("checks:")
+    lines += [f"  [{'ok' if c.passed else 'FAILED'}] {c.detail}" for c in checks]
+    failed = sum(not c.passed for c in checks)
     lines.append(f"{failed} check(s) FAILED" if failed else "all checks passed")
     return "\n".join(lines)
 
@@ -133,6 +170,11 @@ def format_report(design: Design) -> str:
 def run(args: argparse.Namespace) -> int:
     from posfb.models.design import compute_design
 
-    design = compute_design(design_config(args))
-    print(json.dumps(design_to_dict(design)) if args.json else format_report(design))
-    return EXIT_FAILED_CHECK if args.strict and design.warnings else 0
+    config, relevant = design_config(args)
+    design = compute_design(config)
+    failed = [c for c in design.checks if c.name in relevant and not c.passed]
+    if args.json:
+        print(json.dumps(design_to_dict(design, relevant)))
+    else:
+        print(format_report(design, relevant))
+    return EXIT_FAILED_CHECK if args.strict and failed else 0

@@ -45,12 +45,12 @@ def run_check(args: argparse.Namespace) -> int:
           f"{config.duration:g} s")  # fmt: skip
     for warning in trajectory_warnings(resolved):
         print(f"warning: {warning}")
-    if config.controller_settings is not None:  # a plug-in: built once by resolve
+    if not design_checks(config.controller):  # PID or a plug-in (built once by resolve)
         print(f"verdict: {config.spec.label} has no Sec. 3 design; it was built with the "
               "scenario's settings")  # fmt: skip
         return 0
     design = cached_design(config.design)
-    print(format_report(design))
+    print(format_report(design, design_checks(config.controller)))
     relevant = design_checks(config.controller) if args.strict else config.spec.checks
     failed = [c.name for c in design.checks if c.name in relevant and not c.passed]
     whose = "the design" if args.strict else f"the {config.controller} controller"
