@@ -42,7 +42,7 @@ from posfb.diagrams.resolve import (
     scenario_from_file,
     scenario_from_mapping,
 )
-from posfb.models.controllers import failed_checks, require_design
+from posfb.models.controllers import PAPER_CONTROLLERS, failed_checks, require_design
 
 if TYPE_CHECKING:
     import pandas as pd
@@ -54,7 +54,7 @@ if TYPE_CHECKING:
 DEFAULT_SCENARIO = CASE_FILES["nominal"]
 
 #: Controllers that ``compare`` runs when none are named (Sec. 4.2's three).
-DEFAULT_COMPARISON = ("pid", "lin_lc", "proposed")
+DEFAULT_COMPARISON = PAPER_CONTROLLERS
 
 #: Figures that ``Run.plot`` and ``Comparison.figure`` draw (Figs. 4/6 and 5/7).
 FIGURES = ("errors", "positions")

@@ -16,9 +16,9 @@ from posfb.analysis.outputs import output_folder
 def configure(parser: argparse.ArgumentParser) -> None:
     add_scenario_arguments(parser, ("duration", "sample_time", "encoder_counts", "payload"))
     parser.add_argument(
-        "--controllers", default="pid,lin_lc,proposed", metavar="KIND,KIND,...",
-        help="the controllers to run, comma-separated, in table and legend order "
-        "(default: pid,lin_lc,proposed)",
+        "--controllers", metavar="NAME,NAME,...",
+        help="the controllers to run, comma-separated, in table and legend order: kinds "
+        "or the scenario's named entries (default: the paper's three)",
     )  # fmt: skip
     parser.add_argument(
         "--out", metavar="DIR", help="write comparison.csv/.md/.json and the figures into DIR"
@@ -41,9 +41,9 @@ def controller_list(text: str) -> list[str]:
 
 def run(args: argparse.Namespace) -> int:
     from posfb.analysis import progress
-    from posfb.analysis.api import compare
+    from posfb.analysis.api import DEFAULT_COMPARISON, compare
 
-    kinds = controller_list(args.controllers)
+    kinds = controller_list(args.controllers) if args.controllers else list(DEFAULT_COMPARISON)
     folder = output_folder("--out", args.out) if args.out else None
     loaded = scenario_from_args(args)
     with printed_warnings("compare"):
