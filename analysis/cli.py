@@ -43,9 +43,15 @@ examples:
       a 1 s run of the Lin + LC controller at T_s = 5 ms, its RMS errors and voltages
   posfb scenario dump > my.yaml && posfb simulate --scenario my.yaml
       every setting of a run written to a file, to edit and run again
+  posfb compare --controllers pid,lin_lc,proposed,adrc --out cmp
+      four controllers on the paper's arm: a table and overlaid figures in cmp/
   posfb reproduce --out results
       the paper's Sec. 4: tables, figures and a report in results/
 
+exit codes: 0 done, 1 a design check failed (scenario check, --strict) or a replayed
+sample differs from its stored rows, 2 bad input,
+3 a bug in posfb, 4 a run diverged (simulate, compare), 130 interrupted.
+The same from Python: import posfb (posfb.simulate, posfb.compare, posfb.build).
 Run posfb COMMAND --help for the options of a command."""
 
 #: Exit code for bad input (argparse uses the same).
