@@ -48,9 +48,9 @@ examples:
   posfb reproduce --out results
       the paper's Sec. 4: tables, figures and a report in results/
 
-exit codes: 0 done, 1 a design check failed (scenario check, --strict) or a replayed
-sample differs from its stored rows, 2 bad input,
-3 a bug in posfb, 4 a run diverged (simulate, compare), 130 interrupted.
+exit codes: 0 done; 1 a design check failed (scenario check, --strict) or a replayed
+sample differs from its stored rows; 2 bad input; 3 a bug in posfb; 4 a run diverged
+(simulate, compare); 130 interrupted.
 The same from Python: import posfb (posfb.simulate, posfb.compare, posfb.build).
 Run posfb COMMAND --help for the options of a command."""
 
