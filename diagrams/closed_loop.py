@@ -186,6 +186,8 @@ class ClosedLoopConfig:
     it is given other parameters, as a Monte-Carlo sample is). The number of joints
     ``n`` is the design's nominal model's; the trajectory and the plant URDF must
     have as many. Per-joint values take one number for all joints or one per joint.
+    Its errors name each setting by its scenario key (``timing.duration``,
+    ``sensor.encoder_counts[1]``), the one name a setting has (``diagrams.scenario``).
     """
 
     controller: str = "proposed"
@@ -208,23 +210,24 @@ class ClosedLoopConfig:
         plugin = self.controller_settings
         if isinstance(plugin, UserPlugin) and self.controller != plugin.kind:
             raise ValueError(
-                f"controller = {self.controller!r}; the plug-in's kind {plugin.kind!r} is "
-                "required"
+                f"controller.kind = {self.controller!r}; the plug-in's kind {plugin.kind!r} "
+                "is required"
             )
         if not isinstance(plugin, UserPlugin) and self.controller not in REGISTRY:
             raise ValueError(
-                f"controller = {self.controller!r}; one of {', '.join(REGISTRY)} is required"
+                f"controller.kind = {self.controller!r}; one of {', '.join(REGISTRY)} is "
+                "required"
             )
         if not isinstance(self.design, ControllerConfig):
             raise ValueError(f"design = {self.design!r} is not a ControllerConfig")
-        require_positive("duration", self.duration)
+        require_positive("timing.duration", self.duration)
         if (
             self.duration < self.sample_time
             or abs(self.samples * self.sample_time - self.duration) > 1e-9 * self.duration
         ):
             raise ValueError(
-                f"duration = {self.duration!r} is not a whole number (>= 1) of sample_time = "
-                f"{self.sample_time!r} periods"
+                f"timing.duration = {self.duration!r} is not a whole number (>= 1) of "
+                f"timing.sample_time = {self.sample_time!r} periods"
             )
         if not callable(getattr(self.trajectory, "evaluate", None)):
             raise ValueError(f"trajectory = {self.trajectory!r} has no evaluate(t)")
@@ -235,19 +238,21 @@ class ClosedLoopConfig:
                 f"{n}: one trajectory entry per joint is required"
             )
         set_field = partial(object.__setattr__, self)
-        set_field("encoder_counts", per_joint_counts("encoder_counts", self.encoder_counts, n))
-        set_field("zero_offset", _per_joint("zero_offset", self.zero_offset, n))
-        set_field("noise_std", _per_joint("noise_std", self.noise_std, n))
+        counts = per_joint_counts("sensor.encoder_counts", self.encoder_counts, n)
+        set_field("encoder_counts", counts)
+        set_field("zero_offset", _per_joint("sensor.zero_offset", self.zero_offset, n))
+        set_field("noise_std", _per_joint("sensor.noise_std", self.noise_std, n))
         for j, std in enumerate(self.noise_std):
-            require_nonnegative(f"noise_std[{j}]", std)
+            require_nonnegative(f"sensor.noise_std[{j}]", std)
         for name in ("noise_seed", "delay_samples"):
             value = getattr(self, name)
             if isinstance(value, bool) or not isinstance(value, int | np.integer) or value < 0:
-                raise ValueError(f"{name} = {value!r}; an integer >= 0 is required")
-        set_field("voltage_limit", _per_joint("voltage_limit", self.voltage_limit, n))
+                raise ValueError(f"sensor.{name} = {value!r}; an integer >= 0 is required")
+        limits = _per_joint("actuator.voltage_limit", self.voltage_limit, n)
+        set_field("voltage_limit", limits)
         for j, limit in enumerate(self.voltage_limit):
-            require_positive(f"voltage_limit[{j}]", limit)
-        require_positive("divergence_bound", self.divergence_bound)
+            require_positive(f"actuator.voltage_limit[{j}]", limit)
+        require_positive("timing.divergence_bound", self.divergence_bound)
         self._check_simulator()
         if not isinstance(self.plant, PlantConfig):
             raise ValueError(f"plant = {self.plant!r} is not a PlantConfig")
@@ -257,19 +262,21 @@ class ClosedLoopConfig:
     def _check_simulator(self) -> None:
         simulator = self.simulator
         schemes = GetIntegrationSchemes()
+        key = "timing.simulator"
         if simulator.integration_scheme not in schemes:
             raise ValueError(
-                f"integration_scheme = {simulator.integration_scheme!r}; one of "
+                f"{key}.integration_scheme = {simulator.integration_scheme!r}; one of "
                 f"{', '.join(schemes)} is required"
             )
-        accuracy = require_positive("accuracy", simulator.accuracy)
+        accuracy = require_positive(f"{key}.accuracy", simulator.accuracy)
         if accuracy >= 1.0:
-            raise ValueError(f"accuracy = {accuracy!r}; a value in (0, 1) is required")
-        require_positive("max_step_size", simulator.max_step_size)
-        require_nonnegative("target_realtime_rate", simulator.target_realtime_rate)
+            raise ValueError(f"{key}.accuracy = {accuracy!r}; a value in (0, 1) is required")
+        require_positive(f"{key}.max_step_size", simulator.max_step_size)
+        require_nonnegative(f"{key}.target_realtime_rate", simulator.target_realtime_rate)
         if simulator.start_time != 0.0:
             raise ValueError(
-                f"start_time = {simulator.start_time!r}; 0 is required (a run starts at t = 0)"
+                f"{key}.start_time = {simulator.start_time!r}; 0 is required (a run starts "
+                "at t = 0)"
             )
 
     @property

@@ -59,6 +59,7 @@ from posfb.models.plant import (
     PAYLOAD_BODY,
     ArmParameters,
     PlantConfig,
+    require_payload_mass,
 )
 from posfb.models.trajectory import (
     JointWave,
@@ -66,7 +67,7 @@ from posfb.models.trajectory import (
     Trajectory,
     WaveTrajectory,
 )
-from posfb.models.validation import per_joint
+from posfb.models.validation import per_joint, require_positive
 
 
 @dataclass
@@ -122,38 +123,10 @@ def load_scenario(path: str | Path | None = None, settings: Iterable[str] = ()) 
     return scenario_from_file(path, settings)
 
 
-#: Which scenario section owns a name that a frozen config's error message starts with.
-_SECTIONS = {
-    "sample_time": "timing",
-    "duration": "timing",
-    "divergence_bound": "timing",
-    "accuracy": "timing.simulator",
-    "integration_scheme": "timing.simulator",
-    "max_step_size": "timing.simulator",
-    "target_realtime_rate": "timing.simulator",
-    "start_time": "timing.simulator",
-    "encoder_counts": "sensor",
-    "zero_offset": "sensor",
-    "noise_std": "sensor",
-    "noise_seed": "sensor",
-    "delay_samples": "sensor",
-    "voltage_limit": "actuator",
-    "trajectory": "trajectory",
-    "controller": "controller.kind",
-    "payload_mass": "plant",
-    "friction_velocity": "plant",
-    "motor_friction_blocks": "plant",
-}
-
-
-def _with_key(error: ValueError, default: str) -> ValueError:
-    """``error`` with the scenario section of the name its message starts with."""
-    message = str(error)
-    head = message.split(" ", 1)[0].split("[", 1)[0].split("=", 1)[0]
-    section = _SECTIONS.get(head, default)
-    if section.endswith(f".{head}") or section == head:
-        return ValueError(f"{section}{message[len(head) :]}")
-    return ValueError(f"{section}.{message}")
+def in_section(section: str, error: ValueError) -> ValueError:
+    """``error`` of a value of scenario section ``section`` (whose validator names its
+    fields bare, as ``PlantConfig``'s and ``ArmParameters``' do) with the section's key."""
+    return ValueError(f"{section}.{error}")
 
 
 def with_absolute_paths(loaded: LoadedScenario) -> Scenario:
@@ -359,7 +332,7 @@ class ResolvedScenario:
         try:
             return self.config.true_plant.parameters(defaults)
         except ValueError as error:
-            raise _with_key(error, "plant.parameters") from None
+            raise in_section("plant.parameters", error) from None
 
 
 def _overrides(settings: ParameterOverrides, joints: int) -> dict[str, tuple[float, ...]]:
@@ -368,7 +341,7 @@ def _overrides(settings: ParameterOverrides, joints: int) -> dict[str, tuple[flo
         values = getattr(settings, name)
         if values is None:
             continue
-        values = per_joint(f"plant.parameters.{name}", values, joints)
+        values = per_joint(name, values, joints)
         overrides[name] = tuple(float(v) for v in values)
     return overrides
 
@@ -377,6 +350,8 @@ def resolve(loaded: LoadedScenario) -> ResolvedScenario:
     """Validate ``loaded`` into a ``ResolvedScenario``; errors name the dotted key."""
     scenario, base = loaded.scenario, loaded.base_dir
     section = scenario.controller
+    # The design takes the sample time; it is the timing section's.
+    require_positive("timing.sample_time", scenario.timing.sample_time)
     chain = scenario_chain(scenario, base)
     joints = len(chain.joints)
     try:
@@ -395,46 +370,47 @@ def resolve(loaded: LoadedScenario) -> ResolvedScenario:
     except PluginError:
         raise  # a plug-in's own message names its key and class
     except ValueError as error:
-        raise _with_key(error, "controller") from None
+        raise in_section("controller", error) from None
     trajectory = make_trajectory(scenario.trajectory, base)
     _check_csv(scenario.trajectory, trajectory, scenario.timing.duration, joints)
     plant = scenario.plant
-    urdf = resolve_path(plant.urdf, base)
     try:
-        # The payload and overrides are checked against ArmParameters' own rules.
-        if plant.payload_mass != 0.0 and PAYLOAD_BODY not in chain.links:
-            raise ValueError(
-                f"payload_mass = {plant.payload_mass!r} kg, but plant.urdf = {plant.urdf!r} "
-                f"has no link named {PAYLOAD_BODY!r} to carry it; 0 is required"
-            )
-        overrides = _overrides(plant.parameters, joints)
-        probe = ArmParameters(**{name: (1.0,) * joints for name in JOINT_PARAMETERS})
-        replace(probe, **overrides, payload_mass=plant.payload_mass)
-        true_plant = TruePlant(float(plant.payload_mass), tuple(overrides.items()))
+        require_payload_mass(plant.payload_mass)
         plant_config = PlantConfig(
-            urdf=str(urdf),
+            urdf=str(resolve_path(plant.urdf, base)),
             friction_velocity=plant.friction_velocity,
             motor_friction_blocks=plant.motor_friction_blocks,
         )
-        config = ClosedLoopConfig(
-            controller=kind,
-            design=design,
-            controller_settings=controller_settings,
-            duration=scenario.timing.duration,
-            trajectory=trajectory,
-            encoder_counts=tuple(scenario.sensor.encoder_counts),
-            zero_offset=tuple(scenario.sensor.zero_offset),
-            noise_std=tuple(scenario.sensor.noise_std),
-            noise_seed=scenario.sensor.noise_seed,
-            delay_samples=scenario.sensor.delay_samples,
-            voltage_limit=tuple(scenario.actuator.voltage_limit),
-            plant=plant_config,
-            divergence_bound=scenario.timing.divergence_bound,
-            simulator=scenario.timing.simulator,
-            true_plant=true_plant,
-        )
     except ValueError as error:
-        raise _with_key(error, "plant.parameters") from None
+        raise in_section("plant", error) from None
+    if plant.payload_mass != 0.0 and PAYLOAD_BODY not in chain.links:
+        raise ValueError(
+            f"plant.payload_mass = {plant.payload_mass!r} kg, but plant.urdf = {plant.urdf!r} "
+            f"has no link named {PAYLOAD_BODY!r} to carry it; 0 is required"
+        )
+    try:  # the overrides are checked against ArmParameters' own rules
+        overrides = _overrides(plant.parameters, joints)
+        probe = ArmParameters(**{name: (1.0,) * joints for name in JOINT_PARAMETERS})
+        replace(probe, **overrides)
+    except ValueError as error:
+        raise in_section("plant.parameters", error) from None
+    config = ClosedLoopConfig(
+        controller=kind,
+        design=design,
+        controller_settings=controller_settings,
+        duration=scenario.timing.duration,
+        trajectory=trajectory,
+        encoder_counts=tuple(scenario.sensor.encoder_counts),
+        zero_offset=tuple(scenario.sensor.zero_offset),
+        noise_std=tuple(scenario.sensor.noise_std),
+        noise_seed=scenario.sensor.noise_seed,
+        delay_samples=scenario.sensor.delay_samples,
+        voltage_limit=tuple(scenario.actuator.voltage_limit),
+        plant=plant_config,
+        divergence_bound=scenario.timing.divergence_bound,
+        simulator=scenario.timing.simulator,
+        true_plant=TruePlant(float(plant.payload_mass), tuple(overrides.items())),
+    )
     return ResolvedScenario(config)
 
 
