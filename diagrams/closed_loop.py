@@ -91,7 +91,8 @@ from pydrake.systems.primitives import (
     ZeroOrderHold,
 )
 
-from posfb.diagrams.encoder import DEFAULT_ENCODER_COUNTS, Encoder, per_joint_counts
+from posfb.diagrams.encoder import Encoder, per_joint_counts
+from posfb.diagrams.sections import Actuator, Sensor, Timing
 from posfb.models.controllers import (
     REGISTRY,
     ControllerConfig,
@@ -110,26 +111,11 @@ from posfb.models.validation import (
     require_positive,
 )
 
-#: The paper's armature-voltage range, +-24 V (Sec. 4.1).
-VOLTAGE_LIMIT = 24.0
-
-#: Default bound on |q~| (rad) beyond which a run counts as diverged: about
-#: 60 deg, 200x the largest RMS error of Tables 3-4: no controller that still
-#: tracks gets near it, and a runaway is stopped before it costs much time.
-DIVERGENCE_BOUND = 1.0
-
 #: ``run`` checks for divergence every this many control periods.
 MONITOR_SAMPLES = 10
 
 #: Names of the logged signals, in ``ClosedLoop.log_columns``.
 LOGGED = ("q_true", "q_measured", "desired", "u_commanded", "u_applied", "internals")
-
-
-def default_simulator() -> SimulatorConfig:
-    """Drake's RK3 with error control at accuracy 3e-3 (module docstring)."""
-    return SimulatorConfig(
-        integration_scheme="runge_kutta3", accuracy=3e-3, use_error_control=True
-    )
 
 
 def _per_joint(name: str, value: float | Sequence[float], joints: int) -> tuple[float, ...]:
@@ -174,16 +160,19 @@ class ClosedLoopConfig:
     included (the only one: ``sample_time`` reads it); ``controller_settings`` the
     settings of a plug-in kind's scenario entry or a user's plug-in
     (``models.controllers.plugin.UserPlugin``; ``None`` for the paper's three, whose
-    inputs are all in ``design``); ``trajectory`` the desired
-    path; the sensor: ``encoder_counts`` per joint revolution (0: ideal; default
-    and its justification in ``diagrams.encoder``), ``zero_offset`` (rad, added to
-    the true position before quantisation), ``noise_std`` (rad, additive Gaussian
-    noise after it, drawn from ``noise_seed``), ``delay_samples`` (whole periods);
-    ``voltage_limit`` (V) per joint; ``divergence_bound`` on ``|q~|`` in rad;
-    ``simulator`` Drake's integrator settings (the runner caps ``max_step_size`` at
-    ``T_s``: a step never spans more than one control period); ``true_plant`` the true
-    arm's payload and parameter overrides (``ClosedLoopRunner.run`` applies them unless
-    it is given other parameters, as a Monte-Carlo sample is). The number of joints
+    inputs are all in ``design``); ``trajectory`` the desired path; ``timing``,
+    ``sensor`` and ``actuator`` the scenario's sections as they are
+    (``diagrams.sections``; copied, then read through the properties below):
+    ``duration``, ``divergence_bound`` on ``|q~|`` in rad and Drake's integrator
+    ``simulator`` (the runner caps ``max_step_size`` at ``T_s``: a step never spans more
+    than one control period; ``timing.sample_time`` must be the design's); per joint,
+    ``encoder_counts`` per revolution (0: ideal; default and its justification in
+    ``diagrams.encoder``), ``zero_offset`` (rad, added to the true position before
+    quantisation), ``noise_std`` (rad, additive Gaussian noise after it, drawn from
+    ``noise_seed``), ``delay_samples`` (whole periods), ``voltage_limit`` (V);
+    ``true_plant`` the true arm's payload and parameter overrides
+    (``ClosedLoopRunner.run`` applies them unless it is given other parameters, as a
+    Monte-Carlo sample is). The number of joints
     ``n`` is the design's nominal model's; the trajectory and the plant URDF must
     have as many. Per-joint values take one number for all joints or one per joint.
     Its errors name each setting by its scenario key (``timing.duration``,
@@ -193,17 +182,11 @@ class ClosedLoopConfig:
     controller: str = "proposed"
     design: ControllerConfig = field(default_factory=ControllerConfig)
     controller_settings: object | None = None
-    duration: float = 20.0
     trajectory: Trajectory = field(default_factory=WaveTrajectory)
-    encoder_counts: int | tuple[int, ...] = DEFAULT_ENCODER_COUNTS
-    zero_offset: float | tuple[float, ...] = 0.0
-    noise_std: float | tuple[float, ...] = 0.0
-    noise_seed: int = 0
-    delay_samples: int = 0
-    voltage_limit: float | tuple[float, ...] = VOLTAGE_LIMIT
+    timing: Timing = field(default_factory=Timing)
+    sensor: Sensor = field(default_factory=Sensor)
+    actuator: Actuator = field(default_factory=Actuator)
     plant: PlantConfig = field(default_factory=PlantConfig)
-    divergence_bound: float = DIVERGENCE_BOUND
-    simulator: SimulatorConfig = field(default_factory=default_simulator)
     true_plant: TruePlant = field(default_factory=TruePlant)
 
     def __post_init__(self) -> None:
@@ -220,6 +203,22 @@ class ClosedLoopConfig:
             )
         if not isinstance(self.design, ControllerConfig):
             raise ValueError(f"design = {self.design!r} is not a ControllerConfig")
+        set_field = partial(object.__setattr__, self)
+        for name, kind in (("timing", Timing), ("sensor", Sensor), ("actuator", Actuator)):
+            if not isinstance(getattr(self, name), kind):
+                raise ValueError(f"{name} = {getattr(self, name)!r} is not a {kind.__name__}")
+        # Own copies: a scenario changed later does not change a config built from it.
+        set_field("sensor", dataclasses.replace(self.sensor))
+        set_field("actuator", dataclasses.replace(self.actuator))
+        simulator = SimulatorConfig(
+            **{f.name: getattr(self.timing.simulator, f.name) for f in SimulatorConfig.__fields__}
+        )
+        set_field("timing", dataclasses.replace(self.timing, simulator=simulator))
+        if self.timing.sample_time != self.design.sample_time:
+            raise ValueError(
+                f"timing.sample_time = {self.timing.sample_time!r}; the design's "
+                f"{self.design.sample_time!r} is required (one sample time)"
+            )
         require_positive("timing.duration", self.duration)
         if (
             self.duration < self.sample_time
@@ -237,19 +236,18 @@ class ClosedLoopConfig:
                 f"trajectory drives {self.trajectory.joints} joints; the nominal model has "
                 f"{n}: one trajectory entry per joint is required"
             )
-        set_field = partial(object.__setattr__, self)
-        counts = per_joint_counts("sensor.encoder_counts", self.encoder_counts, n)
-        set_field("encoder_counts", counts)
-        set_field("zero_offset", _per_joint("sensor.zero_offset", self.zero_offset, n))
-        set_field("noise_std", _per_joint("sensor.noise_std", self.noise_std, n))
+        sensor = self.sensor
+        set_field("_counts", per_joint_counts("sensor.encoder_counts", sensor.encoder_counts, n))
+        set_field("_offsets", _per_joint("sensor.zero_offset", sensor.zero_offset, n))
+        set_field("_noise", _per_joint("sensor.noise_std", sensor.noise_std, n))
         for j, std in enumerate(self.noise_std):
             require_nonnegative(f"sensor.noise_std[{j}]", std)
         for name in ("noise_seed", "delay_samples"):
-            value = getattr(self, name)
+            value = getattr(sensor, name)
             if isinstance(value, bool) or not isinstance(value, int | np.integer) or value < 0:
                 raise ValueError(f"sensor.{name} = {value!r}; an integer >= 0 is required")
-        limits = _per_joint("actuator.voltage_limit", self.voltage_limit, n)
-        set_field("voltage_limit", limits)
+        limits = _per_joint("actuator.voltage_limit", self.actuator.voltage_limit, n)
+        set_field("_limits", limits)
         for j, limit in enumerate(self.voltage_limit):
             require_positive(f"actuator.voltage_limit[{j}]", limit)
         require_positive("timing.divergence_bound", self.divergence_bound)
@@ -280,6 +278,50 @@ class ClosedLoopConfig:
             )
 
     @property
+    def duration(self) -> float:
+        """Simulated seconds (``timing.duration``)."""
+        return self.timing.duration
+
+    @property
+    def divergence_bound(self) -> float:
+        """``|q~|`` (rad) beyond which a run counts as diverged."""
+        return self.timing.divergence_bound
+
+    @property
+    def simulator(self) -> SimulatorConfig:
+        """Drake's integrator settings (``timing.simulator``)."""
+        return self.timing.simulator
+
+    @property
+    def encoder_counts(self) -> tuple[int, ...]:
+        """Counts per revolution, one per joint (``sensor.encoder_counts``)."""
+        return self._counts  # type: ignore[attr-defined]
+
+    @property
+    def zero_offset(self) -> tuple[float, ...]:
+        """Encoder zero offset (rad), one per joint."""
+        return self._offsets  # type: ignore[attr-defined]
+
+    @property
+    def noise_std(self) -> tuple[float, ...]:
+        """Encoder noise standard deviation (rad), one per joint."""
+        return self._noise  # type: ignore[attr-defined]
+
+    @property
+    def noise_seed(self) -> int:
+        return self.sensor.noise_seed
+
+    @property
+    def delay_samples(self) -> int:
+        """The sensor delay in whole periods."""
+        return self.sensor.delay_samples
+
+    @property
+    def voltage_limit(self) -> tuple[float, ...]:
+        """Armature-voltage saturation (V), one per joint (``actuator.voltage_limit``)."""
+        return self._limits  # type: ignore[attr-defined]
+
+    @property
     def spec(self) -> ControllerSpec:
         """The controller's spec (label, style, checks, factory; ``models.controllers``)."""
         return controller_spec(self.controller, self.controller_settings)
@@ -300,7 +342,7 @@ class ClosedLoopConfig:
         return round(self.duration / self.sample_time)
 
     @property
-    def sensor(self) -> SensorState:
+    def sensor_state(self) -> SensorState:
         """The sensor settings a Context holds (they change per run without rebuilding)."""
         return SensorState(self.encoder_counts, self.zero_offset, self.noise_std, self.noise_seed)
 
@@ -549,7 +591,7 @@ class ClosedLoopRunner:
         ``sensor`` settings (default: the config's), the arm at rest at ``q_d(0)``; a
         sensor delay line is filled with the first measurement."""
         loop, config = self.loop, self.config
-        sensor = config.sensor if sensor is None else sensor
+        sensor = config.sensor_state if sensor is None else sensor
         if any(std > 0.0 for std in sensor.noise_std) and loop.noise_source is None:
             raise ValueError(
                 f"noise_std = {list(sensor.noise_std)} needs a diagram built with sensor "

@@ -37,19 +37,12 @@ from pathlib import Path
 
 import yaml
 from pydrake.common.yaml import yaml_dump_typed, yaml_load_typed
-from pydrake.systems.analysis import SimulatorConfig
 
-from posfb.diagrams.closed_loop import (
-    DIVERGENCE_BOUND,
-    VOLTAGE_LIMIT,
-    ClosedLoopConfig,
-    default_simulator,
-)
-from posfb.diagrams.encoder import DEFAULT_ENCODER_COUNTS
+from posfb.diagrams.closed_loop import ClosedLoopConfig
+from posfb.diagrams.sections import Actuator, Sensor, Timing
 from posfb.diagrams.yaml_schema import check_shape, parse, prepare
 from posfb.models.controllers import REGISTRY
 from posfb.models.controllers.registry import settings_kind
-from posfb.models.design import ControllerConfig
 from posfb.models.design.settings import default_of
 from posfb.models.lumped import TABLE1
 from posfb.models.plant import (
@@ -206,48 +199,6 @@ TrajectorySettings = Wave | Waypoints | CsvFile
 
 
 # --- timing, sensor, actuator -------------------------------------------------------
-
-
-@dataclass
-class Timing:
-    """Sample time ``T_s`` (s) of the controller and the sensor, simulated ``duration``
-    (s, a whole number of periods), the ``|q~|`` (rad) beyond which a run is stopped
-    as diverged, and Drake's integrator settings."""
-
-    sample_time: float = field(default_factory=default_of(ControllerConfig, "sample_time"))
-    duration: float = field(default_factory=default_of(ClosedLoopConfig, "duration"))
-    divergence_bound: float = DIVERGENCE_BOUND
-    simulator: SimulatorConfig = field(default_factory=default_simulator)
-
-    def __eq__(self, other: object) -> bool:
-        """By value (Drake's ``SimulatorConfig`` itself compares by identity)."""
-        if not isinstance(other, Timing):
-            return NotImplemented
-
-        def values(timing: Timing) -> tuple:
-            simulator = tuple(getattr(timing.simulator, f.name) for f in SimulatorConfig.__fields__)
-            return timing.sample_time, timing.duration, timing.divergence_bound, simulator
-
-        return values(self) == values(other)
-
-
-@dataclass
-class Sensor:
-    """Joint encoders: counts per revolution (0: ideal), zero offset (rad), additive
-    Gaussian noise (rad, from ``noise_seed``) and a delay of whole samples."""
-
-    encoder_counts: list[int] = field(default_factory=lambda: [DEFAULT_ENCODER_COUNTS])
-    zero_offset: list[float] = field(default_factory=lambda: [0.0])
-    noise_std: list[float] = field(default_factory=lambda: [0.0])
-    noise_seed: int = 0
-    delay_samples: int = 0
-
-
-@dataclass
-class Actuator:
-    """Armature-voltage saturation (V) per joint."""
-
-    voltage_limit: list[float] = field(default_factory=lambda: [VOLTAGE_LIMIT])
 
 
 # --- controller ---------------------------------------------------------------------

@@ -12,6 +12,7 @@ from loop_checks import assert_position_only
 from posfb.analysis.experiment import case_parameters, payload_mass
 from posfb.analysis.metrics import run_metrics
 from posfb.diagrams.closed_loop import ClosedLoopConfig, ClosedLoopRunner
+from posfb.diagrams.sections import Actuator, Sensor, Timing
 from posfb.models.controllers import kinds
 from posfb.models.trajectory import desired
 
@@ -22,7 +23,7 @@ DURATION = 3.0
 @pytest.fixture(scope="module")
 def runners():
     return {
-        kind: ClosedLoopRunner(ClosedLoopConfig(controller=kind, duration=DURATION))
+        kind: ClosedLoopRunner(ClosedLoopConfig(controller=kind, timing=Timing(duration=DURATION)))
         for kind in kinds()  # every registered controller, the plug-in baselines included
     }
 
@@ -59,7 +60,7 @@ def test_measured_position_is_the_true_one_quantised(runners):
     runner = runners["lin_lc"]
     for counts in (2000, 0):
         result = runner.run(
-            sensor=dataclasses.replace(runner.config.sensor, encoder_counts=(counts, counts))
+            sensor=dataclasses.replace(runner.config.sensor_state, encoder_counts=(counts, counts))
         )
         error = np.abs(result.q_measured - result.q_true)
         if counts:
@@ -79,7 +80,9 @@ def test_applied_voltage_never_exceeds_the_limit(runners):
 
 
 def test_saturation_clips_the_commanded_voltage():
-    runner = ClosedLoopRunner(ClosedLoopConfig(controller="pid", duration=1.0, voltage_limit=3.0))
+    runner = ClosedLoopRunner(ClosedLoopConfig(
+        controller="pid", timing=Timing(duration=1.0), actuator=Actuator(voltage_limit=[3.0])
+    ))
     result = runner.run()
     assert run_metrics(result).saturated_fraction > 0.1
     assert np.max(np.abs(result.u_applied)) <= 3.0
@@ -131,12 +134,13 @@ def test_payload_proposed_beats_lin_lc_on_joint_2(payload_runs):
     ("change", "name"),
     [
         ({"controller": "lqr"}, "controller.kind = 'lqr'"),
-        ({"duration": 1.005}, "timing.duration = 1.005"),
-        ({"encoder_counts": -5}, "sensor.encoder_counts"),
-        ({"voltage_limit": -24.0}, "actuator.voltage_limit[0] = -24.0"),
-        ({"divergence_bound": math.nan}, "timing.divergence_bound = nan"),
-        ({"noise_std": -1.0}, "sensor.noise_std[0] = -1.0"),
-        ({"delay_samples": 1.5}, "sensor.delay_samples = 1.5"),
+        ({"timing": Timing(duration=1.005)}, "timing.duration = 1.005"),
+        ({"sensor": Sensor(encoder_counts=[-5])}, "sensor.encoder_counts"),
+        ({"actuator": Actuator(voltage_limit=[-24.0])}, "actuator.voltage_limit[0] = -24.0"),
+        ({"timing": Timing(divergence_bound=math.nan)}, "timing.divergence_bound = nan"),
+        ({"sensor": Sensor(noise_std=[-1.0])}, "sensor.noise_std[0] = -1.0"),
+        ({"sensor": Sensor(delay_samples=1.5)}, "sensor.delay_samples = 1.5"),
+        ({"timing": Timing(sample_time=0.005)}, "timing.sample_time = 0.005; the design's"),
     ],
 )
 def test_config_errors_name_the_scenario_key(change, name):

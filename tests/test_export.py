@@ -15,6 +15,7 @@ from posfb.analysis.export import (
 )
 from posfb.analysis.metrics import rms
 from posfb.diagrams.closed_loop import ClosedLoopConfig, ClosedLoopRunner
+from posfb.diagrams.sections import Timing
 from posfb.models.controllers import (
     PAPER_CONTROLLERS,
     LinLcController,
@@ -49,7 +50,7 @@ EXPECTED_LEADING = [
 def runs():
     results = {}
     for kind in PAPER_CONTROLLERS:
-        config = ClosedLoopConfig(controller=kind, duration=DURATION)
+        config = ClosedLoopConfig(controller=kind, timing=Timing(duration=DURATION))
         results[kind] = (config, ClosedLoopRunner(config).run())
     return results
 

@@ -18,6 +18,7 @@ from posfb.diagrams.closed_loop import ClosedLoopConfig, ClosedLoopRunner
 from posfb.diagrams.encoder import quantise
 from posfb.diagrams.resolve import load_scenario, resolve, run_scenario
 from posfb.diagrams.scenario import Scenario, controller_kind, dump_scenario
+from posfb.diagrams.sections import Timing
 from posfb.diagrams.yaml_schema import load_typed
 from posfb.models.controllers import PAPER_CONTROLLERS
 from posfb.models.plant import DEFAULT_URDF
@@ -52,7 +53,7 @@ def test_a_dumped_scenario_loads_and_dumps_back_byte_for_byte(tmp_path):
 def test_shipped_paper_scenarios_equal_the_hand_built_paper_runs(case, kind):
     loaded = case_scenario(case, (f"controller.kind={kind}", "timing.duration=2"))
     from_file = run_scenario(loaded)
-    runner = ClosedLoopRunner(ClosedLoopConfig(controller=kind, duration=2.0))
+    runner = ClosedLoopRunner(ClosedLoopConfig(controller=kind, timing=Timing(duration=2.0)))
     payload = PAPER_PAYLOAD if case == "payload" else 0.0
     by_hand = runner.run(runner.arm.default_parameters.with_payload(payload))
     for name in ("q_true", "q_measured", "u_commanded", "u_applied", "internals"):
@@ -123,7 +124,7 @@ def test_each_documented_set_changes_the_run(tmp_path, capsys):
     mixed = resolve(load_scenario(None, ["sensor.encoder_counts=[4096, 2048]"])).config
     assert mixed.encoder_counts == (4096, 2048)
     resolved = resolve(load_scenario(None, ["plant.payload_mass=0.5"]))
-    runner = ClosedLoopRunner(ClosedLoopConfig(duration=0.1))
+    runner = ClosedLoopRunner(ClosedLoopConfig(timing=Timing(duration=0.1)))
     assert resolved.true_parameters(runner.arm.default_parameters).payload_mass == 0.5
     assert resolve(load_scenario(None, ["controller.alpha_star=2.75"])).config.design.nonlinear.alpha_star == 2.75  # noqa: E501
     assert resolve(load_scenario(None, ["controller.kind=lin_lc"])).config.controller == "lin_lc"

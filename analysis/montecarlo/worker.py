@@ -123,7 +123,7 @@ class ClosedLoopEvaluator:
         scenario, drawn = sample_scenario(self.study, index)
         config = resolve(self._loaded(scenario)).config
         plant = sample_plant(self.study, self.nominal_plant, index)
-        sensor = config.sensor
+        sensor = config.sensor_state
         if plant.encoder_counts is not None:
             sensor = dataclasses.replace(
                 sensor, encoder_counts=(plant.encoder_counts,) * config.joints
