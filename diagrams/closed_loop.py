@@ -59,6 +59,7 @@ at 1e-9 and the spread of runs perturbed at the integrator's error level.
 
 from __future__ import annotations
 
+import copy
 import dataclasses
 import time
 from collections.abc import Callable, Sequence
@@ -208,8 +209,8 @@ class ClosedLoopConfig:
             if not isinstance(getattr(self, name), kind):
                 raise ValueError(f"{name} = {getattr(self, name)!r} is not a {kind.__name__}")
         # Own copies: a scenario changed later does not change a config built from it.
-        set_field("sensor", dataclasses.replace(self.sensor))
-        set_field("actuator", dataclasses.replace(self.actuator))
+        set_field("sensor", copy.deepcopy(self.sensor))
+        set_field("actuator", copy.deepcopy(self.actuator))
         simulator = SimulatorConfig(
             **{f.name: getattr(self.timing.simulator, f.name) for f in SimulatorConfig.__fields__}
         )

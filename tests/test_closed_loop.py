@@ -149,3 +149,12 @@ def test_config_errors_name_the_scenario_key(change, name):
     with pytest.raises(ValueError) as error:
         ClosedLoopConfig(**change)
     assert str(error.value).startswith(name)
+
+
+def test_a_config_keeps_its_own_sections():
+    # The config holds the scenario's sections as copies: changing the scenario's lists
+    # afterwards changes nothing the runner reads.
+    sensor = Sensor(encoder_counts=[4096])
+    config = ClosedLoopConfig(controller="lin_lc", sensor=sensor)
+    sensor.encoder_counts[0] = 7
+    assert config.sensor.encoder_counts == [4096] and config.encoder_counts == (4096, 4096)
