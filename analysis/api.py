@@ -152,8 +152,8 @@ def load_scenario(source: ScenarioSource = None, set: Settings | None = None) ->
 
 
 def _scenario(source: ScenarioSource, controller: str | None) -> LoadedScenario:
-    loaded = load_scenario(source)
-    return loaded if controller is None else loaded.with_settings([f"controller.kind={controller}"])
+    """``source`` loaded (and validated once) with ``controller`` chosen, if given."""
+    return load_scenario(source, None if controller is None else {"controller.kind": controller})
 
 
 def scenario_warnings(resolved: ResolvedScenario) -> list[str]:

@@ -4,8 +4,8 @@ A scenario file is YAML loaded with Drake's ``yaml_load_typed`` into the
 dataclasses below (the way RussTedrake/manipulation's ``Scenario`` wraps
 ``SimulatorConfig``). A file gives only what differs from the paper: every key
 it omits keeps the paper's value, and each default is read from the one place
-the code defines it (``ControllerConfig``, ``ClosedLoopConfig``, ``PlantConfig``,
-``LumpedParameters``, ``models.trajectory.PAPER_TRAJECTORY``)::
+the code defines it (``ControllerConfig``, ``PlantConfig``, ``diagrams.sections``,
+``models.design.settings``, ``LumpedParameters``, ``models.trajectory.PAPER_TRAJECTORY``)::
 
     plant:          URDF, tip payload, friction smoothing, motor/friction blocks,
                     physical parameter overrides (Monte-Carlo names)
@@ -14,13 +14,16 @@ the code defines it (``ControllerConfig``, ``ClosedLoopConfig``, ``PlantConfig``
     trajectory:     !Wave {joints: [...]}, !Waypoints {times, positions}, !CsvFile {path}
     timing:         sample_time, duration, divergence_bound, simulator (SimulatorConfig)
     sensor:         encoder_counts, zero_offset, noise_std, noise_seed, delay_samples
-    actuator:       voltage_limit
-    controller:     kind, discretisation and every design input of Sec. 3 and 4.2
+    actuator:       voltage_limit            (these three: ``diagrams.sections``)
+    controller:     one tagged entry with only the chosen controller's settings:
+                    !Proposed, !LinLc, !Pid (``models.design.settings``), !PdGravity,
+                    !Adrc (their modules), !Python {file | module, class, settings}
+    controllers:    named entries that --controller NAME, compare and studies pick
 
 The number of joints ``n`` is the plant URDF's; per-joint lists take one value
 (all joints) or ``n``. The paper's two-joint defaults that have no one-value form
 (the LQR weights, ``H``, the PID gains, the trajectory) must be given for any
-other arm. This module holds the tree
+other arm, for the controllers it runs. This module holds the tree
 and its text forms (``dump_scenario``, ``apply_setting`` for ``--set``,
 ``get_setting``); ``diagrams.resolve`` loads a file, validates a scenario into
 the frozen ``ClosedLoopConfig`` the runner builds from, and runs it.

@@ -6,12 +6,13 @@ code copies them field by field). Each default is written here once.
 
 # No "from __future__ import annotations": Drake's YAML reads the field types at runtime.
 
-from dataclasses import dataclass, field, fields
+from dataclasses import dataclass, field
 
 from pydrake.systems.analysis import SimulatorConfig
 
 from posfb.diagrams.encoder import DEFAULT_ENCODER_COUNTS
 from posfb.models.design import ControllerConfig
+from posfb.models.design.settings import default_of
 
 #: The paper's armature-voltage range, +-24 V (Sec. 4.1).
 VOLTAGE_LIMIT = 24.0
@@ -32,17 +33,13 @@ def default_simulator() -> SimulatorConfig:
     )
 
 
-def _design_sample_time() -> float:
-    return next(f.default for f in fields(ControllerConfig) if f.name == "sample_time")
-
-
 @dataclass
 class Timing:
     """Sample time ``T_s`` (s) of the controller and the sensor, simulated ``duration``
     (s, a whole number of periods), the ``|q~|`` (rad) beyond which a run is stopped
     as diverged, and Drake's integrator settings."""
 
-    sample_time: float = field(default_factory=_design_sample_time)
+    sample_time: float = field(default_factory=default_of(ControllerConfig, "sample_time"))
     duration: float = DURATION
     divergence_bound: float = DIVERGENCE_BOUND
     simulator: SimulatorConfig = field(default_factory=default_simulator)

@@ -130,7 +130,8 @@ class ClosedLoopEvaluator:
             )
         context = self._reference.new_context(plant.parameters)
         chosen = self.study.controllers if controllers is None else controllers
-        configs = {c: self.runner(scenario, c).config for c in chosen}
+        runners = {c: self._runner_or_error(scenario, c) for c in chosen}
+        configs = {c: r.config for c, r in runners.items() if isinstance(r, ClosedLoopRunner)}
         theta, where, linear_plant = self._place(self._designed(config, configs), context)
         radii = self._radii(configs, linear_plant)
         parameters = {
@@ -139,7 +140,9 @@ class ClosedLoopEvaluator:
         }
         runs, results = [], {}
         for controller in chosen:
-            run, result = self._run(scenario, controller, plant, sensor, radii.get(controller))
+            run, result = self._run(
+                controller, runners[controller], plant, sensor, radii.get(controller)
+            )
             runs.append(run)
             if result is not None:
                 results[controller] = result
@@ -199,18 +202,28 @@ class ClosedLoopEvaluator:
                 radii[name] = radius
         return radii
 
+    def _runner_or_error(self, scenario: Scenario, controller: str) -> ClosedLoopRunner | Exception:
+        """``runner(scenario, controller)``, or the exception that building it raised (the
+        sample records it as that controller's ``error`` run)."""
+        try:
+            return self.runner(scenario, controller)
+        except Exception as error:  # recorded by _run, never stops the study
+            return error
+
+    @staticmethod
     def _run(
-        self,
-        scenario: Scenario,
         controller: str,
+        runner: ClosedLoopRunner | Exception,
         plant: SampledPlant,
         sensor: SensorState,
         radius: float | None,
     ) -> tuple[ControllerRun, ClosedLoopResult | None]:
-        """One controller on ``plant`` and its run; an exception is recorded as
-        ``error`` (and there is no run)."""
+        """One controller on ``plant`` and its run; an exception (building its runner or
+        running it) is recorded as ``error`` (and there is no run)."""
         try:
-            result = self.runner(scenario, controller).run(plant.parameters, sensor)
+            if isinstance(runner, Exception):
+                raise runner
+            result = runner.run(plant.parameters, sensor)
         except Exception as error:  # recorded, never stops the study
             return ControllerRun(controller, "error", _one_line(error), {}, radius), None
         metrics = _metrics_dict(run_metrics(result))

@@ -14,7 +14,7 @@ A new controller is one module with a ``SPEC`` and one line in
 from __future__ import annotations
 
 from collections.abc import Callable, Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from types import MappingProxyType
 from typing import TYPE_CHECKING
 
@@ -70,7 +70,7 @@ def register(spec: ControllerSpec) -> ControllerSpec:
         raise ValueError(f"controller kind {spec.kind!r} is registered twice")
     if "color" not in spec.style:
         colour = _COLOURS[len(_REGISTRY) % len(_COLOURS)]
-        spec = ControllerSpec(**{**spec.__dict__, "style": {**spec.style, "color": colour}})
+        spec = replace(spec, style={**spec.style, "color": colour})
     _REGISTRY[spec.kind] = spec
     return spec
 
