@@ -100,6 +100,16 @@ EVIDENCE_STUDIES = (
         settings=("sensor.encoder_counts=0",),
     ),
     Study(
+        key="foh_filters",
+        title="Evidence: first-order-hold filters (the default before issue 20)",
+        description=(
+            "Paper settings, but the controllers' filters discretised by a first-order hold "
+            "instead of the default zero-order hold: how the discretisation moves the rows."
+        ),
+        controllers=("proposed", "lin_lc"),
+        settings=("controller.discretisation=foh",),
+    ),
+    Study(
         key="fine_integrator",
         title="Numerics: integrator accuracy 1e-4 instead of 3e-3",
         description="Paper settings, nominal arm, RK3 accuracy 1e-4 (default 3e-3).",

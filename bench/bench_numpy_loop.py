@@ -76,7 +76,7 @@ Drake diagram calls), saturate, hold the voltage, and take ``m`` fixed RK4 steps
 criterion 2 at the chosen step (``--no-step-check`` skips it).
 
 **The numba bound** is written independently of posfb's code: the plant, the trajectory,
-the encoder, RK4 and all three controllers (Eq. 26 PID; Lin+LC's FOH filter and
+the encoder, RK4 and all three controllers (Eq. 26 PID; Lin+LC's discrete filter and
 feedforward; the proposed controller's filter, running maxima, Eq. 18 bound and alpha
 update) are re-implemented in one jitted loop; only numbers come from posfb (theta, the
 discrete filter matrices of ``cached_design``, the PID gains and the Sec. 3 bounds). It
@@ -84,7 +84,8 @@ uses the same step as the NumPy loop; its RMS errors and its largest difference 
 NumPy loop's samples are printed next to the others'. It is a lower bound for *this*
 physics and step, not for posfb's adaptive integrator.
 
-**Agreement with posfb.** The NumPy loop's RMS(q~) is within 1.5 % of posfb's for PID,
+**Agreement with posfb** (measured with the FOH filters, the default before issue 20).
+The NumPy loop's RMS(q~) is within 1.5 % of posfb's for PID,
 Lin+LC and alpha* = 4. For alpha* = 2.75 joint 2 differs by ~9 %: its RMS (a few 1e-4
 rad, about one count) depends on which counts flip, and posfb's own value moves by as
 much with the integrator accuracy (3.91e-4 at 3e-3, 4.08e-4 at 1e-4, 3.67e-4 at 1e-6 rad);

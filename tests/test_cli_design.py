@@ -29,7 +29,8 @@ def test_json_at_the_paper_settings(capsys):
     assert len(data["continuous_poles"]) == 6
     assert all(re < 0.0 for re, _ in data["continuous_poles"])
     assert data["K"][0][0] == pytest.approx(7985.6, rel=1e-4)
-    assert data["sampled_data_spectral_radius"] == pytest.approx(1.0558, abs=1e-4)
+    # ZOH filters (the default); test_design_discretisation rebuilds this loop with scipy
+    assert data["sampled_data_spectral_radius"] == pytest.approx(1.0426, abs=1e-4)
     assert data["warnings"] == [data["checks"]["sampled_data"]["detail"]]
 
 

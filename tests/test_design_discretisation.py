@@ -1,5 +1,5 @@
 """The sampled-data verdict at the paper's settings does not hinge on how the
-controller's filters are discretised (FOH is the shipped choice)."""
+controller's filters are discretised (ZOH is the shipped choice)."""
 
 from __future__ import annotations
 
@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 import scipy.signal
 
-from posfb.models.design import ControllerConfig
+from posfb.models.design import ControllerConfig, compute_design
 from posfb.models.design.augmented import augmented_system, nonlinear_input_matrix, solve_lqr
 from posfb.models.design.closed_loop import sampled_data_closed_loop, spectral_radius
 from posfb.models.design.realisation import DiscreteFilter, nonlinear_control_filter
@@ -38,7 +38,7 @@ def _continuous_proposed_filter():
 def _radius(method: str, alpha: float) -> float:
     model, continuous = _continuous_proposed_filter()
     if method == "foh":
-        discrete = continuous.discretise(SAMPLE_TIME)
+        discrete = continuous.discretise(SAMPLE_TIME, "foh")
     else:
         A, B, C, D, _ = scipy.signal.cont2discrete(
             (continuous.A, continuous.B, continuous.C, continuous.D), SAMPLE_TIME, method=method
@@ -57,3 +57,10 @@ def test_paper_alpha_star_is_unstable_at_100_hz_for_every_discretisation(method)
 @pytest.mark.parametrize("method", ["foh", "zoh", "bilinear"])
 def test_second_study_alpha_star_is_stable_at_100_hz(method):
     assert _radius(method, alpha=2.75) < 1.0
+
+
+def test_the_default_discretisation_is_scipys_zero_order_hold():
+    # The design's default filters, against scipy's own ZOH of the same continuous filter.
+    assert compute_design().sampled_data_spectral_radius == pytest.approx(
+        _radius("zoh", alpha=4.0), rel=1e-9
+    )

@@ -43,7 +43,7 @@ def _reference(rhs, size: int, times: np.ndarray) -> np.ndarray:
 
 def _sampled(filt: ContinuousFilter, T: float) -> tuple[np.ndarray, np.ndarray]:
     """Run the FOH-discretised filter on the samples of ``error``: (times, outputs)."""
-    discrete = filt.discretise(T)
+    discrete = filt.discretise(T, "foh")
     times = np.arange(0.0, DURATION + T / 2, T)
     state = discrete.initial @ error(0.0)
     outputs = []

@@ -41,7 +41,7 @@ def test_scenario_check_strict_looks_at_every_check_of_the_entry(capsys):
 def test_simulate_warns_when_its_design_fails_a_check(capsys):
     assert main(["simulate", "--duration", "0.5"]) == 0
     err = capsys.readouterr().err.strip().splitlines()
-    assert len(err) == 1 and "warning" in err[0] and "spectral radius 1.0558" in err[0]
+    assert len(err) == 1 and "warning" in err[0] and "spectral radius 1.0426" in err[0]
     assert main(["simulate", "--duration", "0.5", "--alpha-star", "2.75"]) == 0
     assert capsys.readouterr().err == ""
 

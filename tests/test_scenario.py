@@ -170,9 +170,9 @@ def test_sensor_delay_offset_and_noise():
 def test_discretisation_is_a_choice_the_design_names(capsys):
     assert main(["design", "--set", "controller.discretisation=tustin"]) == 0
     assert "Tustin" in capsys.readouterr().out
-    foh = resolve(load_scenario(None)).config.design
-    zoh = resolve(load_scenario(None, ["controller.discretisation=zoh"])).config.design
-    assert foh.discretisation == "foh" and zoh.discretisation == "zoh"
+    zoh = resolve(load_scenario(None)).config.design
+    foh = resolve(load_scenario(None, ["controller.discretisation=foh"])).config.design
+    assert zoh.discretisation == "zoh" and foh.discretisation == "foh"
 
 
 @pytest.mark.parametrize(

@@ -1,6 +1,6 @@
 """``tau_Lin + tau_LC``: the paper's ablation without the nonlinear torque (Sec. 4.2).
 
-``tau_LC = tau_d + eta~`` (Eq. 13) with ``eta~`` from the position-only, FOH-
+``tau_LC = tau_d + eta~`` (Eq. 13) with ``eta~`` from the position-only, ZOH-
 discretised filter of ``models.design.realisation`` (state ``w = eta~ + K2 q~``),
 initialised at rest (``eta~(0) = 0``) from the first measurement.
 """

@@ -1,6 +1,6 @@
 """The paper's controller ``tau_Lin + tau_LC + tau_NC`` (Eq. 3, 4, 13, 19-25).
 
-Per sample ``t_k`` (one filter, ``models.design.realisation``, FOH-discretised):
+Per sample ``t_k`` (one filter, ``models.design.realisation``, ZOH-discretised by default):
 
 * ``[eta~, phi, p, pbar] = C s_k + D q~_k``, then ``s_{k+1} = A s_k + B q~_k``;
 * ``U1 = ||max_{m<=k} |p_m| || / c``, ``U2 = ||max_{m<=k} |pbar_m| || / c^2``

@@ -225,8 +225,8 @@ class ControllerConfig:
     default, whose ``M0*`` is its q-independent part, reading note 5, or a nominal
     URDF); its joint count ``n`` sizes every other part. ``sample_time`` the period ``T_s`` of
     every controller, ``discretisation`` how the filters of Eq. 13, 20 and 25 are
-    sampled (``models.design.discretise.DISCRETISATIONS``; first-order hold by
-    default).
+    sampled (``models.design.discretise.DISCRETISATIONS``; zero-order hold by
+    default: the exact discretisation of a filter driven by the held encoder reading).
     """
 
     nominal: NominalModel = TABLE1
@@ -235,7 +235,7 @@ class ControllerConfig:
     nonlinear: NonlinearTorqueConfig = field(default_factory=NonlinearTorqueConfig)
     bounds: UncertaintyBounds = field(default_factory=UncertaintyBounds)
     pid: PidGains = field(default_factory=PidGains)
-    discretisation: str = "foh"
+    discretisation: str = "zoh"
 
     def __post_init__(self) -> None:
         require_positive("sample_time", self.sample_time)

@@ -1,18 +1,19 @@
 """Discretisation at the sample time by matrix exponentials.
 
-The controllers' filters (Eq. 13, 20, 25) take the sampled error ``q~(t_k)``; they
-are discretised with a first-order hold (FOH, "triangle hold"): the input is taken
-as the straight line between consecutive samples. FOH keeps the exact pole map
-``z = exp(s T_s)``, is exact for ramps and second-order accurate for smooth inputs
-(a zero-order hold of the *input* would lag it by half a sample: first order),
-and its causal form below has a direct feedthrough, so the output at ``t_k`` uses
-``q~(t_k)`` with no extra sample of delay. The plant's input, the voltage, really
-is held (ZOH) between samples.
+The controllers' filters (Eq. 13, 20, 25) take the sampled error ``q~(t_k)``: the
+encoder reading, held by the zero-order-hold quantiser over each period. A
+zero-order hold (ZOH) of the filter's input is therefore the exact discretisation of
+a filter driven by what the controller really sees, and it is the default of
+MATLAB's ``c2d`` and python-control's ``sample_system``; it keeps the exact pole
+map ``z = exp(s T_s)``, and the output at ``t_k`` uses ``q~(t_k)`` through the
+direct feedthrough, with no extra sample of delay. ZOH is the default (issue 20;
+earlier versions used FOH).
 
-Zero-order hold of the filters' input and Tustin's bilinear map are equally valid
-choices (``DISCRETISATIONS``); at the paper's ``alpha* = 4`` the sampled-data loop
-sits near its stability margin (spectral radius 1.04-1.06 for all three), so they
-give visibly different joint-2 errors and the design report names the one used.
+A first-order hold (FOH, "triangle hold": the input taken as the straight line
+between consecutive samples, exact for ramps) and Tustin's bilinear map stay
+selectable (``DISCRETISATIONS``). At the paper's ``alpha* = 4`` the sampled-data
+loop sits near its stability margin (spectral radius 1.04-1.06 for all three), so
+they give visibly different joint-2 errors and the design report names the one used.
 """
 
 from __future__ import annotations
@@ -21,7 +22,7 @@ import numpy as np
 import scipy.linalg
 
 #: The discretisations a controller's filters may use (``ControllerConfig.discretisation``):
-#: first-order hold (the default), zero-order hold, Tustin (bilinear).
+#: first-order hold, zero-order hold (the default), Tustin (bilinear).
 DISCRETISATIONS = ("foh", "zoh", "tustin")
 
 #: How reports name each discretisation.

@@ -14,8 +14,8 @@ Eq. 12, 20 and 25 contain is removed by a change of state:
 
 ``rest`` maps the first error sample to the state of a filter at rest: ``eta~(0) = 0``
 (``tau_LC(0) = tau_d(0)``), ``zeta(0) = 0`` and ``p(0) = pbar(0) = 0`` as Sec. 3.4
-assumes. ``ContinuousFilter.discretise`` applies the first-order hold of
-``models.design.discretise``.
+assumes. ``ContinuousFilter.discretise`` applies a hold of ``models.design.discretise``
+(``ControllerConfig.discretisation``: zero-order by default).
 """
 
 from __future__ import annotations
@@ -49,7 +49,7 @@ class ContinuousFilter:
     D: np.ndarray
     rest: np.ndarray
 
-    def discretise(self, sample_time: float, method: str = "foh") -> DiscreteFilter:
+    def discretise(self, sample_time: float, method: str) -> DiscreteFilter:
         """The filter sampled at ``sample_time`` by ``method`` (``DISCRETISATIONS``).
 
         ``foh``: first-order hold in its causal form, state ``s_k = x_k - Gamma1 q~_k``;
