@@ -50,6 +50,10 @@ if TYPE_CHECKING:
     from pydrake.systems.analysis import Simulator
     from pydrake.systems.framework import Context, Diagram
 
+    from posfb.analysis.montecarlo.config import Study
+    from posfb.analysis.tuning.settings import TuneSettings
+    from posfb.analysis.tuning.tune import TuneResult
+
 #: The paper's nominal experiment (Sec. 4.2): the scenario when none is given.
 DEFAULT_SCENARIO = CASE_FILES["nominal"]
 
@@ -484,3 +488,54 @@ def compare(
     for kind in kinds:
         comparison.runs[kind] = simulate(loaded, kind, progress=progress)
     return comparison
+
+
+def tune(
+    scenario: ScenarioSource,
+    study: str | Path | Study | None = None,
+    settings: TuneSettings | None = None,
+    *,
+    set: Settings | None = None,  # noqa: A002
+    out: str | Path | None = None,
+) -> TuneResult:
+    """A robust design of the paper's controller and Lin+LC for the scenario's arm, with
+    a stated probabilistic guarantee (``analysis.tuning``; what ``posfb tune`` runs).
+
+    Parameters
+    ----------
+    scenario
+        Anything ``load_scenario`` takes.
+    study
+        A Monte-Carlo study (file or ``Study``) whose ``parameters`` give the plants;
+        ``None``: the default spread (``analysis.tuning.plants.DEFAULT_SPREAD``).
+    settings
+        ``TuneSettings`` (margin, plants, seed, epsilon, beta, budget, ...); default:
+        its defaults.
+    set
+        Scenario settings applied before tuning, as in ``load_scenario``.
+    out
+        Where the tuned scenario will be written (its relative paths are kept when it is
+        the scenario's folder, made absolute otherwise); ``TuneResult.save`` writes it.
+
+    Returns
+    -------
+    TuneResult
+        ``.scenario`` (the tuned settings tree), ``.controllers`` (per controller: the
+        settings before and after, the objective, the radii, the guarantee, the
+        cross-check runs), ``.dump()``, ``.save(path)``.
+
+    Raises
+    ------
+    TuneError
+        No design meets the constraints, or the search would overrun the budget.
+    ValueError
+        Bad input: the scenario, the study (e.g. of another arm), a setting.
+    """
+    from posfb.analysis.montecarlo.config import load_study
+    from posfb.analysis.tuning.tune import tune as tune_loaded
+
+    loaded = load_scenario(scenario, set)
+    name = str(study) if isinstance(study, str | Path) else None
+    if name is not None:
+        study = load_study(name)
+    return tune_loaded(loaded, study, settings, None if out is None else Path(out), name)

@@ -20,6 +20,7 @@ from posfb.analysis.errors import InterruptedRunError, UsageError
 COMMANDS = {
     "identify": "identify theta_1..theta_11 (Sec. 4.1) from the URDF plant",
     "design": "design the position-feedback controller (Sec. 3) and check it",
+    "tune": "a robust design for a scenario's arm, verified with a stated guarantee",
     "scenario": "print or check a scenario file",
     "simulate": "one closed-loop run of a scenario: RMS errors and voltages",
     "compare": "several controllers on one scenario: a table and overlaid figures",

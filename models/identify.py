@@ -24,15 +24,18 @@ import numpy as np
 from pydrake.systems.framework import Context
 
 from posfb.models.lumped import LumpedParameters
+from posfb.models.nominal import NominalModel
 from posfb.models.plant import (
     PAYLOAD_BODY,
     Arm,
     PlantConfig,
     apply_parameters,
+    arm_model,
     build_arm_diagram,
     read_parameters,
     require_payload_mass,
 )
+from posfb.models.serial_model import SerialArmModel
 from posfb.models.urdf_check import check_arm_urdf
 
 
@@ -92,3 +95,15 @@ def identify_urdf(urdf: str | Path, payload_mass: float = 0.0) -> LumpedParamete
     _, arm, context = build_arm_diagram(PlantConfig(urdf=str(urdf)))
     apply_parameters(arm, context, arm.default_parameters.with_payload(payload_mass))
     return identify(arm, context)
+
+
+def linear_part_model(
+    arm: Arm, root_context: Context, nominal: NominalModel
+) -> LumpedParameters | SerialArmModel:
+    """The plant in ``root_context`` as the sampled-data check takes its linear part
+    ``M0, B`` (``models.design.plant_spectral_radii``), in the form of the design's
+    ``nominal`` model: its identified theta for a theta model (Table 1's), the arm's own
+    Drake model (``models.plant.arm_model``) for a URDF nominal model."""
+    if isinstance(nominal, LumpedParameters):
+        return identify(arm, root_context)
+    return arm_model(arm, root_context)

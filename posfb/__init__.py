@@ -37,6 +37,10 @@ _EXPORTS = {
     "simulate": "posfb.analysis.api",
     "build": "posfb.analysis.api",
     "compare": "posfb.analysis.api",
+    "tune": "posfb.analysis.api",
+    "TuneSettings": "posfb.analysis.tuning.settings",
+    "TuneResult": "posfb.analysis.tuning.tune",
+    "TuneError": "posfb.analysis.tuning.search",
     "shipped_scenarios": "posfb.analysis.api",
     "Run": "posfb.analysis.api",
     "BuiltLoop": "posfb.analysis.api",
@@ -59,12 +63,16 @@ __all__ = [
     "PluginError",
     "Run",
     "ScenarioWarning",
+    "TuneError",
+    "TuneResult",
+    "TuneSettings",
     "__version__",
     "build",
     "compare",
     "load_scenario",
     "shipped_scenarios",
     "simulate",
+    "tune",
 ]
 
 if TYPE_CHECKING:
@@ -78,7 +86,11 @@ if TYPE_CHECKING:
         load_scenario,
         shipped_scenarios,
         simulate,
+        tune,
     )
+    from posfb.analysis.tuning.search import TuneError
+    from posfb.analysis.tuning.settings import TuneSettings
+    from posfb.analysis.tuning.tune import TuneResult
     from posfb.diagrams.resolve import LoadedScenario
     from posfb.models.controllers.plugin import (
         Controller,

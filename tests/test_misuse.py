@@ -72,6 +72,7 @@ BINARY = bytes(range(256)) * 4
 SCENARIOS = Path(__file__).resolve().parent.parent / "analysis" / "scenarios"
 THREE_LINK = str(SCENARIOS / "three_link_nominal.yaml")
 SIX_JOINT = str(SCENARIOS / "six_joint_nominal.yaml")
+STUDIES = SCENARIOS.parent / "studies"
 
 CASES = {
     # scenario keys and values (simulate)
@@ -104,6 +105,32 @@ CASES = {
     ),
     "bad discretisation": Case(("design", "--set", "controller.discretisation=euler"), "foh"),
     "non-positive alpha*": Case(("design", "--alpha-star", "0"), "controller.alpha_star"),
+    # the stability map (posfb design --map)
+    "map unknown key": Case(
+        ("design", "--map", "--map-axes", "timing.sample_time", "controller.alpha_sta"),
+        "--map-axes controller.alpha_sta: unknown key",
+    ),
+    "map non-numeric key": Case(
+        ("design", "--map", "--map-axes", "timing.sample_time", "controller.discretisation"),
+        "is not a number",
+    ),
+    "map key outside the design": Case(
+        ("design", "--map", "--map-axes", "sensor.encoder_counts", "controller.alpha_star"),
+        "not a design key",
+    ),
+    "map range backwards": Case(
+        ("design", "--map", "--map-range", "0.02", "0.01", "1", "4"), "finite LOW < HIGH"
+    ),
+    "map range of a refused value": Case(
+        ("design", "--map", "--map-range", "0.005", "0.02", "-1", "4"), "alpha_star"
+    ),
+    "map one point": Case(("design", "--map", "--map-points", "1"), "--map-points 1"),
+    "map negative margin": Case(("design", "--map", "--margin", "-0.1"), "--margin"),
+    "map study of another arm": Case(
+        ("design", "--map", "--study", str(STUDIES / "three_link_uncertainty.yaml")),
+        "3-joint arm",
+    ),
+    "map option without --map": Case(("design", "--plants", "3"), "add --map"),
     "scenario and case": Case(
         ("simulate", "--scenario", "{tmp}/comment.yaml", "--case", "payload"), "choose one"
     ),
@@ -161,6 +188,55 @@ CASES = {
     "CSV missing": Case(("simulate", "--scenario", "{tmp}/csv4.yaml"), "does not exist"),
     "one waypoint": Case(("simulate", "--scenario", "{tmp}/one_waypoint.yaml"), "at least 2"),
     "check missing file": Case(("scenario", "check", "{tmp}/nope.yaml"), "does not exist"),
+    # scenario init: options checked where they enter
+    "init zero sample time": Case(
+        ("scenario", "init", "--urdf", str(DEFAULT_URDF), "--out", "{tmp}/s.yaml",
+         "--sample-time", "0"), "--sample-time",
+    ),  # fmt: skip
+    "init zero encoder counts": Case(
+        ("scenario", "init", "--urdf", str(DEFAULT_URDF), "--out", "{tmp}/s.yaml",
+         "--encoder-counts", "0"), "--encoder-counts",
+    ),  # fmt: skip
+    "init negative voltage limit": Case(
+        ("scenario", "init", "--urdf", str(DEFAULT_URDF), "--out", "{tmp}/s.yaml",
+         "--voltage-limit", "-1"), "--voltage-limit",
+    ),  # fmt: skip
+    "init missing URDF": Case(
+        ("scenario", "init", "--urdf", "{tmp}/no.urdf", "--out", "{tmp}/s.yaml"), "does not exist"
+    ),
+    "init invalid URDF": Case(
+        ("scenario", "init", "--urdf", "{tmp}/prismatic.urdf", "--out", "{tmp}/s.yaml"),
+        "prismatic",
+    ),
+    "init over an existing file": Case(
+        ("scenario", "init", "--urdf", str(DEFAULT_URDF), "--out", "{tmp}/a_file"), "--force",
+        ("a_file",),
+    ),
+    # tune: a bad study or option is bad input (2); no design is a result (1)
+    "tune study of another arm": Case(
+        ("tune", str(SCENARIOS / "paper_nominal.yaml"), "--study",
+         str(STUDIES / "three_link_uncertainty.yaml"), "--out", "{tmp}/t.yaml"),
+        "a study of the scenario's arm is required",
+    ),  # fmt: skip
+    "tune missing study": Case(
+        ("tune", str(SCENARIOS / "paper_nominal.yaml"), "--study", "{tmp}/no.yaml",
+         "--out", "{tmp}/t.yaml"), "does not exist",
+    ),  # fmt: skip
+    "tune bad margin": Case(
+        ("tune", str(SCENARIOS / "paper_nominal.yaml"), "--margin", "1.5", "--out",
+         "{tmp}/t.yaml"), "--margin = 1.5; 0 <= margin < 1 is required",
+    ),  # fmt: skip
+    "tune out suffix": Case(
+        ("tune", str(SCENARIOS / "paper_nominal.yaml"), "--out", "{tmp}/t.txt"), ".yaml"
+    ),
+    "tune infeasible": Case(
+        ("tune", str(SCENARIOS / "paper_nominal.yaml"), "--margin", "0.95", "--plants", "2",
+         "--generations", "1", "--out", "{tmp}/t.yaml"), "no proposed design meets", code=1,
+    ),  # fmt: skip
+    "tune over budget": Case(
+        ("tune", str(SCENARIOS / "paper_nominal.yaml"), "--budget", "0.01", "--plants", "2",
+         "--out", "{tmp}/t.yaml"), "no design within the budget", code=1,
+    ),  # fmt: skip
     # URDFs
     "plant URDF missing": Case(("simulate", "--set", "plant.urdf={tmp}/no.urdf"), "plant.urdf"),
     "plant URDF folder": Case(("simulate", "--set", "plant.urdf={tmp}"), "is a directory"),

@@ -6,6 +6,10 @@ The sampled-data spectral radius is that of the nominal linear plant
 filters at ``alpha = alpha*``. A failed check is reported (``warnings`` in JSON,
 ``FAILED`` in the text) and the command exits 0 (the report is the result), or 1
 with ``--strict``.
+
+``--map`` draws the stability map instead (``analysis.stability_map``): the nominal
+loop's spectral radius and the share of sampled plants robustly stable over a grid of
+two design keys, and the largest sample time with a robust design.
 """
 
 from __future__ import annotations
@@ -17,10 +21,14 @@ from typing import TYPE_CHECKING
 
 from posfb.analysis.commands.scenario_args import add_scenario_arguments, scenario_from_args
 from posfb.analysis.errors import UsageError
+from posfb.analysis.tuning.settings import DEFAULT_MARGIN, TuneSettings
 
 if TYPE_CHECKING:
     import numpy as np
 
+    from posfb.analysis.stability_map import MapAxis
+    from posfb.diagrams.closed_loop import ClosedLoopConfig
+    from posfb.diagrams.resolve import LoadedScenario
     from posfb.models.design import ControllerConfig, Design
 
 #: Exit code of ``--strict`` when a check fails.
@@ -33,17 +41,66 @@ def configure(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--strict", action="store_true", help="exit 1 when any design check fails (for scripts)"
     )
+    add_map_arguments(parser)
     parser.set_defaults(handler=run)
 
 
-def design_config(args: argparse.Namespace) -> tuple[ControllerConfig, tuple[str, ...]]:
-    """The design inputs of the scenario the command line describes and the design checks
-    its controller entry determines (``models.controllers.design_checks``); PID and the
-    plug-ins (PD + gravity, ADRC, a ``!Python`` class) have no Sec. 3 design: refused."""
-    from posfb.diagrams.resolve import resolve
+#: The ``--map`` options (argparse dest -> flag), refused without ``--map``.
+MAP_OPTIONS = {"map_axes": "--map-axes", "map_range": "--map-range", "map_points": "--map-points",
+               "study": "--study", "plants": "--plants", "seed": "--seed", "margin": "--margin",
+               "mark": "--mark", "out": "--out"}  # fmt: skip
+
+
+def add_map_arguments(parser: argparse.ArgumentParser) -> None:
+    """``--map`` and its options. The defaults are ``analysis.tuning.settings``' and
+    ``analysis.stability_map``'s; the help restates the latter's without importing it (it
+    loads Drake), and ``tests/test_stability_map.py`` keeps the two equal."""
+    defaults = TuneSettings()
+    group = parser.add_argument_group(
+        "stability map (--map)",
+        "the nominal loop's sampled-data spectral radius rho and the share of sampled "
+        "plants with rho <= 1 - margin over a grid of two design keys; prints the largest "
+        "sample time with a robust design on the map",
+    )
+    group.add_argument("--map", action="store_true", help="draw the stability map")
+    group.add_argument(
+        "--map-axes", nargs=2, metavar="KEY",
+        help="x and y keys: timing.sample_time or a numeric key of the controller entry "
+        "(default: timing.sample_time controller.alpha_star)",
+    )  # fmt: skip
+    group.add_argument(
+        "--map-range", nargs=4, type=float, metavar=("XLOW", "XHIGH", "YLOW", "YHIGH"),
+        help="grid ranges (default: T_s/4 .. 4 T_s for the sample time, value/16 .. 2 value "
+        "for another key, e.g. alpha* 0.25 .. 8 for alpha* = 4)",
+    )  # fmt: skip
+    group.add_argument("--map-points", type=int, metavar="N",
+                       help="grid points per axis (default 25, 3 .. 201)")  # fmt: skip
+    group.add_argument("--study", metavar="STUDY.yaml",
+                       help="draw the plants from a study's distributions (default: +-20 %% on "
+                       "every link and drive parameter, motor constants 5 %%)")  # fmt: skip
+    group.add_argument(
+        "--plants", type=int, metavar="N", help=f"sampled plants (default {defaults.plants})"
+    )
+    group.add_argument(
+        "--seed", type=int, metavar="S", help=f"seed of the plants (default {defaults.seed})"
+    )
+    group.add_argument(
+        "--margin", type=float, metavar="M", help=f"robust: rho <= 1 - M (default {DEFAULT_MARGIN})"
+    )
+    group.add_argument("--mark", metavar="TUNED.yaml",
+                       help="also mark this scenario's values of the two keys (e.g. posfb "
+                       "tune's output)")  # fmt: skip
+    group.add_argument(
+        "--out", metavar="DIR", help="write stability_map.png, .svg and .json into DIR"
+    )
+
+
+def relevant_checks(config: ClosedLoopConfig) -> tuple[str, ...]:
+    """The design checks the controller entry of a resolved ``config`` determines
+    (``models.controllers.design_checks``); PID and the plug-ins (PD + gravity, ADRC, a
+    ``!Python`` class) have no Sec. 3 design: refused."""
     from posfb.models.controllers import design_checks
 
-    config = resolve(scenario_from_args(args)).config
     relevant = design_checks(config.controller)
     if not relevant:
         raise UsageError(
@@ -51,7 +108,16 @@ def design_config(args: argparse.Namespace) -> tuple[ControllerConfig, tuple[str
             "posfb design designs the paper's controller and Lin+LC "
             "(--set controller.kind=proposed or lin_lc)"
         )
-    return config.design, relevant
+    return relevant
+
+
+def design_config(args: argparse.Namespace) -> tuple[ControllerConfig, tuple[str, ...]]:
+    """The design inputs of the scenario the command line describes and the design checks
+    its controller entry determines (``relevant_checks``)."""
+    from posfb.diagrams.resolve import resolve
+
+    config = resolve(scenario_from_args(args)).config
+    return config.design, relevant_checks(config)
 
 
 def _poles(poles: np.ndarray) -> list[list[float]]:
@@ -170,6 +236,11 @@ def format_report(design: Design, relevant: tuple[str, ...] | None = None) -> st
 def run(args: argparse.Namespace) -> int:
     from posfb.models.design import compute_design
 
+    if args.map:
+        return run_map(args)
+    given = [flag for dest, flag in MAP_OPTIONS.items() if getattr(args, dest) is not None]
+    if given:
+        raise UsageError(f"{given[0]} applies to the stability map; add --map")
     config, relevant = design_config(args)
     design = compute_design(config)
     failed = [c for c in design.checks if c.name in relevant and not c.passed]
@@ -178,3 +249,85 @@ def run(args: argparse.Namespace) -> int:
     else:
         print(format_report(design, relevant))
     return EXIT_FAILED_CHECK if args.strict and failed else 0
+
+
+def _map_settings(args: argparse.Namespace) -> TuneSettings:
+    """``--plants``, ``--seed``, ``--margin`` over ``TuneSettings``' defaults, validated."""
+    defaults = TuneSettings()
+    try:
+        settings = TuneSettings(
+            margin=defaults.margin if args.margin is None else args.margin,
+            plants=defaults.plants if args.plants is None else args.plants,
+            seed=defaults.seed if args.seed is None else args.seed,
+        )
+    except ValueError as error:
+        raise UsageError(f"--{error}") from None
+    if settings.plants < 1:
+        raise UsageError(f"--plants {settings.plants}; an integer >= 1 is required")
+    return settings
+
+
+def _map_axes(args: argparse.Namespace, loaded: LoadedScenario) -> list[MapAxis]:
+    """The two ``MapAxis`` of the command line, keys, ranges and ends validated."""
+    import numpy as np
+
+    from posfb.analysis import stability_map as sm
+
+    keys = tuple(args.map_axes or sm.DEFAULT_AXES)
+    if keys[0] == keys[1]:
+        raise UsageError(f"--map-axes {keys[0]} {keys[1]}: two different keys are required")
+    points = sm.DEFAULT_POINTS if args.map_points is None else args.map_points
+    sm.check_points(points)
+    values = [sm.key_value(loaded, key) for key in keys]
+    ranges = (
+        [sm.default_range(k, v) for k, v in zip(keys, values, strict=True)]
+        if args.map_range is None
+        else [tuple(args.map_range[:2]), tuple(args.map_range[2:])]
+    )
+    for key, (low, high) in zip(keys, ranges, strict=True):
+        sm.check_range(key, low, high)
+    axes = [
+        sm.MapAxis(key, np.linspace(low, high, points), value)
+        for key, value, (low, high) in zip(keys, values, ranges, strict=True)
+    ]
+    sm.check_endpoints(loaded, axes)
+    return axes
+
+
+def run_map(args: argparse.Namespace) -> int:
+    """``posfb design --map``: compute, print (or ``--json``), and with ``--out`` write the
+    figure and the JSON."""
+    from posfb.analysis import stability_map as sm
+    from posfb.analysis.outputs import output_folder
+    from posfb.diagrams.resolve import resolve
+
+    if args.strict:
+        raise UsageError("--strict applies to the design report, not to --map")
+    out = None if args.out is None else output_folder("--out", args.out)
+    settings = _map_settings(args)
+    loaded = scenario_from_args(args)
+    relevant = relevant_checks(resolve(loaded).config)
+    x, y = _map_axes(args, loaded)
+    marks = {"scenario": {x.key: x.scenario_value, y.key: y.scenario_value}}
+    if args.mark is not None:
+        marks["marked"] = sm.mark_values(args.mark, (x.key, y.key))
+    study = None
+    if args.study is not None:
+        from posfb.analysis.montecarlo.config import load_study
+
+        study = load_study(args.study)
+    setup = sm.map_setup(loaded, relevant, study, settings.plants, settings.seed, settings.margin)
+    smap = sm.compute_map(setup, x, y)
+    robust = sm.largest_robust_sample_time(setup, smap)
+    points = {name: (values, sm.evaluate_point(setup, values)) for name, values in marks.items()}
+    data = sm.map_to_dict(setup, smap, robust, points, settings.seed, args.study)
+    if out is not None:
+        paths = sm.write_map(out, sm.plot_map(setup, smap, marks, robust), data)
+        data["files"] = [str(p) for p in paths]
+    if args.json:
+        print(json.dumps(data, allow_nan=False))
+    else:
+        print(sm.format_map(setup, smap, robust, points))
+        if out is not None:
+            print(f"wrote {', '.join(data['files'])}")
+    return 0

@@ -1,10 +1,12 @@
-"""``posfb scenario dump|check``: the settings tree of a run, written out in full
-or validated with the design verdict (Sec. 3 checks, sampled-data radius)."""
+"""``posfb scenario dump|check|init``: the settings tree of a run, written out in full,
+validated with the design verdict (Sec. 3 checks, sampled-data radius), or derived for a
+new arm from its URDF (``analysis.scenario_init``)."""
 
 from __future__ import annotations
 
 import argparse
 import sys
+from pathlib import Path
 
 from posfb.analysis.commands.design import EXIT_FAILED_CHECK, format_report
 from posfb.analysis.commands.scenario_args import add_scenario_arguments, scenario_from_args
@@ -23,6 +25,21 @@ def configure(parser: argparse.ArgumentParser) -> None:
         "those of the scenario's controller",
     )  # fmt: skip
     check.set_defaults(handler=run_check)
+    init = actions.add_parser(
+        "init", help="write a complete, commented scenario for the serial arm of a URDF"
+    )
+    init.add_argument("--urdf", required=True, type=Path, help="the arm (urdf/README.md)")
+    init.add_argument("--out", required=True, type=Path, help="the scenario YAML to write")
+    init.add_argument("--sample-time", type=float, metavar="TS",
+                      help="T_s in seconds (default: timing.sample_time's)")
+    init.add_argument("--encoder-counts", type=int, metavar="N",
+                      help="encoder counts per revolution (default: sensor.encoder_counts')")
+    init.add_argument("--voltage-limit", type=float, metavar="V",
+                      help="armature-voltage limit, V (default: actuator.voltage_limit's)")
+    init.add_argument("--duration", type=float, metavar="D",
+                      help="simulated seconds (default: timing.duration's)")
+    init.add_argument("--force", action="store_true", help="overwrite an existing --out")
+    init.set_defaults(handler=run_init)  # fmt: skip
 
 
 def run_dump(args: argparse.Namespace) -> int:
@@ -58,4 +75,24 @@ def run_check(args: argparse.Namespace) -> int:
         print(f"verdict: {whose} fails {', '.join(failed)}")
         return EXIT_FAILED_CHECK
     print(f"verdict: every check of {whose} passed")
+    return 0
+
+
+def run_init(args: argparse.Namespace) -> int:
+    from posfb.analysis.scenario_init import InitOptions, write_scenario
+
+    result = write_scenario(
+        InitOptions(
+            urdf=args.urdf, out=args.out, sample_time=args.sample_time,
+            encoder_counts=args.encoder_counts, voltage_limit=args.voltage_limit,
+            duration=args.duration, force=args.force,
+        )  # fmt: skip
+    )
+    print(
+        f"{result.path}: {result.joints} joints; trajectory at {result.scale:.3g} of the rule's "
+        f"motion, nominal peak {result.peak_fraction:.0%} of the voltage limit; alpha* = "
+        f"{result.alpha_star:g} (nominal sampled-data radius {result.radius:.4f}, Lin+LC "
+        f"{result.radius_lin_lc:.4f})"
+    )
+    print(f"next: posfb scenario check {result.path}")
     return 0

@@ -44,10 +44,9 @@ from posfb.diagrams.scenario import (
 )
 from posfb.models.controllers import cached_design
 from posfb.models.design import LOOP_CONTROLLERS, ControllerConfig, plant_spectral_radii
-from posfb.models.identify import identify
+from posfb.models.identify import linear_part_model
 from posfb.models.lumped import LumpedParameters
 from posfb.models.nominal import nominal_model
-from posfb.models.plant import arm_model
 
 
 def _metrics_dict(metrics: RunMetrics) -> dict[str, float | None]:
@@ -176,12 +175,11 @@ class ClosedLoopEvaluator:
         identified, for a theta nominal model; empty otherwise), where it lies against
         the Assumption-1 bounds, and its linear part as the sampled-data check takes it
         (the identified theta, or the sampled arm's own Drake model)."""
-        bounds, arm = cached_design(design).bounds, self._reference.arm
-        if isinstance(design.nominal, LumpedParameters):
-            theta = identify(arm, context)
-            where = coverage(theta, design.nominal, bounds)
-            return {key: float(value) for key, value in theta.as_dict().items()}, where, theta
-        true = arm_model(arm, context)
+        bounds = cached_design(design).bounds
+        true = linear_part_model(self._reference.arm, context, design.nominal)
+        if isinstance(true, LumpedParameters):
+            where = coverage(true, design.nominal, bounds)
+            return {key: float(value) for key, value in true.as_dict().items()}, where, true
         return {}, serial_coverage(true, nominal_model(design.nominal), bounds), true
 
     @staticmethod

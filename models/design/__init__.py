@@ -17,6 +17,9 @@ from posfb.models.design.synthesis import (
     Check,
     Design,
     compute_design,
+    design_loop,
+    held_design_loop,
+    held_design_radius,
     plant_spectral_radii,
 )
 
@@ -35,5 +38,8 @@ __all__ = [
     "PidGains",
     "UncertaintyBounds",
     "compute_design",
+    "design_loop",
+    "held_design_loop",
+    "held_design_radius",
     "diagonal",
 ]

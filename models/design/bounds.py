@@ -9,6 +9,7 @@
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass
 
@@ -135,9 +136,12 @@ def _serial_norms(model: SerialArmModel, k_C1: float | None) -> tuple[dict[str, 
     }, k_C1
 
 
+@functools.lru_cache(maxsize=32)
 def resolve_bounds(bounds: UncertaintyBounds, nominal: NominalModel) -> ResolvedBounds:
     """Fill each ``None`` of ``bounds`` with ``relative`` times the nominal norm: closed
-    forms for the two-link theta model, a sampled workspace search for a URDF model."""
+    forms for the two-link theta model, a sampled workspace search for a URDF model
+    (seconds for six joints: cached, since designs that differ only in their weights, as
+    a tuner's do, share the bounds)."""
     model = nominal_model(nominal)
     if isinstance(nominal, LumpedParameters):
         k_C1 = coriolis_bound(nominal) if bounds.k_C1 is None else bounds.k_C1

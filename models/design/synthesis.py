@@ -33,7 +33,12 @@ from posfb.models.design.bounds import (
     resolve_bounds,
 )
 from posfb.models.design.closed_loop import (
+    HeldPlant,
+    SampledLoop,
     continuous_closed_loop,
+    held_loop,
+    held_plant,
+    held_transition,
     sampled_data_closed_loop,
     spectral_radius,
 )
@@ -209,29 +214,60 @@ def _stability_check(name: str, what: str, radius: float) -> Check:
 LOOP_CONTROLLERS = ("proposed", "lin_lc")
 
 
+def _output_gain(controller: str, n: int, outputs: int, alpha_star: float) -> np.ndarray:
+    """``G`` of ``u = G y`` for a ``LOOP_CONTROLLERS`` filter with ``outputs`` outputs: the
+    proposed controller's ``[eta~, phi, p, pbar]`` give ``u = eta~ - alpha* phi`` (Eq. 13,
+    19 with ``alpha = alpha*``; the bound filter runs open loop, so its poles ``abar`` are
+    in the spectrum too), Lin+LC's ``eta~`` gives ``u = eta~``."""
+    if controller == "lin_lc":
+        return np.eye(n)
+    return np.hstack([np.eye(n), -alpha_star * np.eye(n), np.zeros((n, outputs - 2 * n))])
+
+
 def _loop_radii(
     M0: np.ndarray,
     B: np.ndarray,
-    proposed_filter: DiscreteFilter,
-    lin_lc_filter: DiscreteFilter,
+    filters: dict[str, DiscreteFilter],
     alpha_star: float,
     sample_time: float,
 ) -> dict[str, float]:
-    """Spectral radius of each ``LOOP_CONTROLLERS`` sampled-data loop on the linear part
-    ``M0 q~'' + B q~' = u`` (``models.design.closed_loop``). The proposed controller's
-    filter outputs ``[eta~, phi, p, pbar]`` give ``u = eta~ - alpha* phi`` (Eq. 13, 19 with
-    ``alpha = alpha*``); the bound filter runs open loop, so its poles ``abar`` are in the
-    spectrum too."""
-    n, outputs = len(M0), proposed_filter.C.shape[0]
-    gain = np.hstack([np.eye(n), -alpha_star * np.eye(n), np.zeros((n, outputs - 2 * n))])
+    """Spectral radius of each ``LOOP_CONTROLLERS`` sampled-data loop (its filter in
+    ``filters``) on the linear part ``M0 q~'' + B q~' = u`` (``models.design.closed_loop``)."""
     return {
-        "proposed": spectral_radius(
-            sampled_data_closed_loop(M0, B, proposed_filter, gain, sample_time)
-        ),
-        "lin_lc": spectral_radius(
-            sampled_data_closed_loop(M0, B, lin_lc_filter, np.eye(n), sample_time)
-        ),
+        name: spectral_radius(
+            sampled_data_closed_loop(
+                M0, B, filters[name],
+                _output_gain(name, len(M0), filters[name].C.shape[0], alpha_star), sample_time,
+            )  # fmt: skip
+        )
+        for name in LOOP_CONTROLLERS
     }
+
+
+def design_loop(design: Design, controller: str, M0: np.ndarray, B: np.ndarray) -> SampledLoop:
+    """The sampled-data loop of ``controller`` (one of ``LOOP_CONTROLLERS``) with its filter
+    *as designed* closed around the linear part ``M0, B`` (``SampledLoop``: its inputs and
+    outputs too)."""
+    return held_design_loop(design, controller, held_plant(M0, B, design.config.sample_time))
+
+
+def _designed(design: Design, controller: str, joints: int) -> tuple[DiscreteFilter, np.ndarray]:
+    """The filter of ``controller`` as designed and its output gain."""
+    designed = design.proposed_filter if controller == "proposed" else design.lin_lc_filter
+    gain = _output_gain(controller, joints, designed.C.shape[0], design.config.nonlinear.alpha_star)
+    return designed, gain
+
+
+def held_design_loop(design: Design, controller: str, plant: HeldPlant) -> SampledLoop:
+    """``design_loop`` around a plant already held over the design's sample time."""
+    return held_loop(plant, *_designed(design, controller, plant.Gamma.shape[1]))
+
+
+def held_design_radius(design: Design, controller: str, plant: HeldPlant) -> float:
+    """The spectral radius of ``held_design_loop`` (only its transition matrix is built)."""
+    return spectral_radius(
+        held_transition(plant, *_designed(design, controller, plant.Gamma.shape[1]))
+    )
 
 
 def plant_spectral_radii(
@@ -245,8 +281,7 @@ def plant_spectral_radii(
     return _loop_radii(
         model.M0(),
         model.B(),
-        design.proposed_filter,
-        design.lin_lc_filter,
+        {"proposed": design.proposed_filter, "lin_lc": design.lin_lc_filter},
         design.config.nonlinear.alpha_star,
         design.config.sample_time,
     )
@@ -278,7 +313,9 @@ def compute_design(config: ControllerConfig | None = None) -> Design:
     nc_gain = np.hstack([np.eye(n), -nonlinear.alpha_star * np.eye(n)])
     lin_lc_filter = lc.discretise(T, method)
     proposed_filter = stack(nc, velocity_bound_filter(nonlinear.filter_a, n)).discretise(T, method)
-    radii = _loop_radii(M0, B, proposed_filter, lin_lc_filter, nonlinear.alpha_star, T)
+    radii = _loop_radii(
+        M0, B, {"proposed": proposed_filter, "lin_lc": lin_lc_filter}, nonlinear.alpha_star, T
+    )
     continuous_poles = _sorted_poles(augmented.A_a - augmented.B_a1 @ lqr.K)
     poles_with_nc = _sorted_poles(continuous_closed_loop(M0, B, nc, nc_gain))
     lc_filter_poles = _sorted_poles(lc.A)
