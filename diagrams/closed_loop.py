@@ -9,6 +9,10 @@ many times::
                         ^                                                   Coulomb)
                   [encoder_noise]  (bracketed blocks only where the config asks)
 
+Between controller and arm the actuator section (``diagrams.actuator``): [compute_delay]
+-> [dac] -> voltage_saturation -> [electrical_lag], each bracketed block only where the
+config switches its effect on.
+
 The only path from the plant to the controller is the quantised position
 (``tests/test_closed_loop.py`` checks it on the diagram's graph): the true
 velocity feeds the friction and motor-work blocks and the loggers, never the
@@ -92,6 +96,13 @@ from pydrake.systems.primitives import (
     ZeroOrderHold,
 )
 
+from posfb.diagrams.actuator import (
+    ActuatorBlocks,
+    add_actuator,
+    require_compute_delay,
+    require_dac_bits,
+    require_time_constant,
+)
 from posfb.diagrams.encoder import Encoder, per_joint_counts
 from posfb.diagrams.sections import Actuator, Sensor, Timing
 from posfb.models.controllers import (
@@ -103,7 +114,14 @@ from posfb.models.controllers import (
     make_controller,
 )
 from posfb.models.controllers.plugin import user_frames
-from posfb.models.plant import Arm, ArmParameters, PlantConfig, add_arm, apply_parameters
+from posfb.models.plant import (
+    Arm,
+    ArmParameters,
+    PlantConfig,
+    add_arm,
+    apply_parameters,
+    set_friction_law,
+)
 from posfb.models.trajectory import Trajectory, WaveTrajectory, sampled_source
 from posfb.models.validation import (
     per_joint,
@@ -170,7 +188,9 @@ class ClosedLoopConfig:
     ``encoder_counts`` per revolution (0: ideal; default and its justification in
     ``diagrams.encoder``), ``zero_offset`` (rad, added to the true position before
     quantisation), ``noise_std`` (rad, additive Gaussian noise after it, drawn from
-    ``noise_seed``), ``delay_samples`` (whole periods), ``voltage_limit`` (V);
+    ``noise_seed``), ``delay_samples`` (whole periods), ``voltage_limit`` (V),
+    ``electrical_time_constant`` (s), and ``dac_bits`` and ``compute_delay`` (s, at most
+    ``T_s``) for all joints (``diagrams.actuator``; 0 switches an effect off);
     ``true_plant`` the true arm's payload and parameter overrides
     (``ClosedLoopRunner.run`` applies them unless it is given other parameters, as a
     Monte-Carlo sample is). The number of joints
@@ -251,12 +271,24 @@ class ClosedLoopConfig:
         set_field("_limits", limits)
         for j, limit in enumerate(self.voltage_limit):
             require_positive(f"actuator.voltage_limit[{j}]", limit)
+        self._check_actuator_effects()
         require_positive("timing.divergence_bound", self.divergence_bound)
         self._check_simulator()
         if not isinstance(self.plant, PlantConfig):
             raise ValueError(f"plant = {self.plant!r} is not a PlantConfig")
         if not isinstance(self.true_plant, TruePlant):
             raise ValueError(f"true_plant = {self.true_plant!r} is not a TruePlant")
+
+    def _check_actuator_effects(self) -> None:
+        """``actuator.electrical_time_constant``, ``dac_bits``, ``compute_delay``
+        (``diagrams.actuator``)."""
+        key = "actuator.electrical_time_constant"
+        taus = per_joint(key, self.actuator.electrical_time_constant, self.joints)
+        checked = (require_time_constant(f"{key}[{j}]", tau) for j, tau in enumerate(taus))
+        object.__setattr__(self, "_taus", tuple(checked))
+        require_dac_bits("actuator.dac_bits", self.actuator.dac_bits)
+        delay = self.actuator.compute_delay
+        require_compute_delay("actuator.compute_delay", delay, self.sample_time)
 
     def _check_simulator(self) -> None:
         simulator = self.simulator
@@ -321,6 +353,21 @@ class ClosedLoopConfig:
     def voltage_limit(self) -> tuple[float, ...]:
         """Armature-voltage saturation (V), one per joint (``actuator.voltage_limit``)."""
         return self._limits  # type: ignore[attr-defined]
+
+    @property
+    def electrical_time_constant(self) -> tuple[float, ...]:
+        """Armature L/R (s), one per joint (0: static motor; ``diagrams.actuator``)."""
+        return self._taus  # type: ignore[attr-defined]
+
+    @property
+    def dac_bits(self) -> int:
+        """DAC resolution in bits (0: ideal)."""
+        return int(self.actuator.dac_bits)
+
+    @property
+    def compute_delay(self) -> float:
+        """The DSP's computation time (s): ``u_k`` applies from ``t_k + compute_delay``."""
+        return float(self.actuator.compute_delay)
 
     @property
     def spec(self) -> ControllerSpec:
@@ -397,7 +444,8 @@ class ClosedLoopResult:
 class LoopSystems:
     """The closed loop's systems, as an ``extend`` callback of ``build_closed_loop``
     sees them before the diagram is built (``delay`` and ``noise_source`` are ``None``
-    where the sensor has no delay or noise)."""
+    where the sensor has no delay or noise; ``actuator`` holds the actuator section's
+    blocks, ``diagrams.actuator``)."""
 
     arm: Arm
     trajectory_source: TrajectorySource
@@ -411,6 +459,7 @@ class LoopSystems:
     logger: VectorLogSink
     log_columns: dict[str, slice]
     scene_graph: SceneGraph
+    actuator: ActuatorBlocks | None = None
 
 
 #: ``extend(builder, systems)``: wires more into a closed loop before it is built.
@@ -509,23 +558,29 @@ def build_closed_loop(
             settings=config.controller_settings,
         )
     )
-    limit = np.array(config.voltage_limit)
-    saturation = builder.AddSystem(Saturation(-limit, limit))
-    saturation.set_name("voltage_saturation")
+    actuator = add_actuator(
+        builder,
+        controller.GetOutputPort("voltage"),
+        limits=config.voltage_limit,
+        sample_time=config.sample_time,
+        compute_delay=config.compute_delay,
+        dac_bits=config.dac_bits,
+        electrical_time_constant=config.electrical_time_constant,
+    )
+    saturation = actuator.saturation
 
     desired_port = trajectory.get_output_port(0)
     encoder_hold, desired_hold = hold_inputs(
         builder, controller, measured, desired_port, config.sample_time
     )
-    builder.Connect(controller.GetOutputPort("voltage"), saturation.get_input_port(0))
-    builder.Connect(saturation.get_output_port(0), arm.voltage_input_port())
+    builder.Connect(actuator.motor_voltage, arm.voltage_input_port())
 
     sources = {
         "q_true": arm.position_output_port(),
         "q_measured": measured,
         "desired": desired_port,
         "u_commanded": controller.GetOutputPort("voltage"),
-        "u_applied": saturation.get_output_port(0),
+        "u_applied": actuator.applied,
         "internals": controller.GetOutputPort("internals"),
     }
     sizes = [sources[name].size() for name in LOGGED]
@@ -542,7 +597,7 @@ def build_closed_loop(
 
     systems = LoopSystems(
         arm, trajectory, encoder, delay, noise_source, encoder_hold, desired_hold, controller,
-        saturation, logger, log_columns, _find_scene_graph(builder),
+        saturation, logger, log_columns, _find_scene_graph(builder), actuator,
     )  # fmt: skip
     if extend is not None:
         extend(builder, systems)
@@ -586,11 +641,17 @@ class ClosedLoopRunner:
         return self.config.true_plant.parameters(self.arm.default_parameters)
 
     def new_context(
-        self, parameters: ArmParameters | None = None, sensor: SensorState | None = None
+        self,
+        parameters: ArmParameters | None = None,
+        sensor: SensorState | None = None,
+        friction: object | None = None,
     ) -> Context:
         """A fresh Context: true ``parameters`` (default: ``true_parameters()``), the
-        ``sensor`` settings (default: the config's), the arm at rest at ``q_d(0)``; a
-        sensor delay line is filled with the first measurement."""
+        ``sensor`` settings (default: the config's), the friction law's values
+        (``friction``, an entry of the law the diagram was built with, e.g. a Monte-Carlo
+        sample's draw; default: the config's), the arm at rest at ``q_d(0)``; a sensor
+        delay line is filled with the first measurement; a compute-delay hold
+        (``diagrams.actuator``) starts at the controller's voltage before its first update."""
         loop, config = self.loop, self.config
         sensor = config.sensor_state if sensor is None else sensor
         if any(std > 0.0 for std in sensor.noise_std) and loop.noise_source is None:
@@ -600,6 +661,8 @@ class ClosedLoopRunner:
             )
         context = loop.diagram.CreateDefaultContext()
         apply_parameters(loop.arm, context, parameters or self.true_parameters())
+        if friction is not None:
+            set_friction_law(loop.arm, context, friction)
         encoder_context = loop.encoder.GetMyMutableContextFromRoot(context)
         loop.encoder.set_counts(encoder_context, sensor.encoder_counts)
         loop.encoder.set_zero_offset(encoder_context, sensor.zero_offset)
@@ -626,14 +689,23 @@ class ClosedLoopRunner:
             loop.desired_hold.GetMyMutableContextFromRoot(context),
             np.concatenate(config.trajectory.evaluate(0.0)),
         )
+        hold = loop.actuator.compute_delay if loop.actuator is not None else None
+        if hold is not None:  # applied until t = compute_delay (diagrams.actuator)
+            voltage = loop.controller.GetOutputPort("voltage").Eval(
+                loop.controller.GetMyContextFromRoot(context)
+            )
+            hold.SetVectorState(hold.GetMyMutableContextFromRoot(context), voltage)
         return context
 
     def new_simulator(
-        self, parameters: ArmParameters | None = None, sensor: SensorState | None = None
+        self,
+        parameters: ArmParameters | None = None,
+        sensor: SensorState | None = None,
+        friction: object | None = None,
     ) -> Simulator:
-        """A ``Simulator`` on ``new_context(parameters, sensor)`` with the config's
-        integrator (``simulator_config``), not yet initialised."""
-        simulator = Simulator(self.loop.diagram, self.new_context(parameters, sensor))
+        """A ``Simulator`` on ``new_context(parameters, sensor, friction)`` with the
+        config's integrator (``simulator_config``), not yet initialised."""
+        simulator = Simulator(self.loop.diagram, self.new_context(parameters, sensor, friction))
         ApplySimulatorConfig(self.simulator_config(), simulator)
         return simulator
 
@@ -642,12 +714,13 @@ class ClosedLoopRunner:
         parameters: ArmParameters | None = None,
         sensor: SensorState | None = None,
         progress: Callable[[float], None] | None = None,
+        friction: object | None = None,
     ) -> ClosedLoopResult:
         """Simulate ``duration`` seconds on the true ``parameters`` with the ``sensor``
-        settings (defaults: ``true_parameters()`` and the config's); ``progress`` is
-        called with the simulated time after every ``MONITOR_SAMPLES`` periods. Never
-        raises for a diverging run."""
-        return self.advance(self.new_simulator(parameters, sensor), progress)
+        settings and the friction law's values (defaults: ``true_parameters()`` and the
+        config's); ``progress`` is called with the simulated time after every
+        ``MONITOR_SAMPLES`` periods. Never raises for a diverging run."""
+        return self.advance(self.new_simulator(parameters, sensor, friction), progress)
 
     def advance(
         self, simulator: Simulator, progress: Callable[[float], None] | None = None

@@ -50,6 +50,7 @@ from posfb.diagrams.yaml_schema import load_typed, read_text
 from posfb.models.controllers import PluginError, UserPlugin, make_controller
 from posfb.models.controllers.plugin import load_plugin, module_plugin
 from posfb.models.design import ControllerConfig
+from posfb.models.friction import law_spec, law_values, tag
 from posfb.models.identify import identify_urdf
 from posfb.models.lumped import TABLE1, LumpedParameters
 from posfb.models.nominal import NominalModel as NominalForm
@@ -346,6 +347,19 @@ def _overrides(settings: ParameterOverrides, joints: int) -> dict[str, tuple[flo
     return overrides
 
 
+def _check_law_coulomb(plant: PlantConfig, levels: tuple[float, ...]) -> None:
+    """A law that divides by the Coulomb level (LuGre) needs it > 0 at every joint."""
+    if not law_spec(plant.friction).positive_coulomb:
+        return
+    for j, level in enumerate(levels):
+        if not level > 0.0:
+            raise ValueError(
+                f"plant.parameters.coulomb[{j}] = {level!r} (or the URDF's "
+                f"posfb:coulomb_friction) with plant.friction = {tag(plant.friction)}; > 0 is "
+                "required (the law divides by g(v) >= f_c)"
+            )
+
+
 def resolve(loaded: LoadedScenario) -> ResolvedScenario:
     """Validate ``loaded`` into a ``ResolvedScenario``; errors name the dotted key."""
     scenario, base = loaded.scenario, loaded.base_dir
@@ -380,7 +394,9 @@ def resolve(loaded: LoadedScenario) -> ResolvedScenario:
             urdf=str(resolve_path(plant.urdf, base)),
             friction_velocity=plant.friction_velocity,
             motor_friction_blocks=plant.motor_friction_blocks,
+            friction=copy.deepcopy(plant.friction),
         )
+        law_values(plant_config.friction, joints)
     except ValueError as error:
         raise in_section("plant", error) from None
     if plant.payload_mass != 0.0 and PAYLOAD_BODY not in chain.links:
@@ -394,6 +410,7 @@ def resolve(loaded: LoadedScenario) -> ResolvedScenario:
         replace(probe, **overrides)
     except ValueError as error:
         raise in_section("plant.parameters", error) from None
+    _check_law_coulomb(plant_config, overrides.get("coulomb", chain.coulomb))
     config = ClosedLoopConfig(
         controller=kind,
         design=design,

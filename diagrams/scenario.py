@@ -8,13 +8,15 @@ the code defines it (``ControllerConfig``, ``PlantConfig``, ``diagrams.sections`
 ``models.design.settings``, ``LumpedParameters``, ``models.trajectory.PAPER_TRAJECTORY``)::
 
     plant:          URDF, tip payload, friction smoothing, motor/friction blocks,
-                    physical parameter overrides (Monte-Carlo names)
+                    physical parameter overrides (Monte-Carlo names), friction law:
+                    !TanhCoulomb {}, !Stribeck, !LuGre (``models.friction``)
     nominal_model:  what the controllers believe: !Table1 {}, !IdentifiedFromUrdf, !Theta,
                     !UrdfModel (any serial arm, computed by Drake)
     trajectory:     !Wave {joints: [...]}, !Waypoints {times, positions}, !CsvFile {path}
     timing:         sample_time, duration, divergence_bound, simulator (SimulatorConfig)
     sensor:         encoder_counts, zero_offset, noise_std, noise_seed, delay_samples
-    actuator:       voltage_limit            (these three: ``diagrams.sections``)
+    actuator:       voltage_limit, electrical_time_constant, dac_bits, compute_delay
+                    (these three: ``diagrams.sections``)
     controller:     one tagged entry with only the chosen controller's settings:
                     !Proposed, !LinLc, !Pid (``models.design.settings``), !PdGravity,
                     !Adrc (their modules), !Python {file | module, class, settings}
@@ -47,6 +49,7 @@ from posfb.diagrams.yaml_schema import check_shape, parse, prepare
 from posfb.models.controllers import REGISTRY
 from posfb.models.controllers.registry import settings_kind
 from posfb.models.design.settings import default_of
+from posfb.models.friction import DEFAULT_LAW, LAW_SETTINGS
 from posfb.models.lumped import TABLE1
 from posfb.models.plant import (
     DEFAULT_URDF,
@@ -93,12 +96,18 @@ ParameterOverrides = dataclasses.make_dataclass(
 )
 
 
+#: The scenario's friction law: one tagged entry of a registered law
+#: (``models.friction``), the default's first.
+FrictionSection = typing.Union[LAW_SETTINGS]  # noqa: UP007 - built from the registry
+
+
 @dataclass
 class PlantSettings:
     """The true arm: its URDF, a point payload (kg) at the link-2 tip, the Coulomb
     smoothing velocity (rad/s, ``models.plant``), the implementation of the motor and
-    friction blocks (``symbolic`` or ``perceptron``, ``models.drive``) and parameter
-    overrides."""
+    friction blocks (``symbolic`` or ``perceptron``, ``models.drive``), parameter
+    overrides and the friction law (``!TanhCoulomb {}``, ``!Stribeck``, ``!LuGre``;
+    per-joint lists, one value = every joint; ``models.friction``)."""
 
     urdf: str = SHIPPED_URDF
     payload_mass: float = field(default_factory=default_of(ArmParameters, "payload_mass"))
@@ -107,6 +116,7 @@ class PlantSettings:
         default_factory=default_of(PlantConfig, "motor_friction_blocks")
     )
     parameters: ParameterOverrides = field(default_factory=ParameterOverrides)
+    friction: FrictionSection = field(default_factory=DEFAULT_LAW)
 
 
 # --- nominal model -----------------------------------------------------------------
@@ -374,7 +384,9 @@ def _walk(scenario: Scenario, key: str) -> tuple[object, str, int | None]:
         name, index = match.group(1), match.group(2)
         known = list(_field_types(type(parent)))
         if name not in known:
-            raise ValueError(f"--set {where}: unknown key; known keys: {', '.join(known)}")
+            raise ValueError(
+                f"--set {where}: unknown key; known keys: {', '.join(known) or 'none'}"
+            )
         index = None if index is None else int(index)
         value = getattr(parent, name)
         if index is not None and (not isinstance(value, list) or index >= max(len(value), 2)):

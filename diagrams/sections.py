@@ -70,6 +70,15 @@ class Sensor:
 
 @dataclass
 class Actuator:
-    """Armature-voltage saturation (V) per joint."""
+    """The path from the controller's voltage to the motor (``diagrams.actuator``, which
+    gives the models, their order and sources): armature-voltage saturation (V) per
+    joint; the DSP's ``compute_delay`` (s, ``0 <= d <= T_s``: the voltage computed from
+    the sample at ``t_k`` applies from ``t_k + d``); the DAC's resolution ``dac_bits``
+    (``2^bits`` levels over ``[-voltage_limit, +voltage_limit]``); the armature's
+    ``electrical_time_constant`` L/R (s) per joint. A 0 switches an effect off (the
+    defaults: no block is added)."""
 
     voltage_limit: list[float] = field(default_factory=lambda: [VOLTAGE_LIMIT])
+    electrical_time_constant: list[float] = field(default_factory=lambda: [0.0])
+    dac_bits: int = 0
+    compute_delay: float = 0.0

@@ -1,37 +1,38 @@
-"""The true plant's motor stage and Coulomb friction (Sec. 4.1), as Drake C++ blocks
+"""The true plant's motor stage and friction (Sec. 4.1), as Drake C++ blocks
 between the voltage, the joint velocities and the MultibodyPlant::
 
     voltage u (V)  --> tau_j = kappa_j u_j           --> plant actuation (N m)
-    velocities v   --> f_j = -f_cj tanh(v_j / v_s)   --> plant applied generalized force
+    velocities v   --> f_j = friction law (v)        --> plant applied generalized force
 
-(``models.plant`` explains ``v_s``.) ``kappa``, ``f_c`` and ``v_s`` are per-Context
-parameters, so one diagram serves every Monte-Carlo sample. Two implementations,
-picked by ``PlantConfig.motor_friction_blocks``:
+The friction law is ``PlantConfig.friction`` (``models.friction``: the default
+``-f_cj tanh(v_j / v_s)``, ``models.plant`` explains ``v_s``; Stribeck; LuGre).
+``kappa``, ``f_c``, ``v_s`` and every parameter of the law are per-Context parameters,
+so one diagram serves every Monte-Carlo sample. Two implementations, picked by
+``PlantConfig.motor_friction_blocks``:
 
-* ``"symbolic"`` (the default): two ``SymbolicVectorSystem``s whose parameters default
-  to NaN, so a Context that never got its parameters fails loudly ("Detected NaN in
-  applied generalized force input port"). Each carries one state that integrates
-  energy: the work the motors deliver, ``sum_j tau_j v_j``, and the energy friction
-  dissipates, ``-sum_j f_j v_j`` (J). Those states are part of the integrator's error
-  control, so they take part in choosing its steps.
-* ``"perceptron"``: two ``MultilayerPerceptron``s, ``kappa`` as a one-layer identity
-  network and the friction as a tanh layer (weights ``I / v_s``) followed by a linear
-  one (``-diag(f_c)``). About 12-24 % faster per run (``README.md``, "Performance"),
-  with no energy states (``energy`` refuses) and round-off differences: it computes
-  ``v (1 / v_s)`` where the symbolic block computes ``v / v_s``, and without the
-  energy states the integrator's steps can differ. Its parameters default to 0
-  (Drake's), so a Context that never got them runs with no motor and no friction:
-  ``models.plant.apply_parameters`` is required, as everywhere in posfb.
+* ``"symbolic"`` (the default, every law): two ``SymbolicVectorSystem``s whose
+  parameters default to NaN, so a Context that never got its parameters fails loudly
+  ("Detected NaN in applied generalized force input port"). Each carries one state
+  that integrates energy: the work the motors deliver, ``sum_j tau_j v_j``, and the
+  work the joints do against friction, ``-sum_j f_j v_j`` (J). Those states are part
+  of the integrator's error control, so they take part in choosing its steps.
+* ``"perceptron"`` (the default law only): two ``MultilayerPerceptron``s, ``kappa``
+  as a one-layer identity network and the friction as a tanh layer (weights
+  ``I / v_s``) followed by a linear one (``-diag(f_c)``). About 12-24 % faster per run
+  (``README.md``, "Performance"), with no energy states (``energy`` refuses) and
+  round-off differences: it computes ``v (1 / v_s)`` where the symbolic block computes
+  ``v / v_s``, and without the energy states the integrator's steps can differ. Its
+  parameters default to 0 (Drake's), so a Context that never got them runs with no
+  motor and no friction: ``models.plant.apply_parameters`` is required, as everywhere
+  in posfb.
 """
 
 from __future__ import annotations
 
-import functools
-import operator
 from typing import Protocol
 
 import numpy as np
-from pydrake.symbolic import Variable, tanh
+from pydrake.symbolic import Variable
 from pydrake.systems.framework import Context, DiagramBuilder, InputPort, OutputPort
 from pydrake.systems.primitives import (
     MultilayerPerceptron,
@@ -39,6 +40,10 @@ from pydrake.systems.primitives import (
     PerceptronActivationType,
     SymbolicVectorSystem,
 )
+
+from posfb.models.friction import DEFAULT_LAW, tag
+from posfb.models.friction.block import SymbolicFriction
+from posfb.models.friction.common import total
 
 #: The implementations of the motor and friction blocks (module docstring).
 MOTOR_FRICTION_BLOCKS = ("symbolic", "perceptron")
@@ -54,6 +59,16 @@ def require_blocks(value: object) -> str:
     return str(value)
 
 
+def require_blocks_for(blocks: str, friction: object) -> None:
+    """The perceptron blocks carry the default law only."""
+    if blocks == "perceptron" and type(friction) is not DEFAULT_LAW:
+        raise ValueError(
+            f"motor_friction_blocks = 'perceptron' with friction = {tag(friction)}; "
+            f"motor_friction_blocks = 'symbolic' (or friction = {tag(DEFAULT_LAW())}) "
+            "is required"
+        )
+
+
 class MotorFriction(Protocol):
     """What ``models.plant`` needs of either implementation."""
 
@@ -66,6 +81,10 @@ class MotorFriction(Protocol):
     def set_coulomb(self, root_context: Context, levels: tuple[float, ...], v_s: float) -> None:
         """Set the Coulomb levels (N m, one per joint) and the smoothing velocity (rad/s)."""
 
+    def set_friction_law(self, root_context: Context, settings: object) -> None:
+        """Set the friction law's own parameters (``models.friction``) from its settings,
+        of the kind the blocks were built for."""
+
     def motor_constants(self, root_context: Context) -> tuple[float, ...]:
         """The motor constants in ``root_context``."""
 
@@ -73,7 +92,7 @@ class MotorFriction(Protocol):
         """The Coulomb levels in ``root_context``."""
 
     def energy(self, root_context: Context) -> tuple[float, float]:
-        """(work delivered by the motors, energy dissipated by friction), J."""
+        """(work delivered by the motors, work the joints did against friction), J."""
 
 
 def add_motor_friction(
@@ -82,16 +101,17 @@ def add_motor_friction(
     velocities: OutputPort,
     actuation: InputPort,
     applied_force: InputPort,
+    friction: object | None = None,
 ) -> MotorFriction:
-    """Add the ``blocks`` implementation, reading the joint ``velocities`` (size n) and
-    driving the plant's ``actuation`` (actuator order = joint order, checked by
-    ``models.plant``) and ``applied_force`` ports."""
-    kind = {"symbolic": SymbolicMotorFriction, "perceptron": PerceptronMotorFriction}
-    return kind[require_blocks(blocks)](builder, velocities, actuation, applied_force)
-
-
-def _sum(terms: list) -> object:
-    return functools.reduce(operator.add, terms)
+    """Add the ``blocks`` implementation with the ``friction`` law's kind (its settings;
+    default ``!TanhCoulomb``), reading the joint ``velocities`` (size n) and driving the
+    plant's ``actuation`` (actuator order = joint order, checked by ``models.plant``)
+    and ``applied_force`` ports."""
+    friction = DEFAULT_LAW() if friction is None else friction
+    require_blocks_for(require_blocks(blocks), friction)
+    if blocks == "perceptron":
+        return PerceptronMotorFriction(builder, velocities, actuation, applied_force)
+    return SymbolicMotorFriction(builder, velocities, actuation, applied_force, friction)
 
 
 class SymbolicMotorFriction:
@@ -103,17 +123,16 @@ class SymbolicMotorFriction:
         velocities: OutputPort,
         actuation: InputPort,
         applied_force: InputPort,
+        friction: object,
     ) -> None:
         n = velocities.size()
         self._motor = builder.AddSystem(_symbolic_motor(n))
         self._motor_input = builder.AddSystem(Multiplexer([n, n]))
         self._motor_input.set_name("motor_input")
-        self._coulomb = builder.AddSystem(_symbolic_coulomb(n))
         builder.Connect(self._motor_input.get_output_port(0), self._motor.get_input_port(0))
         builder.Connect(velocities, self._motor_input.get_input_port(1))
         builder.Connect(self._motor.get_output_port(0), actuation)
-        builder.Connect(velocities, self._coulomb.get_input_port(0))
-        builder.Connect(self._coulomb.get_output_port(0), applied_force)
+        self.friction = SymbolicFriction(builder, friction, velocities, applied_force)
 
     def voltage_input_port(self) -> InputPort:
         return self._motor_input.get_input_port(0)
@@ -123,23 +142,21 @@ class SymbolicMotorFriction:
         context.get_mutable_numeric_parameter(0).SetFromVector(np.asarray(kappa, dtype=float))
 
     def set_coulomb(self, root_context: Context, levels: tuple[float, ...], v_s: float) -> None:
-        context = self._coulomb.GetMyMutableContextFromRoot(root_context)
-        context.get_mutable_numeric_parameter(0).SetFromVector(
-            np.array([*levels, v_s], dtype=float)
-        )
+        self.friction.set_coulomb(root_context, levels, v_s)
+
+    def set_friction_law(self, root_context: Context, settings: object) -> None:
+        self.friction.set_law(root_context, settings)
 
     def motor_constants(self, root_context: Context) -> tuple[float, ...]:
         context = self._motor.GetMyContextFromRoot(root_context)
         return tuple(float(k) for k in context.get_numeric_parameter(0).value())
 
     def coulomb_levels(self, root_context: Context) -> tuple[float, ...]:
-        context = self._coulomb.GetMyContextFromRoot(root_context)
-        return tuple(float(f) for f in context.get_numeric_parameter(0).value()[:-1])
+        return self.friction.coulomb_levels(root_context)
 
     def energy(self, root_context: Context) -> tuple[float, float]:
         motor = self._motor.GetMyContextFromRoot(root_context).get_continuous_state_vector()
-        friction = self._coulomb.GetMyContextFromRoot(root_context).get_continuous_state_vector()
-        return float(motor[0]), float(friction[0])
+        return float(motor[0]), self.friction.loss(root_context)
 
 
 def _symbolic_motor(joints: int) -> SymbolicVectorSystem:
@@ -158,31 +175,10 @@ def _symbolic_motor(joints: int) -> SymbolicVectorSystem:
         state=[work],
         input=[*u, *v],
         parameter=kappa,
-        dynamics=[_sum([torque[j] * v[j] for j in range(joints)])],
+        dynamics=[total([torque[j] * v[j] for j in range(joints)])],
         output=torque,
     )
     system.set_name("motor")
-    return system
-
-
-def _symbolic_coulomb(joints: int) -> SymbolicVectorSystem:
-    """``-f_c tanh(v / v_s)`` per joint; parameters ``[f_c1..f_cn, v_s]``.
-
-    Input: joint velocities. Its state integrates the energy friction
-    dissipates (J, never decreasing)."""
-    v = [Variable(f"v{j + 1}") for j in range(joints)]
-    levels = [Variable(f"fc{j + 1}") for j in range(joints)]
-    v_s = Variable("v_s")
-    loss = Variable("friction_loss")
-    force = [-levels[j] * tanh(v[j] / v_s) for j in range(joints)]
-    system = SymbolicVectorSystem(
-        state=[loss],
-        input=v,
-        parameter=[*levels, v_s],
-        dynamics=[-_sum([force[j] * v[j] for j in range(joints)])],
-        output=force,
-    )
-    system.set_name("coulomb_friction")
     return system
 
 
@@ -224,6 +220,9 @@ class PerceptronMotorFriction:
         self._coulomb.SetBiases(context, 0, np.zeros(n))
         self._coulomb.SetWeights(context, 1, -np.diag(np.asarray(levels, dtype=float)))
         self._coulomb.SetBiases(context, 1, np.zeros(n))
+
+    def set_friction_law(self, root_context: Context, settings: object) -> None:
+        require_blocks_for("perceptron", settings)  # the default law has no parameters
 
     def motor_constants(self, root_context: Context) -> tuple[float, ...]:
         context = self._motor.GetMyContextFromRoot(root_context)

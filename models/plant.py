@@ -1,10 +1,16 @@
 """The true plant: a serial URDF arm (the paper's two-link arm by default) in a
-MultibodyPlant, its motor stage and its Coulomb friction.
+MultibodyPlant, its motor stage and its friction.
 
 Signal path (all C++ systems, no Python in the integrator's inner loop)::
 
     voltage u (V) --> [motor: tau = kappa * u] --> plant actuation (N m)
-    plant velocity v --> [coulomb: -f_c tanh(v / v_s)] --> plant applied generalized force
+    plant velocity v --> [friction law, default -f_c tanh(v / v_s)] --> plant applied
+                                                                     generalized force
+
+The friction law is ``PlantConfig.friction`` (``models.friction``: ``!TanhCoulomb``,
+the default, ``!Stribeck``, ``!LuGre``); the Coulomb levels ``f_c`` enter every law from
+``ArmParameters.coulomb``, ``v_s`` from ``friction_velocity``, the law's own
+parameters from its settings (``set_friction_law``), all per Context.
 
 The motor and friction blocks are ``models.drive``'s: ``SymbolicVectorSystem``s by
 default, each with one state that integrates energy (work delivered by the motors,
@@ -36,6 +42,7 @@ and rotor inertias, can change per Context without rebuilding
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass, fields, replace
 from pathlib import Path
 
@@ -54,7 +61,13 @@ from pydrake.multibody.tree import (
 from pydrake.systems.framework import Context, Diagram, DiagramBuilder
 from pydrake.systems.primitives import Demultiplexer
 
-from posfb.models.drive import MotorFriction, add_motor_friction, require_blocks
+from posfb.models.drive import (
+    MotorFriction,
+    add_motor_friction,
+    require_blocks,
+    require_blocks_for,
+)
+from posfb.models.friction import DEFAULT_LAW, check_law
 from posfb.models.serial_model import SerialArmModel
 from posfb.models.urdf_check import SerialChain, check_serial_urdf
 from posfb.models.validation import require_finite, require_nonnegative, require_positive
@@ -76,18 +89,24 @@ class PlantConfig:
     ``motor_friction_blocks`` picks the C++ blocks of the motor stage and the Coulomb
     friction (``models.drive``): ``"symbolic"`` (the default; energy states, NaN
     parameter defaults) or ``"perceptron"`` (12-24 % faster runs, no energy states,
-    results that differ by round-off and its growth).
+    results that differ by round-off and its growth; the default friction law only).
+    ``friction`` is the friction law's settings (``models.friction``; default
+    ``!TanhCoulomb``): its kind is part of the diagram, its parameters are set per
+    Context (``set_friction_law``), these by default.
     """
 
     urdf: str = str(DEFAULT_URDF)
     time_step: float = 0.0
     friction_velocity: float = 1e-2
     motor_friction_blocks: str = "symbolic"
+    friction: object = dataclasses.field(default_factory=DEFAULT_LAW, hash=False)
 
     def __post_init__(self) -> None:
         require_nonnegative("time_step", self.time_step)
         require_positive("friction_velocity", self.friction_velocity)
         require_blocks(self.motor_friction_blocks)
+        check_law(self.friction)
+        require_blocks_for(self.motor_friction_blocks, self.friction)
 
 
 #: The heaviest tip payload accepted (kg). An absolute cap, not a multiple of
@@ -339,6 +358,7 @@ def add_arm(builder: DiagramBuilder, config: PlantConfig | None = None) -> Arm:
         split.get_output_port(1),
         plant.get_actuation_input_port(),
         plant.get_applied_generalized_force_input_port(),
+        config.friction,
     )
 
     context = plant.CreateDefaultContext()
@@ -490,6 +510,13 @@ def apply_parameters(arm: Arm, root_context: Context, parameters: ArmParameters)
         )
     arm.motor_friction.set_motor_constants(root_context, parameters.motor_constant)
     set_coulomb(arm, root_context, parameters.coulomb)
+    set_friction_law(arm, root_context, arm.config.friction)
+
+
+def set_friction_law(arm: Arm, root_context: Context, settings: object) -> None:
+    """Set the friction law's own parameters (``models.friction``) from its ``settings``
+    (the law the arm was built with; a Monte-Carlo sample's drawn values)."""
+    arm.motor_friction.set_friction_law(root_context, settings)
 
 
 def set_coulomb(
@@ -533,7 +560,9 @@ def arm_model(arm: Arm, root_context: Context) -> SerialArmModel:
 
 
 def energy_accounts(arm: Arm, root_context: Context) -> tuple[float, float]:
-    """(work delivered by the motors, energy dissipated by Coulomb friction), J."""
+    """(work delivered by the motors, work the joints did against friction), J. The
+    second is the energy friction dissipated; for LuGre it includes the energy still
+    stored in the bristles (``models.friction.lugre``)."""
     return arm.motor_friction.energy(root_context)
 
 

@@ -66,6 +66,8 @@ FILES = {
     "prismatic.urdf": PRISMATIC,
     "a_file": "I am a file, not a folder\n",
     "text.sqlite": "not a database\n",
+    "friction_draw.yaml": STUDY + 'settings: ["plant.friction=!Stribeck {}"]\n'
+    "draws:\n  plant.friction.static_ratio: !Uniform {min: 0.5, max: 2.0}\n",
 }
 BINARY = bytes(range(256)) * 4
 
@@ -324,6 +326,64 @@ CASES = {
     ),
     "zero workers": Case(
         ("montecarlo", "run", "{tmp}/study.yaml", "--db", "{tmp}/s", "--workers", "0"), "workers"
+    ),
+    "negative electrical time constant": Case(
+        ("simulate", "--set", "actuator.electrical_time_constant=[0.001,-0.001]"),
+        "actuator.electrical_time_constant[1] = -0.001; a finite time constant >= 0 s",
+    ),
+    "non-finite electrical time constant": Case(
+        ("simulate", "--set", "actuator.electrical_time_constant=.inf"),
+        "actuator.electrical_time_constant[0] = inf",
+    ),
+    "negative DAC bits": Case(("simulate", "--set", "actuator.dac_bits=-1"), "actuator.dac_bits"),
+    "too many DAC bits": Case(
+        ("simulate", "--set", "actuator.dac_bits=33"), "actuator.dac_bits = 33; an integer from 0"
+    ),
+    "fractional DAC bits": Case(
+        ("simulate", "--set", "actuator.dac_bits=2.5"), "actuator.dac_bits"
+    ),
+    "compute delay past the period": Case(
+        ("simulate", "--set", "actuator.compute_delay=0.02"),
+        "actuator.compute_delay = 0.02; 0 <= delay <= timing.sample_time = 0.01 is required",
+    ),
+    "negative compute delay": Case(
+        ("simulate", "--set", "actuator.compute_delay=-0.001"), "actuator.compute_delay"
+    ),
+    # friction laws (plant.friction)
+    "static ratio below one": Case(
+        ("simulate", "--set", "plant.friction=!Stribeck {static_ratio: 0.5}"),
+        "plant.friction.static_ratio[0] = 0.5; a finite value >= 1 is required",
+    ),
+    "zero Stribeck velocity": Case(
+        ("simulate", "--set", "plant.friction=!LuGre {stribeck_velocity: [0.01, 0]}"),
+        "plant.friction.stribeck_velocity[1] = 0.0; a finite value > 0 is required",
+    ),
+    "zero bristle stiffness": Case(
+        ("simulate", "--set", "plant.friction=!LuGre {sigma0: 0}"),
+        "plant.friction.sigma0[0] = 0.0; a finite value > 0 is required",
+    ),
+    "negative bristle damping": Case(
+        ("simulate", "--set", "plant.friction=!LuGre {sigma1: -1}"),
+        "plant.friction.sigma1[0] = -1.0; a finite value >= 0 is required",
+    ),
+    "law values for three joints": Case(
+        ("simulate", "--set", "plant.friction=!Stribeck {static_ratio: [1, 2, 3]}"),
+        "plant.friction.static_ratio = [1.0, 2.0, 3.0]; one number for all joints or 2",
+    ),
+    "perceptron blocks with a new law": Case(
+        ("simulate", "--set", "plant.friction=!Stribeck {}",
+         "--set", "plant.motor_friction_blocks=perceptron"),
+        "plant.motor_friction_blocks = 'perceptron' with friction = !Stribeck",
+    ),  # fmt: skip
+    "LuGre without Coulomb friction": Case(
+        ("simulate", "--set", "plant.friction=!LuGre {}",
+         "--set", "plant.parameters.coulomb=[0, 1]"),
+        "plant.parameters.coulomb[0] = 0.0 (or the URDF's posfb:coulomb_friction) with "
+        "plant.friction = !LuGre; > 0 is required",
+    ),  # fmt: skip
+    "study draws a static ratio below one": Case(
+        ("montecarlo", "run", "{tmp}/friction_draw.yaml", "--db", "{tmp}/s"),
+        "draws.plant.friction.static_ratio can draw 0.5: plant.friction.static_ratio[0] = 0.5",
     ),
 }
 

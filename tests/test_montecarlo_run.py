@@ -178,7 +178,7 @@ def test_a_diverging_sample_is_recorded_and_the_others_complete(tmp_path):
 def test_an_exception_in_a_run_is_recorded_as_error():
     evaluator = ClosedLoopEvaluator(study_from_text(TINY_STUDY))
 
-    def explode(*args):
+    def explode(*args, **kwargs):
         raise ArithmeticError("controller state became complex\nsecond line")
 
     evaluator.runner(evaluator.study.base_scenario(), "pid").run = explode

@@ -474,9 +474,10 @@ def _check_draws(study: Study, base: Scenario) -> None:
     for key, distribution in study.draws.items():
         where = f"draws.{key}"
         _require(
-            not key.startswith("plant."),
+            not key.startswith("plant.") or key.startswith("plant.friction."),
             f"{where}: the physical plant is drawn under parameters: (payload_mass and the "
-            "ArmParameters names); draws: takes the other scenario keys",
+            "ArmParameters names); draws: takes the other scenario keys (and the friction "
+            "law's, plant.friction.NAME)",
         )
         current = get_setting(base, key)
         values = current if isinstance(current, list) else [current]

@@ -65,8 +65,9 @@ def _one_line(error: BaseException) -> str:
 
 
 #: Diagrams a worker keeps, one per distinct structure (sample time, delay, noise,
-#: voltage limit, design, trajectory, controller). Draws that only change Context
-#: values (plant parameters, encoder counts, offsets, noise levels) reuse one.
+#: voltage limit, design, trajectory, controller, friction law kind). Draws that only
+#: change Context values (plant parameters, the friction law's parameters, encoder
+#: counts, offsets, noise levels) reuse one.
 RUNNER_CACHE_SIZE = 16
 
 
@@ -75,6 +76,7 @@ def structure_key(scenario: Scenario, controller: str) -> str:
     shape = with_controller(scenario, controller)
     shape.plant.payload_mass = 0.0
     shape.plant.parameters = ParameterOverrides()
+    shape.plant.friction = type(shape.plant.friction)()  # its kind, not its values
     noisy = any(std > 0.0 for std in shape.sensor.noise_std)
     shape.sensor.encoder_counts, shape.sensor.zero_offset = [0], [0.0]
     shape.sensor.noise_std, shape.sensor.noise_seed = [1.0 if noisy else 0.0], 0
@@ -140,7 +142,12 @@ class ClosedLoopEvaluator:
         runs, results = [], {}
         for controller in chosen:
             run, result = self._run(
-                controller, runners[controller], plant, sensor, radii.get(controller)
+                controller,
+                runners[controller],
+                plant,
+                sensor,
+                radii.get(controller),
+                config.plant.friction,
             )
             runs.append(run)
             if result is not None:
@@ -215,13 +222,16 @@ class ClosedLoopEvaluator:
         plant: SampledPlant,
         sensor: SensorState,
         radius: float | None,
+        friction: object,
     ) -> tuple[ControllerRun, ClosedLoopResult | None]:
-        """One controller on ``plant`` and its run; an exception (building its runner or
-        running it) is recorded as ``error`` (and there is no run)."""
+        """One controller on ``plant`` with the sample's ``friction`` law settings (set in
+        the Context: the cached diagram may have been built with another sample's) and
+        its run; an exception (building its runner or running it) is recorded as
+        ``error`` (and there is no run)."""
         try:
             if isinstance(runner, Exception):
                 raise runner
-            result = runner.run(plant.parameters, sensor)
+            result = runner.run(plant.parameters, sensor, friction=friction)
         except Exception as error:  # recorded, never stops the study
             return ControllerRun(controller, "error", _one_line(error), {}, radius), None
         metrics = _metrics_dict(run_metrics(result))
