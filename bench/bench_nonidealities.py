@@ -28,6 +28,9 @@ EFFECTS = {
     "Stribeck": ["plant.friction=!Stribeck {}"],
     "LuGre": ["plant.friction=!LuGre {}"],
     "LuGre at accuracy 1e-6": ["plant.friction=!LuGre {}", "timing.simulator.accuracy=1e-6"],
+    "gear k = 5e3": ["plant.gear_stiffness=5000"],
+    "gear k = 5e3 + backlash 0.5 mrad + motor encoder": [
+        "plant.gear_stiffness=5000", "plant.backlash=0.0005", "sensor.location=motor"],
 }
 
 

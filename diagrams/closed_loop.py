@@ -114,6 +114,7 @@ from posfb.models.controllers import (
     make_controller,
 )
 from posfb.models.controllers.plugin import user_frames
+from posfb.models.gear import GearConfig
 from posfb.models.plant import (
     Arm,
     ArmParameters,
@@ -121,6 +122,8 @@ from posfb.models.plant import (
     add_arm,
     apply_parameters,
     set_friction_law,
+    set_gear,
+    set_motor_state,
 )
 from posfb.models.trajectory import Trajectory, WaveTrajectory, sampled_source
 from posfb.models.validation import (
@@ -132,6 +135,9 @@ from posfb.models.validation import (
 
 #: ``run`` checks for divergence every this many control periods.
 MONITOR_SAMPLES = 10
+
+#: Where an encoder can sit (``sensor.location``): on the link or on the motor shaft.
+SENSOR_LOCATIONS = ("link", "motor")
 
 #: Names of the logged signals, in ``ClosedLoop.log_columns``.
 LOGGED = ("q_true", "q_measured", "desired", "u_commanded", "u_applied", "internals")
@@ -276,6 +282,17 @@ class ClosedLoopConfig:
         self._check_simulator()
         if not isinstance(self.plant, PlantConfig):
             raise ValueError(f"plant = {self.plant!r} is not a PlantConfig")
+        if sensor.location not in SENSOR_LOCATIONS:
+            raise ValueError(
+                f"sensor.location = {sensor.location!r}; one of {', '.join(SENSOR_LOCATIONS)} "
+                "is required"
+            )
+        if sensor.location == "motor" and not self.plant.gear.compliant:
+            raise ValueError(
+                "sensor.location = 'motor' with plant.gear_stiffness = "
+                f"{list(self.plant.gear.gear_stiffness)} (a rigid gear); "
+                "plant.gear_stiffness > 0 or sensor.location = 'link' is required"
+            )
         if not isinstance(self.true_plant, TruePlant):
             raise ValueError(f"true_plant = {self.true_plant!r} is not a TruePlant")
 
@@ -339,6 +356,11 @@ class ClosedLoopConfig:
     def noise_std(self) -> tuple[float, ...]:
         """Encoder noise standard deviation (rad), one per joint."""
         return self._noise  # type: ignore[attr-defined]
+
+    @property
+    def sensor_location(self) -> str:
+        """``link`` (the encoder reads ``q``) or ``motor`` (``theta_m``, ``models.gear``)."""
+        return self.sensor.location
 
     @property
     def noise_seed(self) -> int:
@@ -488,7 +510,7 @@ def _add_sensor(
     """true q -> encoder (offset, quantiser, noise) -> delay: the measured-position port."""
     n = arm.size
     encoder = builder.AddSystem(Encoder(n, config.encoder_counts, noisy=config.noisy))
-    builder.Connect(arm.position_output_port(), encoder.GetInputPort("q"))
+    builder.Connect(arm.position_output_port(config.sensor_location), encoder.GetInputPort("q"))
     noise_source = None
     if config.noisy:
         noise_source = builder.AddSystem(
@@ -645,11 +667,14 @@ class ClosedLoopRunner:
         parameters: ArmParameters | None = None,
         sensor: SensorState | None = None,
         friction: object | None = None,
+        gear: GearConfig | None = None,
     ) -> Context:
         """A fresh Context: true ``parameters`` (default: ``true_parameters()``), the
         ``sensor`` settings (default: the config's), the friction law's values
         (``friction``, an entry of the law the diagram was built with, e.g. a Monte-Carlo
-        sample's draw; default: the config's), the arm at rest at ``q_d(0)``; a sensor
+        sample's draw; default: the config's), the gear's values (``gear``, compliant as
+        the diagram; default: the config's), the arm at rest at ``q_d(0)`` (with a
+        compliant gear, each motor too: ``theta_m = q``, ``models.plant.set_motor_state``); a sensor
         delay line is filled with the first measurement; a compute-delay hold
         (``diagrams.actuator``) starts at the controller's voltage before its first update."""
         loop, config = self.loop, self.config
@@ -663,6 +688,8 @@ class ClosedLoopRunner:
         apply_parameters(loop.arm, context, parameters or self.true_parameters())
         if friction is not None:
             set_friction_law(loop.arm, context, friction)
+        if gear is not None:
+            set_gear(loop.arm, context, gear)
         encoder_context = loop.encoder.GetMyMutableContextFromRoot(context)
         loop.encoder.set_counts(encoder_context, sensor.encoder_counts)
         loop.encoder.set_zero_offset(encoder_context, sensor.zero_offset)
@@ -676,6 +703,7 @@ class ClosedLoopRunner:
         plant_context = plant.GetMyMutableContextFromRoot(context)
         plant.SetPositions(plant_context, config.trajectory.evaluate(0.0)[0])
         plant.SetVelocities(plant_context, np.zeros(config.joints))
+        set_motor_state(loop.arm, context)
         first = loop.encoder.GetOutputPort("q_measured").Eval(encoder_context)
         if loop.delay is not None:
             delay_context = loop.delay.GetMyMutableContextFromRoot(context)
@@ -702,10 +730,13 @@ class ClosedLoopRunner:
         parameters: ArmParameters | None = None,
         sensor: SensorState | None = None,
         friction: object | None = None,
+        gear: GearConfig | None = None,
     ) -> Simulator:
-        """A ``Simulator`` on ``new_context(parameters, sensor, friction)`` with the
+        """A ``Simulator`` on ``new_context(parameters, sensor, friction, gear)`` with the
         config's integrator (``simulator_config``), not yet initialised."""
-        simulator = Simulator(self.loop.diagram, self.new_context(parameters, sensor, friction))
+        simulator = Simulator(
+            self.loop.diagram, self.new_context(parameters, sensor, friction, gear)
+        )
         ApplySimulatorConfig(self.simulator_config(), simulator)
         return simulator
 
@@ -715,12 +746,13 @@ class ClosedLoopRunner:
         sensor: SensorState | None = None,
         progress: Callable[[float], None] | None = None,
         friction: object | None = None,
+        gear: GearConfig | None = None,
     ) -> ClosedLoopResult:
         """Simulate ``duration`` seconds on the true ``parameters`` with the ``sensor``
-        settings and the friction law's values (defaults: ``true_parameters()`` and the
-        config's); ``progress`` is called with the simulated time after every
+        settings, the friction law's and the gear's values (defaults: ``true_parameters()``
+        and the config's); ``progress`` is called with the simulated time after every
         ``MONITOR_SAMPLES`` periods. Never raises for a diverging run."""
-        return self.advance(self.new_simulator(parameters, sensor, friction), progress)
+        return self.advance(self.new_simulator(parameters, sensor, friction, gear), progress)
 
     def advance(
         self, simulator: Simulator, progress: Callable[[float], None] | None = None

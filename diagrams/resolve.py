@@ -51,6 +51,7 @@ from posfb.models.controllers import PluginError, UserPlugin, make_controller
 from posfb.models.controllers.plugin import load_plugin, module_plugin
 from posfb.models.design import ControllerConfig
 from posfb.models.friction import law_spec, law_values, tag
+from posfb.models.gear import GearConfig
 from posfb.models.identify import identify_urdf
 from posfb.models.lumped import TABLE1, LumpedParameters
 from posfb.models.nominal import NominalModel as NominalForm
@@ -388,6 +389,7 @@ def resolve(loaded: LoadedScenario) -> ResolvedScenario:
     trajectory = make_trajectory(scenario.trajectory, base)
     _check_csv(scenario.trajectory, trajectory, scenario.timing.duration, joints)
     plant = scenario.plant
+    gear = _gear(plant, joints)
     try:
         require_payload_mass(plant.payload_mass)
         plant_config = PlantConfig(
@@ -395,6 +397,7 @@ def resolve(loaded: LoadedScenario) -> ResolvedScenario:
             friction_velocity=plant.friction_velocity,
             motor_friction_blocks=plant.motor_friction_blocks,
             friction=copy.deepcopy(plant.friction),
+            gear=gear,
         )
         law_values(plant_config.friction, joints)
     except ValueError as error:
@@ -423,6 +426,18 @@ def resolve(loaded: LoadedScenario) -> ResolvedScenario:
         true_plant=TruePlant(float(plant.payload_mass), tuple(overrides.items())),
     )
     return ResolvedScenario(config)
+
+
+def _gear(plant: object, joints: int) -> GearConfig:
+    """``plant.gear_stiffness``, ``gear_damping`` and ``backlash`` as a ``GearConfig``,
+    checked for ``joints`` joints (errors name the keys)."""
+    names = ("gear_stiffness", "gear_damping", "backlash")
+    try:
+        gear = GearConfig(**{name: tuple(getattr(plant, name)) for name in names})
+    except ValueError as error:
+        raise in_section("plant", error) from None
+    gear.values(joints, prefix="plant.")
+    return gear
 
 
 def run_scenario(

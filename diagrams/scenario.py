@@ -9,12 +9,14 @@ the code defines it (``ControllerConfig``, ``PlantConfig``, ``diagrams.sections`
 
     plant:          URDF, tip payload, friction smoothing, motor/friction blocks,
                     physical parameter overrides (Monte-Carlo names), friction law:
-                    !TanhCoulomb {}, !Stribeck, !LuGre (``models.friction``)
+                    !TanhCoulomb {}, !Stribeck, !LuGre (``models.friction``), gear
+                    compliance and backlash (``models.gear``)
     nominal_model:  what the controllers believe: !Table1 {}, !IdentifiedFromUrdf, !Theta,
                     !UrdfModel (any serial arm, computed by Drake)
     trajectory:     !Wave {joints: [...]}, !Waypoints {times, positions}, !CsvFile {path}
     timing:         sample_time, duration, divergence_bound, simulator (SimulatorConfig)
-    sensor:         encoder_counts, zero_offset, noise_std, noise_seed, delay_samples
+    sensor:         encoder_counts, zero_offset, noise_std, noise_seed, delay_samples,
+                    location (link | motor)
     actuator:       voltage_limit, electrical_time_constant, dac_bits, compute_delay
                     (these three: ``diagrams.sections``)
     controller:     one tagged entry with only the chosen controller's settings:
@@ -50,6 +52,7 @@ from posfb.models.controllers import REGISTRY
 from posfb.models.controllers.registry import settings_kind
 from posfb.models.design.settings import default_of
 from posfb.models.friction import DEFAULT_LAW, LAW_SETTINGS
+from posfb.models.gear import GearConfig
 from posfb.models.lumped import TABLE1
 from posfb.models.plant import (
     DEFAULT_URDF,
@@ -107,7 +110,10 @@ class PlantSettings:
     smoothing velocity (rad/s, ``models.plant``), the implementation of the motor and
     friction blocks (``symbolic`` or ``perceptron``, ``models.drive``), parameter
     overrides and the friction law (``!TanhCoulomb {}``, ``!Stribeck``, ``!LuGre``;
-    per-joint lists, one value = every joint; ``models.friction``)."""
+    per-joint lists, one value = every joint; ``models.friction``), and the gear between
+    each motor and its link: ``gear_stiffness`` (N m/rad), ``gear_damping`` (N m s/rad),
+    ``backlash`` (rad, half-width), at the link side; every stiffness 0 (the default) is
+    a rigid gear (``models.gear``)."""
 
     urdf: str = SHIPPED_URDF
     payload_mass: float = field(default_factory=default_of(ArmParameters, "payload_mass"))
@@ -117,6 +123,9 @@ class PlantSettings:
     )
     parameters: ParameterOverrides = field(default_factory=ParameterOverrides)
     friction: FrictionSection = field(default_factory=DEFAULT_LAW)
+    gear_stiffness: list[float] = field(default_factory=default_of(GearConfig, "gear_stiffness"))
+    gear_damping: list[float] = field(default_factory=default_of(GearConfig, "gear_damping"))
+    backlash: list[float] = field(default_factory=default_of(GearConfig, "backlash"))
 
 
 # --- nominal model -----------------------------------------------------------------
@@ -375,6 +384,7 @@ def _walk(scenario: Scenario, key: str) -> tuple[object, str, int | None]:
     parts = key.split(".")
     parent: object = scenario
     depth = 0
+    tagged = False  # whether parent is one kind of a tagged union's entries
     while True:
         part = parts[depth]
         where = ".".join(parts[: depth + 1])
@@ -384,8 +394,14 @@ def _walk(scenario: Scenario, key: str) -> tuple[object, str, int | None]:
         name, index = match.group(1), match.group(2)
         known = list(_field_types(type(parent)))
         if name not in known:
+            entry = (
+                f" of {'.'.join(parts[:depth])} (a !{type(parent).__name__} entry: another "
+                "kind may have it; set the entry first)"
+                if tagged
+                else ""
+            )
             raise ValueError(
-                f"--set {where}: unknown key; known keys: {', '.join(known) or 'none'}"
+                f"--set {where}: unknown key{entry}; known keys: {', '.join(known) or 'none'}"
             )
         index = None if index is None else int(index)
         value = getattr(parent, name)
@@ -394,6 +410,7 @@ def _walk(scenario: Scenario, key: str) -> tuple[object, str, int | None]:
             raise ValueError(f"--set {where}: index {index} out of range (a list of {size})")
         if depth == len(parts) - 1:
             return parent, name, index
+        tagged = len(typing.get_args(_field_types(type(parent))[name])) > 1
         parent = value if index is None else value[index]
         if isinstance(parent, dict) and depth + 2 < len(parts):
             depth += 1

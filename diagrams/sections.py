@@ -59,13 +59,17 @@ class Timing:
 @dataclass
 class Sensor:
     """Joint encoders: counts per revolution (0: ideal), zero offset (rad), additive
-    Gaussian noise (rad, from ``noise_seed``) and a delay of whole samples."""
+    Gaussian noise (rad, from ``noise_seed``), a delay of whole samples, and where each
+    encoder sits: ``link`` (reads the joint angle ``q``) or ``motor`` (reads the motor
+    shaft ``theta_m`` at the link side, as the paper's arm, Sec. 4.1; needs a compliant
+    gear, ``models.gear``)."""
 
     encoder_counts: list[int] = field(default_factory=lambda: [DEFAULT_ENCODER_COUNTS])
     zero_offset: list[float] = field(default_factory=lambda: [0.0])
     noise_std: list[float] = field(default_factory=lambda: [0.0])
     noise_seed: int = 0
     delay_samples: int = 0
+    location: str = "link"
 
 
 @dataclass

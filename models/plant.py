@@ -68,6 +68,7 @@ from posfb.models.drive import (
     require_blocks_for,
 )
 from posfb.models.friction import DEFAULT_LAW, check_law
+from posfb.models.gear import GearBlock, GearConfig, add_gear
 from posfb.models.serial_model import SerialArmModel
 from posfb.models.urdf_check import SerialChain, check_serial_urdf
 from posfb.models.validation import require_finite, require_nonnegative, require_positive
@@ -92,7 +93,9 @@ class PlantConfig:
     results that differ by round-off and its growth; the default friction law only).
     ``friction`` is the friction law's settings (``models.friction``; default
     ``!TanhCoulomb``): its kind is part of the diagram, its parameters are set per
-    Context (``set_friction_law``), these by default.
+    Context (``set_friction_law``), these by default. ``gear`` is the gear's compliance
+    and backlash (``models.gear``; default rigid: no block): compliant or not is part
+    of the diagram, its values are set per Context (``set_gear``), these by default.
     """
 
     urdf: str = str(DEFAULT_URDF)
@@ -100,6 +103,7 @@ class PlantConfig:
     friction_velocity: float = 1e-2
     motor_friction_blocks: str = "symbolic"
     friction: object = dataclasses.field(default_factory=DEFAULT_LAW, hash=False)
+    gear: GearConfig = dataclasses.field(default_factory=GearConfig)
 
     def __post_init__(self) -> None:
         require_nonnegative("time_step", self.time_step)
@@ -107,6 +111,8 @@ class PlantConfig:
         require_blocks(self.motor_friction_blocks)
         check_law(self.friction)
         require_blocks_for(self.motor_friction_blocks, self.friction)
+        if not isinstance(self.gear, GearConfig):
+            raise ValueError(f"gear = {self.gear!r} is not a GearConfig")
 
 
 #: The heaviest tip payload accepted (kg). An absolute cap, not a multiple of
@@ -241,6 +247,7 @@ class Arm:
     config: PlantConfig
     layout: ArmLayout
     default_parameters: ArmParameters
+    gear: GearBlock | None = None
 
     @property
     def size(self) -> int:
@@ -251,9 +258,17 @@ class Arm:
         """Motor voltages ``u`` (V), size n."""
         return self.motor_friction.voltage_input_port()
 
-    def position_output_port(self):
-        """True joint positions ``q`` (rad), size n."""
-        return self.state_split.get_output_port(0)
+    def position_output_port(self, location: str = "link"):
+        """True joint positions ``q`` (rad), size n; with ``location = "motor"`` the
+        motor angles ``theta_m`` (rad, at the link side) of a compliant gear
+        (``models.gear``)."""
+        if location == "link":
+            return self.state_split.get_output_port(0)
+        if location == "motor" and self.gear is not None:
+            return self.gear.motor_position_output_port()
+        raise ValueError(
+            f"location = {location!r}; 'link' (or 'motor' with a compliant gear) is required"
+        )
 
     def velocity_output_port(self):
         """True joint velocities (rad/s), size n: for loggers and energy checks
@@ -352,11 +367,17 @@ def add_arm(builder: DiagramBuilder, config: PlantConfig | None = None) -> Arm:
     split = builder.AddSystem(Demultiplexer([n, n]))
     split.set_name("state_split")
     builder.Connect(plant.get_state_output_port(), split.get_input_port(0))
+    gear = None
+    actuation = plant.get_actuation_input_port()
+    if config.gear.compliant:
+        config.gear.values(n)
+        gear = add_gear(builder, n, plant.get_state_output_port(), actuation)
+        actuation = gear.motor_torque_input_port()
     motor_friction = add_motor_friction(
         builder,
         config.motor_friction_blocks,
         split.get_output_port(1),
-        plant.get_actuation_input_port(),
+        actuation,
         plant.get_applied_generalized_force_input_port(),
         config.friction,
     )
@@ -387,6 +408,7 @@ def add_arm(builder: DiagramBuilder, config: PlantConfig | None = None) -> Arm:
         config=config,
         layout=layout,
         default_parameters=_read(plant, layout, context, chain.coulomb, chain.motor_constant),
+        gear=gear,
     )
 
 
@@ -499,6 +521,9 @@ def apply_parameters(arm: Arm, root_context: Context, parameters: ArmParameters)
         joint: RevoluteJoint = plant.GetJointByName(layout.joints[j])
         joint.SetDamping(plant_context, parameters.damping[j])
         actuator: JointActuator = plant.GetJointActuatorByName(layout.actuators[j])
+        if arm.gear is not None:  # J_m is the gear block's motor inertia (models.gear)
+            actuator.SetRotorInertia(plant_context, 0.0)
+            continue
         actuator.SetRotorInertia(
             plant_context, parameters.rotor_inertia[j] / actuator.default_gear_ratio() ** 2
         )
@@ -511,6 +536,37 @@ def apply_parameters(arm: Arm, root_context: Context, parameters: ArmParameters)
     arm.motor_friction.set_motor_constants(root_context, parameters.motor_constant)
     set_coulomb(arm, root_context, parameters.coulomb)
     set_friction_law(arm, root_context, arm.config.friction)
+    if arm.gear is not None:
+        arm.gear.set_inertia(root_context, parameters.rotor_inertia)
+        set_gear(arm, root_context, arm.config.gear)
+
+
+def set_gear(arm: Arm, root_context: Context, settings: GearConfig) -> None:
+    """Set the gear's stiffness, damping and backlash (``models.gear``) from
+    ``settings`` (compliant, as the arm was built; a Monte-Carlo sample's drawn values).
+    A rigid arm takes only a rigid ``settings``."""
+    if arm.gear is None:
+        if settings.compliant:
+            raise ValueError(
+                f"gear_stiffness = {list(settings.gear_stiffness)}, but the diagram was built "
+                "with a rigid gear; a new diagram is required for a compliant one"
+            )
+        settings.values(arm.size)
+        return
+    arm.gear.set_gear(root_context, settings)
+
+
+def set_motor_state(arm: Arm, root_context: Context) -> None:
+    """With a compliant gear, start each motor where its link is (``theta_m = q``,
+    ``omega_m = q'``: no deflection; an arm under gravity would start with the gear
+    unloaded and settle). Nothing to do for a rigid gear."""
+    if arm.gear is None:
+        return
+    plant = arm.plant
+    plant_context = plant.GetMyContextFromRoot(root_context)
+    arm.gear.set_state(
+        root_context, plant.GetPositions(plant_context), plant.GetVelocities(plant_context)
+    )
 
 
 def set_friction_law(arm: Arm, root_context: Context, settings: object) -> None:
@@ -539,13 +595,16 @@ def set_coulomb(
 def read_parameters(arm: Arm, root_context: Context) -> ArmParameters:
     """The physical parameters currently in ``root_context``."""
     blocks = arm.motor_friction
-    return _read(
+    parameters = _read(
         arm.plant,
         arm.layout,
         arm.plant.GetMyContextFromRoot(root_context),
         blocks.coulomb_levels(root_context),
         blocks.motor_constants(root_context),
     )
+    if arm.gear is not None:
+        parameters = replace(parameters, rotor_inertia=arm.gear.inertia(root_context))
+    return parameters
 
 
 def arm_model(arm: Arm, root_context: Context) -> SerialArmModel:
@@ -554,6 +613,10 @@ def arm_model(arm: Arm, root_context: Context) -> SerialArmModel:
     parameters = read_parameters(arm, root_context)
     plant_context = arm.plant.CreateDefaultContext()
     plant_context.SetTimeStateAndParametersFrom(arm.plant.GetMyContextFromRoot(root_context))
+    if arm.gear is not None:  # the rigid-gear equivalent: J_m back on the joint
+        for name, inertia in zip(arm.layout.actuators, parameters.rotor_inertia, strict=True):
+            actuator = arm.plant.GetJointActuatorByName(name)
+            actuator.SetRotorInertia(plant_context, inertia / actuator.default_gear_ratio() ** 2)
     return SerialArmModel.of_plant(
         arm.plant, plant_context, arm.layout.joints, parameters.motor_constant, parameters.coulomb
     )
@@ -562,8 +625,12 @@ def arm_model(arm: Arm, root_context: Context) -> SerialArmModel:
 def energy_accounts(arm: Arm, root_context: Context) -> tuple[float, float]:
     """(work delivered by the motors, work the joints did against friction), J. The
     second is the energy friction dissipated; for LuGre it includes the energy still
-    stored in the bristles (``models.friction.lugre``)."""
-    return arm.motor_friction.energy(root_context)
+    stored in the bristles (``models.friction.lugre``). With a compliant gear the
+    motors' work is ``sum tau_m omega_m`` (``models.gear``)."""
+    work, loss = arm.motor_friction.energy(root_context)
+    if arm.gear is not None:
+        work = arm.gear.motor_work(root_context)
+    return work, loss
 
 
 def build_arm_diagram(

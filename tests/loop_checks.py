@@ -6,11 +6,12 @@ from posfb.diagrams.closed_loop import ClosedLoop
 from posfb.diagrams.graph import edges, reachable
 
 
-def assert_position_only(loop: ClosedLoop) -> None:
+def assert_position_only(loop: ClosedLoop, location: str = "link") -> None:
     """The only path from the plant to the controller is the quantised position: the
     controller's inputs are the held measurement and the held desired trajectory, the
-    encoder reads the position half of the plant state, and every path from the plant to
-    the controller passes through the encoder."""
+    encoder reads the position half of the plant state (or, at ``location = "motor"``,
+    the motor angle of a compliant gear), and every path from the plant to the
+    controller passes through the encoder."""
     graph = edges(loop.diagram)
     plant, encoder = loop.arm.plant.get_name(), loop.encoder.get_name()
     controller = loop.controller.get_name()
@@ -26,10 +27,14 @@ def assert_position_only(loop: ClosedLoop) -> None:
         (encoder, "q_measured", "encoder_hold"),
         ("desired_trajectory", "y0", "desired_hold"),  # TrajectorySource names it y0
     }
-    position = loop.arm.position_output_port()
+    position = loop.arm.position_output_port(location)
     into_encoder = [(e.source, e.output) for e in graph if e.target == encoder]
     assert into_encoder == [(position.get_system().get_name(), position.get_name())]
-    assert position.get_name() != loop.arm.velocity_output_port().get_name()
+    velocity = loop.arm.velocity_output_port()
+    assert (position.get_system().get_name(), position.get_name()) != (
+        velocity.get_system().get_name(),
+        velocity.get_name(),
+    )
     assert controller in reachable(graph, plant)
     assert controller not in reachable(graph, plant, blocked=frozenset({encoder}))
     assert not [e for e in graph if e.target == "desired_trajectory"]

@@ -385,6 +385,29 @@ CASES = {
         ("montecarlo", "run", "{tmp}/friction_draw.yaml", "--db", "{tmp}/s"),
         "draws.plant.friction.static_ratio can draw 0.5: plant.friction.static_ratio[0] = 0.5",
     ),
+    # gear compliance, backlash, encoder location (models.gear)
+    "negative gear stiffness": Case(
+        ("simulate", "--set", "plant.gear_stiffness=-1"),
+        "plant.gear_stiffness[0] = -1.0 is negative; a finite value >= 0 is required",
+    ),
+    "negative gear damping": Case(
+        ("simulate", "--set", "plant.gear_stiffness=1000", "--set", "plant.gear_damping=[0, -2]"),
+        "plant.gear_damping[1] = -2.0 is negative; a finite value >= 0 is required",
+    ),
+    "negative backlash": Case(
+        ("simulate", "--set", "plant.gear_stiffness=1000", "--set", "plant.backlash=-0.01"),
+        "plant.backlash[0] = -0.01 is negative; a finite value >= 0 is required",
+    ),
+    "backlash without stiffness": Case(
+        ("simulate", "--set", "plant.backlash=0.01"),
+        "plant.backlash[0] = 0.01 with plant.gear_stiffness[0] = 0 (a rigid gear); "
+        "plant.gear_stiffness[0] > 0 is required",
+    ),
+    "motor encoder on a rigid gear": Case(
+        ("simulate", "--set", "sensor.location=motor"),
+        "sensor.location = 'motor' with plant.gear_stiffness = [0.0] (a rigid gear); "
+        "plant.gear_stiffness > 0 or sensor.location = 'link' is required",
+    ),
 }
 
 

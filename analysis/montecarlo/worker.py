@@ -77,6 +77,9 @@ def structure_key(scenario: Scenario, controller: str) -> str:
     shape.plant.payload_mass = 0.0
     shape.plant.parameters = ParameterOverrides()
     shape.plant.friction = type(shape.plant.friction)()  # its kind, not its values
+    compliant = any(k > 0.0 for k in shape.plant.gear_stiffness)  # a gear block or none
+    shape.plant.gear_stiffness = [1.0 if compliant else 0.0]
+    shape.plant.gear_damping, shape.plant.backlash = [0.0], [0.0]
     noisy = any(std > 0.0 for std in shape.sensor.noise_std)
     shape.sensor.encoder_counts, shape.sensor.zero_offset = [0], [0.0]
     shape.sensor.noise_std, shape.sensor.noise_seed = [1.0 if noisy else 0.0], 0
@@ -148,6 +151,7 @@ class ClosedLoopEvaluator:
                 sensor,
                 radii.get(controller),
                 config.plant.friction,
+                config.plant.gear,
             )
             runs.append(run)
             if result is not None:
@@ -223,15 +227,17 @@ class ClosedLoopEvaluator:
         sensor: SensorState,
         radius: float | None,
         friction: object,
+        gear: object = None,
     ) -> tuple[ControllerRun, ClosedLoopResult | None]:
-        """One controller on ``plant`` with the sample's ``friction`` law settings (set in
-        the Context: the cached diagram may have been built with another sample's) and
+        """One controller on ``plant`` with the sample's ``friction`` law settings and
+        ``gear`` values (set in the Context: the cached diagram may have been built with
+        another sample's) and
         its run; an exception (building its runner or running it) is recorded as
         ``error`` (and there is no run)."""
         try:
             if isinstance(runner, Exception):
                 raise runner
-            result = runner.run(plant.parameters, sensor, friction=friction)
+            result = runner.run(plant.parameters, sensor, friction=friction, gear=gear)
         except Exception as error:  # recorded, never stops the study
             return ControllerRun(controller, "error", _one_line(error), {}, radius), None
         metrics = _metrics_dict(run_metrics(result))

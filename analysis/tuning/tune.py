@@ -142,15 +142,22 @@ def _entry(scenario: Scenario, controller: str) -> LinearTorqueInputs:
     return copy.deepcopy(with_controller(scenario, controller).controller)
 
 
-def _simulate(loaded: LoadedScenario, controller: str, entry: object) -> SimulatedCheck:
-    """A short run of ``entry`` on the scenario's arm (no check refuses it here: the
-    design's own refusals were met by the search)."""
+def check_duration(scenario: Scenario) -> float:
+    """``CHECK_DURATION`` (at most the scenario's duration) as a whole number of periods."""
+    sample_time = scenario.timing.sample_time
+    wanted = min(CHECK_DURATION, scenario.timing.duration)
+    return max(1, round(wanted / sample_time)) * sample_time
+
+
+def _simulate(loaded: LoadedScenario, entry: object) -> SimulatedCheck:
+    """A ``check_duration`` run of ``entry`` on the scenario's arm; a setting the
+    closed loop refuses is reported as the run's status."""
     from posfb.analysis.metrics import run_metrics
     from posfb.diagrams.closed_loop import ClosedLoopRunner
 
     scenario = copy.deepcopy(loaded.scenario)
     scenario.controller = entry
-    scenario.timing.duration = min(CHECK_DURATION, scenario.timing.duration)
+    scenario.timing.duration = check_duration(scenario)
     trial = LoadedScenario(scenario, loaded.base_dir, loaded.source)
     try:
         result = ClosedLoopRunner(resolve(trial).config).run()
@@ -240,8 +247,8 @@ def _tune_controller(
         verified_radii=radii,
         scenario_beta=scenario_confidence(count, len(problem.knobs), settings.epsilon),
         decisions=len(problem.knobs),
-        simulated_before=_simulate(loaded, controller, before),
-        simulated_after=_simulate(loaded, controller, after),
+        simulated_before=_simulate(loaded, before),
+        simulated_after=_simulate(loaded, after),
         generations=found.generations,
         evaluations=found.evaluations,
     )
@@ -272,7 +279,7 @@ def tune(
         base_dir=loaded.base_dir,
         settings=settings,
         family="the default spread" if study is None else f"{study_name or 'the study'}",
-        check_duration=min(CHECK_DURATION, loaded.scenario.timing.duration),
+        check_duration=check_duration(loaded.scenario),
     )
     tuned: dict[str, object] = {}
     with threadpool_limits(1):
