@@ -25,7 +25,7 @@ def load_example(name: str) -> ModuleType:
 
 def test_every_example_is_tested_here():
     tested = {"disturbance_torque", "sample_time_sweep", "compare_my_scenario", "my_controller",
-              "robust_tuning"}  # fmt: skip
+              "robust_tuning", "nonidealities"}  # fmt: skip
     assert {path.stem for path in EXAMPLES.glob("*.py")} == tested
 
 
@@ -98,3 +98,19 @@ def test_robust_tuning_beats_the_paper_settings_under_a_payload(capsys, tmp_path
     assert rms["tuned", heavy, "proposed"] < rms["paper's settings", heavy, "proposed"]
     assert rms["tuned", heavy, "proposed"] < rms["tuned", heavy, "lin_lc"]
     assert posfb.load_scenario(tmp_path / "tuned.yaml").get("controller.alpha_star") < 4.0
+
+
+def test_nonidealities_runs_each_effect_alone(tmp_path, capsys):
+    example = load_example("nonidealities")
+    runs = example.run_effects("lin_lc", duration=0.5)
+    labels = [label for effects in example.EFFECTS.values() for label in effects]
+    assert list(runs) == ["off", *labels]
+    assert all(run.status == "ok" for run in runs.values())
+    # a 12-bit DAC's step (11.7 mV at 24 V) is far below the voltages the loop applies:
+    # the error moves by well under a count's worth
+    ideal, dac = runs["off"].rms_q, runs["DAC 12 bit"].rms_q
+    assert np.max(np.abs(np.subtract(dac, ideal))) < 2 * np.pi / 20000
+    figure = example.figure(runs, "lin_lc")
+    assert len(figure.axes) == len(example.EFFECTS)
+    figure.savefig(tmp_path / "effects.png")
+    assert (tmp_path / "effects.png").stat().st_size > 10_000
