@@ -19,7 +19,7 @@ EXIT_NOT_FOUND = 1
 
 #: The options that set a ``TuneSettings`` field of the same name, and their help.
 SETTING_OPTIONS = {
-    "seed": (int, "seed of the design plants (the fresh plants use seed + 1)"),
+    "seed": (int, "seed of the design plants (the fresh plants of round r use seed + 1 + r)"),
     "budget": (float, "wall-clock seconds the search may take"),
     "plants": (int, "design plants the search requires to be stable"),
     "margin": (float, "required rho <= 1 - margin"),
@@ -33,7 +33,7 @@ SETTING_OPTIONS = {
 def configure(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("scenario", help="scenario YAML of the arm to tune for")
     parser.add_argument(
-        "--study", metavar="STUDY", help="Monte-Carlo study whose parameters: give the plants "
+        "--study", metavar="STUDY", help="Monte-Carlo study whose parameters give the plants "
         "(default: +-20 %% on every link, rotor, damping and friction value, 5 %% motor constants)",
     )  # fmt: skip
     parser.add_argument("--out", required=True, metavar="TUNED.yaml", help="tuned scenario")
@@ -41,8 +41,13 @@ def configure(parser: argparse.ArgumentParser) -> None:
         "--set", action="append", default=[], metavar="KEY=VALUE", dest="settings",
         help="change one scenario key before tuning (repeatable)",
     )  # fmt: skip
+    from posfb.analysis.tuning.settings import TuneSettings  # light: dataclasses only
+
+    defaults = TuneSettings()
     for name, (kind, text) in SETTING_OPTIONS.items():
-        parser.add_argument(f"--{name}", type=kind, help=text)
+        parser.add_argument(
+            f"--{name}", type=kind, help=f"{text} (default: {getattr(defaults, name)})"
+        )
     parser.add_argument("--json", action="store_true", help="print one JSON object")
     parser.set_defaults(handler=run)
 
