@@ -26,6 +26,7 @@ from posfb.models.design import ControllerConfig
 from posfb.models.design.closed_loop import sampled_data_closed_loop
 from posfb.models.identify import identify
 from posfb.models.lumped import LumpedModel, LumpedParameters
+from posfb.models.nominal import trajectory_voltages
 from posfb.models.plant import apply_parameters, build_arm_diagram
 from posfb.models.trajectory import Trajectory
 
@@ -159,7 +160,7 @@ def model_voltage_rms(
     included): what any controller that tracks well must apply."""
     model = LumpedModel(parameters)
     times = np.arange(1, round(duration / sample_time) + 1) * sample_time
-    voltages = np.array([model.inverse_dynamics(*trajectory.evaluate(float(t))) for t in times])
+    voltages = trajectory_voltages(model, trajectory, times)
     return tuple(float(v) for v in np.sqrt(np.mean(voltages**2, axis=0)))
 
 

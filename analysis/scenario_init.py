@@ -198,12 +198,12 @@ class FittedTrajectory:
 def peak_voltages(urdf: Path, waves: tuple, times: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Per joint, the largest ``|u|`` of the nominal inverse dynamics (Eq. 2, gravity and
     friction included) along ``waves`` at ``times``, and when."""
-    from posfb.models.nominal import UrdfNominal, nominal_model
+    from posfb.models.nominal import UrdfNominal, nominal_model, trajectory_voltages
     from posfb.models.trajectory import WaveTrajectory
 
     model = nominal_model(UrdfNominal(str(urdf)))
     trajectory = WaveTrajectory(waves)
-    voltages = np.array([model.inverse_dynamics(*trajectory.evaluate(float(t))) for t in times])
+    voltages = trajectory_voltages(model, trajectory, times)
     where = np.argmax(np.abs(voltages), axis=0)
     return np.abs(voltages).max(axis=0), times[where]
 

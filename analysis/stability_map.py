@@ -11,7 +11,7 @@ design inputs of each grid point are the controller entry's
 (its duration is not required to be a multiple of the grid's sample times: the map
 runs no simulation). The loop is the controller entry's (the proposed controller's at
 ``alpha = alpha*``, or Lin+LC's), designed on the nominal model and closed around each
-plant's linear part ``M0, B`` (``models.design.design_loop``). A grid point whose design
+plant's linear part ``M0, B`` (``models.design.held_design_radius``). A grid point whose design
 the controller refuses (``a <= ln 2 / T_s``, a non-SPR ``H``, a failed LQR design) or
 whose value the scenario refuses is *refused*: neither stable nor unstable.
 
@@ -25,7 +25,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -41,8 +41,9 @@ from posfb.diagrams.resolve import (
     resolve,
 )
 from posfb.diagrams.scenario import Scenario, apply_setting
-from posfb.models.design import Design, compute_design, design_loop
-from posfb.models.design.closed_loop import spectral_radius
+from posfb.models.controllers import require_design
+from posfb.models.design import Design, cached_design, held_design_radius
+from posfb.models.design.closed_loop import HeldPlant, held_plant
 from posfb.models.nominal import NominalModel
 
 if TYPE_CHECKING:
@@ -104,11 +105,21 @@ class MapSetup:
     plants: tuple[LinearPlant, ...]
     margin: float
     arm: str
+    _held: dict[float, tuple[HeldPlant, ...]] = field(default_factory=dict, repr=False)
 
     @property
     def limit(self) -> float:
         """Robustly stable: ``rho <= 1 - margin``."""
         return 1.0 - self.margin
+
+    def held_plants(self, sample_time: float) -> tuple[HeldPlant, ...]:
+        """The plants' linear parts held over ``sample_time``, computed once per sample
+        time (every other key of a grid column shares them)."""
+        if sample_time not in self._held:
+            self._held[sample_time] = tuple(
+                held_plant(plant.M0, plant.B, sample_time) for plant in self.plants
+            )
+        return self._held[sample_time]
 
 
 @dataclass(frozen=True)
@@ -279,17 +290,10 @@ def _design(setup: MapSetup, scenario: Scenario) -> Design | None:
         _, config, _ = controller_inputs(
             scenario.controller, setup.nominal, scenario.timing.sample_time, setup.loaded.base_dir
         )
+        require_design(setup.controller, config)  # the controller's own refusals
     except ValueError:
         return None
-    design = compute_design(config)
-    try:
-        if setup.controller == "proposed":
-            design.require_nonlinear_torque()
-        else:
-            design.require_linear_torque()
-    except ValueError:
-        return None
-    return design
+    return cached_design(config)
 
 
 def _evaluate(setup: MapSetup, scenario: Scenario) -> PointResult:
@@ -302,8 +306,8 @@ def _evaluate(setup: MapSetup, scenario: Scenario) -> PointResult:
         else design.sampled_data_spectral_radius_lin_lc
     )
     plant_rho = tuple(
-        spectral_radius(design_loop(design, setup.controller, plant.M0, plant.B).A)
-        for plant in setup.plants
+        held_design_radius(design, setup.controller, held)
+        for held in setup.held_plants(design.config.sample_time)
     )
     return PointResult(refused=False, rho=float(rho), plant_rho=plant_rho)
 

@@ -13,12 +13,19 @@ joint count and for a model object with ``M0()``, ``M(q)``, ``B()``, ``G(q)``,
 from __future__ import annotations
 
 import threading
+from collections.abc import Iterable
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING
+
+import numpy as np
 
 from posfb.models.lumped import LumpedModel, LumpedParameters
 from posfb.models.serial_model import SerialArmModel
 from posfb.models.urdf_check import check_serial_urdf
+
+if TYPE_CHECKING:
+    from posfb.models.trajectory import Trajectory
 
 #: Joints of the paper's lumped model.
 LUMPED_JOINTS = 2
@@ -66,6 +73,15 @@ def nominal_model(nominal: NominalModel) -> LumpedModel | SerialArmModel:
     if nominal.urdf not in models:
         models[nominal.urdf] = SerialArmModel(nominal.urdf)
     return models[nominal.urdf]
+
+
+def trajectory_voltages(
+    model: LumpedModel | SerialArmModel, trajectory: Trajectory, times: Iterable[float]
+) -> np.ndarray:
+    """The armature voltages (V) ``model`` needs to follow ``trajectory`` exactly: its
+    inverse dynamics (Eq. 2, gravity and friction included) at ``(q_d, qdot_d, qddot_d)``
+    of each of ``times``, one row per instant."""
+    return np.array([model.inverse_dynamics(*trajectory.evaluate(float(t))) for t in times])
 
 
 def is_nominal_model(value: object) -> bool:

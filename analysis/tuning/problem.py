@@ -44,17 +44,13 @@ import numpy as np
 
 from posfb.analysis.tuning.plants import LinearPlant, error_instants
 from posfb.diagrams.resolve import ResolvedScenario
-from posfb.models.design import (
-    Design,
-    compute_design,
-    held_design_loop,
-    held_design_radius,
-)
+from posfb.models.controllers import require_design
+from posfb.models.design import Design, cached_design, held_design_loop, held_design_radius
 from posfb.models.design.bounds import bound_filter_constants
-from posfb.models.design.closed_loop import held_plant, spectral_radius, stationary_deviations
+from posfb.models.design.closed_loop import held_plant, stationary_deviations
 from posfb.models.design.initial import filter_pole
 from posfb.models.design.settings import LinearTorqueInputs, Proposed
-from posfb.models.nominal import nominal_model
+from posfb.models.nominal import nominal_model, trajectory_voltages
 
 #: Standard deviations of the feedback voltage kept below the limit with the peak.
 VOLTAGE_SIGMAS = 3.0
@@ -157,9 +153,7 @@ class TuningProblem:
         model = nominal_model(self.nominal)
         self.nominal_held = held_plant(model.M0(), model.B(), self.sample_time)
         times = np.arange(config.samples + 1) * config.sample_time
-        needed = np.array(
-            [model.inverse_dynamics(*config.trajectory.evaluate(float(t))) for t in times]
-        )
+        needed = trajectory_voltages(model, config.trajectory, times)
         self.peak_voltage = np.max(np.abs(needed), axis=0)
         self.voltage_limit = np.asarray(config.voltage_limit, dtype=float)
         errors = [p.torque_error for p in self.plants if len(p.torque_error) > 1]
@@ -190,22 +184,25 @@ class TuningProblem:
 
     def design(self, entry: LinearTorqueInputs) -> Design:
         """The Sec. 3 design of ``entry`` on the scenario's nominal model."""
-        return compute_design(entry.config(self.nominal, self.sample_time))
+        return cached_design(entry.config(self.nominal, self.sample_time))
 
     def evaluate(self, entry: LinearTorqueInputs) -> Evaluation:
         """``entry`` judged on the nominal loop and the design plants."""
         try:
-            design = self.design(entry)
-            design.require_linear_torque()
-            if self.controller == "proposed":
-                design.require_nonlinear_torque()
+            config = entry.config(self.nominal, self.sample_time)
+            require_design(self.controller, config)  # the controller's own refusals
         except ValueError as error:
             return Evaluation(math.inf, math.inf, math.inf, (), math.inf, False, str(error))
-        loop = held_design_loop(design, self.controller, self.nominal_held)
-        nominal_radius = spectral_radius(loop.A)
+        design = cached_design(config)
+        nominal_radius = (
+            design.sampled_data_spectral_radius
+            if self.controller == "proposed"
+            else design.sampled_data_spectral_radius_lin_lc
+        )
         worst = max(self.radii(design, self.plants), default=math.nan)
         if nominal_radius >= 1.0:
             return Evaluation(math.inf, nominal_radius, worst, (), math.inf, False)
+        loop = held_design_loop(design, self.controller, self.nominal_held)
         q_std, u_std = stationary_deviations(
             loop, self.disturbance_std, self.noise_std, self.disturbance_pole
         )
