@@ -28,6 +28,7 @@ COMMANDS = {
     "graph": "render the closed-loop diagram (.svg/.png/.pdf, or .dot text)",
     "animate": "write an offline HTML animation of one run (Meshcat recording)",
     "montecarlo": "Monte-Carlo robustness study over sampled plants",
+    "realism": "how far from hardware: non-idealities from the literature vs Tables 3-4",
 }
 
 #: ``posfb --help``, above the list of commands.

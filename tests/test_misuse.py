@@ -66,6 +66,13 @@ FILES = {
     "prismatic.urdf": PRISMATIC,
     "a_file": "I am a file, not a folder\n",
     "text.sqlite": "not a database\n",
+    "realism_no_source.yaml": "study: {duration: 0.5, controllers: [lin_lc]}\neffects:\n"
+    "  - {name: dac, label: DAC, draws: {actuator.dac_bits: !UniformDiscrete {values: [12]}}}\n",
+    "realism_bad_combined.yaml": "study: {duration: 0.5, controllers: [lin_lc]}\neffects:\n"
+    "  - {name: dac, label: DAC, source: a book, settings: [actuator.dac_bits=12]}\n"
+    "combined: [dac, lag]\n",
+    "gear_draw.yaml": STUDY + "settings: [plant.gear_stiffness=1000]\n"
+    "draws:\n  plant.backlash: !Uniform {min: -0.001, max: 0.001}\n",
     "friction_draw.yaml": STUDY + 'settings: ["plant.friction=!Stribeck {}"]\n'
     "draws:\n  plant.friction.static_ratio: !Uniform {min: 0.5, max: 2.0}\n",
 }
@@ -386,6 +393,23 @@ CASES = {
         "draws.plant.friction.static_ratio can draw 0.5: plant.friction.static_ratio[0] = 0.5",
     ),
     # gear compliance, backlash, encoder location (models.gear)
+    "study draws a negative backlash": Case(
+        ("montecarlo", "run", "{tmp}/gear_draw.yaml", "--db", "{tmp}/s"),
+        "draws.plant.backlash can draw -0.001: plant.backlash[0] = -0.001 is negative",
+    ),
+    # the realism study (posfb realism)
+    "realism effect without a source": Case(
+        ("realism", "{tmp}/realism_no_source.yaml", "--out", "{tmp}/r"),
+        "effects[0].source is empty; the source of the effect's range is required",
+    ),
+    "realism combines an unknown effect": Case(
+        ("realism", "{tmp}/realism_bad_combined.yaml", "--out", "{tmp}/r"),
+        "combined names 'lag'; one of the effects ['dac'] is required",
+    ),
+    "realism report of nothing run": Case(
+        ("realism", "--out", "{tmp}/r", "--report-only"),
+        "does not exist; run posfb realism without --report-only first",
+    ),
     "negative gear stiffness": Case(
         ("simulate", "--set", "plant.gear_stiffness=-1"),
         "plant.gear_stiffness[0] = -1.0 is negative; a finite value >= 0 is required",

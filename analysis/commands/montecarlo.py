@@ -18,7 +18,7 @@ import sys
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from posfb.analysis.errors import InterruptedRunError, UsageError
+from posfb.analysis.errors import UsageError
 from posfb.analysis.outputs import output_file, output_folder
 
 if TYPE_CHECKING:
@@ -117,7 +117,7 @@ def available_cores() -> int:
 def run_command(args: argparse.Namespace) -> int:
     from posfb.analysis.montecarlo.config import load_study, with_overrides
     from posfb.analysis.montecarlo.provenance import code_version
-    from posfb.analysis.montecarlo.scheduler import run_study
+    from posfb.analysis.montecarlo.scheduler import interrupted, run_study
     from posfb.analysis.montecarlo.store import ResultStore
 
     study = with_overrides(load_study(args.study), samples=args.samples, seed=args.seed)
@@ -153,11 +153,7 @@ def run_command(args: argparse.Namespace) -> int:
                 progress=not args.no_progress,
             )
         except KeyboardInterrupt:
-            saved = sum(1 for index in store.finished() if index < study.samples)
-            raise InterruptedRunError(
-                f"{saved} of {study.samples} samples are saved in {args.db}; run the same "
-                "command again to resume"
-            ) from None
+            raise interrupted(store, study, args.db) from None
     statuses = ", ".join(f"{k} {v}" for k, v in sorted(summary.statuses.items())) or "none"
     print(
         f"{args.db}: {summary.already_done + summary.written} of {summary.requested} samples "

@@ -97,6 +97,12 @@ from posfb.models.plant import JOINT_PARAMETERS, PARAMETER_UNITS
 #: Parameters that must be > 0 (the others must be >= 0), as ``ArmParameters`` requires.
 POSITIVE_PARAMETERS = ("link_mass", "motor_constant")
 
+#: The ``plant.`` keys ``draws:`` takes (the drive train's, ``models.friction`` and
+#: ``models.gear``); the rest of the physical plant is drawn under ``parameters:``.
+DRAWN_PLANT_KEYS = (
+    "plant.friction.", "plant.gear_stiffness", "plant.gear_damping", "plant.backlash"
+)  # fmt: skip
+
 #: Smallest probability a truncated normal may keep (rejection sampling stays cheap).
 MIN_TRUNCATED_MASS = 1e-3
 
@@ -167,8 +173,7 @@ def _for_joint(self: object, name: str, joint: int) -> Distribution:
 ParameterDistributions = dataclasses.make_dataclass(
     "ParameterDistributions",
     [
-        *((name, list[Distribution], field(default_factory=_nominal))
-          for name in JOINT_PARAMETERS),
+        *((name, list[Distribution], field(default_factory=_nominal)) for name in JOINT_PARAMETERS),
         ("payload_mass", Distribution, field(default_factory=Deterministic)),
     ],  # fmt: skip
     namespace={
@@ -291,11 +296,13 @@ def study_joints(study: Study) -> int:
     """``n``: the joints of the study's plant URDF (its paths are absolute)."""
     return _urdf_joints(study.base.plant.urdf)
 
+
 #: The sampling designs a study may name (``Study.sampling``).
 SAMPLING_DESIGNS = ("random", "latin_hypercube", "sobol", "saltelli")
 
 #: Designs built for a given number of rows: ``samples`` belongs to the study's identity.
 SIZED_DESIGNS = ("latin_hypercube",)
+
 
 @dataclass(frozen=True)
 class VariedScalar:
@@ -474,10 +481,12 @@ def _check_draws(study: Study, base: Scenario) -> None:
     for key, distribution in study.draws.items():
         where = f"draws.{key}"
         _require(
-            not key.startswith("plant.") or key.startswith("plant.friction."),
+            not key.startswith("plant.") or key.startswith(DRAWN_PLANT_KEYS),
             f"{where}: the physical plant is drawn under parameters: (payload_mass and the "
-            "ArmParameters names); draws: takes the other scenario keys (and the friction "
-            "law's, plant.friction.NAME)",
+            "ArmParameters names); draws: takes the other scenario keys (and the drive "
+            "train's: "
+            + ", ".join(f"{k}NAME" if k.endswith(".") else k for k in DRAWN_PLANT_KEYS)
+            + ")",
         )
         current = get_setting(base, key)
         values = current if isinstance(current, list) else [current]
@@ -581,7 +590,13 @@ def load_study(path: str | Path) -> Study:
 def study_from_text(text: str, source: str = "study", folder: Path | None = None) -> Study:
     """Parse and validate a study from YAML text (relative scenario paths are read from
     ``folder``, default the working directory)."""
-    study = load_typed(Study, text, source)
+    return complete_study(load_typed(Study, text, source), source, folder)
+
+
+def complete_study(study: Study, source: str = "study", folder: Path | None = None) -> Study:
+    """A study as written (``scenario`` relative to ``folder``, default the working
+    directory, and ``settings`` not yet applied) folded into its ``base`` and validated;
+    every problem is one ``ValueError`` line starting with ``source``."""
     try:
         study = _fold_scenario(study, Path.cwd() if folder is None else folder)
         return validate_study(study)

@@ -29,7 +29,7 @@ from dataclasses import dataclass
 
 from tqdm import tqdm
 
-from posfb.analysis.errors import UsageError
+from posfb.analysis.errors import InterruptedRunError, UsageError
 from posfb.analysis.montecarlo import worker
 from posfb.analysis.montecarlo.config import Study, canonical_text, identity
 from posfb.analysis.montecarlo.records import SampleResult
@@ -237,4 +237,14 @@ def run_study(
         written=written,
         elapsed_s=time.perf_counter() - start,
         statuses=dict(statuses),
+    )
+
+
+def interrupted(store: ResultStore, study: Study, where: str) -> InterruptedRunError:
+    """The one line of a run stopped by Ctrl-C: how many samples ``store`` (at
+    ``where``) keeps and how to resume."""
+    saved = sum(1 for index in store.finished() if index < study.samples)
+    return InterruptedRunError(
+        f"{saved} of {study.samples} samples are saved in {where}; run the same command "
+        "again to resume"
     )

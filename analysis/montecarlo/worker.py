@@ -14,6 +14,7 @@ the closed-loop runs that a study throws away after taking their metrics.
 
 from __future__ import annotations
 
+import copy
 import dataclasses
 import math
 import threading
@@ -86,6 +87,17 @@ def structure_key(scenario: Scenario, controller: str) -> str:
     return dump_scenario(shape)
 
 
+def rigid_twin(scenario: Scenario) -> Scenario:
+    """``scenario`` with a rigid gear read on the link (``models.gear``): the same arm
+    with each motor's rotor inertia in its joint; ``scenario`` itself when rigid."""
+    if not any(k > 0.0 for k in scenario.plant.gear_stiffness):
+        return scenario
+    twin = copy.deepcopy(scenario)
+    twin.plant.gear_stiffness, twin.plant.gear_damping, twin.plant.backlash = [0.0], [0.0], [0.0]
+    twin.sensor.location = "link"
+    return twin
+
+
 class ClosedLoopEvaluator:
     """Evaluates samples of one study: sample the scenario and the plant, identify its
     theta, place it against the Assumption-1 bounds, compute the sampled-data spectral
@@ -95,7 +107,9 @@ class ClosedLoopEvaluator:
         self.study = study
         self._runners: OrderedDict[str, ClosedLoopRunner] = OrderedDict()
         base = self._loaded(study.base_scenario())
-        self._reference = self.runner(base.scenario, study.controllers[0])
+        # The arm a sample is identified and placed on: rigid, as the paper's theta
+        # lump the rotor inertia into the joint (a compliant gear moves it to the motor).
+        self._reference = self.runner(rigid_twin(base.scenario), study.controllers[0])
         self.nominal_plant = resolve(base).true_parameters(self._reference.arm.default_parameters)
 
     @staticmethod

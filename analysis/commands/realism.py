@@ -1,0 +1,60 @@
+"""``posfb realism [STUDY] --out DIR``: the "How far from hardware?" study (issue 21).
+
+Runs (or resumes) one Monte-Carlo study per effect of the realism file, the ideal arm
+and the combination (``analysis.realism``), each into ``STORES/NAME.sqlite``, then
+writes ``DIR/report.md`` and its figures. ``--report-only`` writes the report from the
+stores as they are.
+"""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+from posfb.analysis.commands.montecarlo import _positive_int, available_cores
+from posfb.analysis.outputs import output_folder
+
+#: The shipped realism study.
+DEFAULT_STUDY = Path(__file__).resolve().parents[1] / "studies" / "realism" / "paper_table3.yaml"
+
+
+def configure(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument(
+        "study", nargs="?", default=str(DEFAULT_STUDY),
+        help="realism study YAML (default: analysis/studies/realism/paper_table3.yaml)",
+    )  # fmt: skip
+    parser.add_argument("--out", required=True, help="folder of report.md and its figures")
+    parser.add_argument(
+        "--stores", help="folder of the studies' SQLite stores (default: OUT/stores)"
+    )
+    parser.add_argument(
+        "--workers", type=_positive_int, default=1,
+        help="local worker processes (at most the cores available)",
+    )  # fmt: skip
+    parser.add_argument(
+        "--report-only", action="store_true", help="run nothing; report the stores as they are"
+    )
+    parser.add_argument("--no-progress", action="store_true", help="no progress bar on stderr")
+    parser.set_defaults(handler=realism_command)
+
+
+def realism_command(args: argparse.Namespace) -> int:
+    from posfb.analysis.realism.report import write_report
+    from posfb.analysis.realism.run import run_realism
+    from posfb.analysis.realism.spec import load_realism
+
+    studies = load_realism(args.study)
+    out = output_folder("--out", args.out)
+    stores = out / "stores" if args.stores is None else output_folder("--stores", args.stores)
+    if not args.report_only:
+        workers = min(args.workers, available_cores())
+        run_realism(studies, stores, workers=workers, progress=not args.no_progress)
+    path = write_report(studies, stores, out, command=_command(args))
+    print(f"report written to {path}")
+    return 0
+
+
+def _command(args: argparse.Namespace) -> str:
+    """The command that regenerates the report (in the report's header)."""
+    study = "" if args.study == str(DEFAULT_STUDY) else f" {args.study}"
+    return f"posfb realism{study} --out {args.out} --workers {args.workers}"

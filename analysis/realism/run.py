@@ -1,0 +1,36 @@
+"""Run (or resume) every study of a realism file, one SQLite store each."""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+from posfb.analysis.montecarlo.provenance import code_version
+from posfb.analysis.montecarlo.scheduler import interrupted, run_study
+from posfb.analysis.montecarlo.store import ResultStore
+from posfb.analysis.realism.spec import RealismStudies
+
+
+def store_path(stores: Path, name: str) -> Path:
+    """The store of the study ``name``."""
+    return stores / f"{name}.sqlite"
+
+
+def run_realism(
+    studies: RealismStudies, stores: Path, workers: int = 1, progress: bool = True
+) -> None:
+    """Every study of ``studies`` into ``stores/NAME.sqlite``, in order; finished samples
+    are kept (a store resumes), so an interrupted run loses only samples in flight."""
+    stores.mkdir(parents=True, exist_ok=True)
+    version = code_version()
+    for name, study in studies.studies.items():
+        path = store_path(stores, name)
+        with ResultStore.create_or_resume(path, study, version) as store:
+            try:
+                summary = run_study(study, store, version, workers=workers, progress=progress)
+            except KeyboardInterrupt:
+                raise interrupted(store, study, f"{path} ({name})") from None
+        sys.stderr.write(
+            f"posfb realism: {name}: {summary.already_done + summary.written} of "
+            f"{summary.requested} samples ({summary.written} new in {summary.elapsed_s:.0f} s)\n"
+        )
