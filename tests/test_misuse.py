@@ -406,6 +406,10 @@ CASES = {
         ("realism", "{tmp}/realism_bad_combined.yaml", "--out", "{tmp}/r"),
         "combined names 'lag'; one of the effects ['dac'] is required",
     ),
+    "realism runs an unknown study": Case(
+        ("realism", "--out", "{tmp}/r", "--only", "gear,nope"),
+        "--only 'nope'; one of ideal, electrical_lag, dac, compute_delay",
+    ),
     "realism report of nothing run": Case(
         ("realism", "--out", "{tmp}/r", "--report-only"),
         "does not exist; run posfb realism without --report-only first",

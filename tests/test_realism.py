@@ -4,6 +4,7 @@ replay), its ideal arm checked against an independent ``posfb.simulate`` run."""
 
 from __future__ import annotations
 
+import json
 import math
 import sqlite3
 
@@ -138,12 +139,15 @@ def test_the_ideal_arm_of_the_study_is_an_independent_simulate_run(small_study):
     assert rows["lin_lc_again"] == rows["lin_lc"]  # the same controller under two names
 
 
-def test_the_gear_draws_reach_the_runs_and_replay(small_study, tmp_path):
+@pytest.mark.parametrize(
+    ("study", "key"), [("gear", "plant.backlash"), ("delay", "actuator.compute_delay")]
+)
+def test_the_draws_reach_the_runs_and_replay(small_study, tmp_path, study, key):
     _, out = small_study
-    store = out / "stores" / "gear.sqlite"
+    store = out / "stores" / f"{study}.sqlite"
     with sqlite3.connect(store) as db:
-        drawn = [row[0] for row in db.execute("SELECT parameters FROM samples")]
-    assert all('"plant.gear_stiffness"' in text for text in drawn)
+        drawn = [json.loads(row[0])[key] for row in db.execute("SELECT parameters FROM samples")]
+    assert len(set(drawn)) == 2  # two samples, two values
     # Replay reruns a sample from the store alone and exits 1 if any number differs.
     assert main(["montecarlo", "replay", "--db", str(store), "--sample", "1",
                  "--controller", "pid", "--out", str(tmp_path)]) == 0  # fmt: skip
@@ -154,3 +158,6 @@ def test_a_second_run_resumes_and_runs_nothing(small_study, capsys):
     assert main(["realism", str(spec), "--out", str(out), "--no-progress"]) == 0
     err = capsys.readouterr().err
     assert err.count("(0 new in") == 4  # ideal, delay, gear, combined
+    assert main(["realism", str(spec), "--out", str(out), "--only", "gear", "--no-progress"]) == 0
+    err = capsys.readouterr().err
+    assert "gear: 2 of 2 samples (0 new in" in err and err.count("new in") == 1

@@ -32,6 +32,10 @@ def configure(parser: argparse.ArgumentParser) -> None:
         help="local worker processes (at most the cores available)",
     )  # fmt: skip
     parser.add_argument(
+        "--only", metavar="NAME[,NAME]",
+        help="run only these studies (ideal, an effect's name, combined); report every store",
+    )  # fmt: skip
+    parser.add_argument(
         "--report-only", action="store_true", help="run nothing; report the stores as they are"
     )
     parser.add_argument("--no-progress", action="store_true", help="no progress bar on stderr")
@@ -48,7 +52,8 @@ def realism_command(args: argparse.Namespace) -> int:
     stores = out / "stores" if args.stores is None else output_folder("--stores", args.stores)
     if not args.report_only:
         workers = min(args.workers, available_cores())
-        run_realism(studies, stores, workers=workers, progress=not args.no_progress)
+        chosen = None if args.only is None else args.only.split(",")
+        run_realism(studies, stores, workers, not args.no_progress, chosen)
     path = write_report(studies, stores, out, command=_command(args))
     print(f"report written to {path}")
     return 0

@@ -5,6 +5,7 @@ from __future__ import annotations
 import sys
 from pathlib import Path
 
+from posfb.analysis.errors import UsageError
 from posfb.analysis.montecarlo.provenance import code_version
 from posfb.analysis.montecarlo.scheduler import interrupted, run_study
 from posfb.analysis.montecarlo.store import ResultStore
@@ -17,13 +18,24 @@ def store_path(stores: Path, name: str) -> Path:
 
 
 def run_realism(
-    studies: RealismStudies, stores: Path, workers: int = 1, progress: bool = True
+    studies: RealismStudies,
+    stores: Path,
+    workers: int = 1,
+    progress: bool = True,
+    only: list[str] | None = None,
 ) -> None:
-    """Every study of ``studies`` into ``stores/NAME.sqlite``, in order; finished samples
-    are kept (a store resumes), so an interrupted run loses only samples in flight."""
+    """Every study of ``studies`` (those named in ``only``, where given) into
+    ``stores/NAME.sqlite``, in order; finished samples are kept (a store resumes), so an
+    interrupted run loses only samples in flight."""
+    names = list(studies.studies)
+    for name in only or ():
+        if name not in names:
+            raise UsageError(f"--only {name!r}; one of {', '.join(names)} is required")
     stores.mkdir(parents=True, exist_ok=True)
     version = code_version()
     for name, study in studies.studies.items():
+        if only is not None and name not in only:
+            continue
         path = store_path(stores, name)
         with ResultStore.create_or_resume(path, study, version) as store:
             try:
