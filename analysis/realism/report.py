@@ -263,7 +263,7 @@ def markdown(found: Findings, command: str) -> str:
     spec = found.studies.spec
     missing = [n for n in found.studies.studies if n not in found.found]
     unfinished = [
-        f"{s.name} ({s.samples} of {s.expected})"
+        f"{s.name}: {s.samples} of {s.expected} samples (`--only {s.name}` completes it)"
         for s in found.found.values()
         if s.samples < s.expected
     ]
@@ -281,7 +281,7 @@ def markdown(found: Findings, command: str) -> str:
         lines += [
             "**Incomplete:** "
             + "; ".join(
-                [*(f"{n} not run" for n in missing), *(f"{u} samples" for u in unfinished)]
+                [*(f"{n}: not run" for n in missing), *unfinished]
             ),
             "",
         ]
