@@ -23,7 +23,7 @@
     combined_samples: 4
 
 Each effect becomes the shared study with its ``settings`` appended and its ``draws``
-(``effect_study``); the combined study takes every listed effect's settings and draws,
+(``realism_studies``); the combined study takes every listed effect's settings and draws,
 in the listed order (a later effect's setting of the same key wins, and a drawn key
 overrides a setting). The ideal arm is the shared study itself, one sample.
 """
