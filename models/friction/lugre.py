@@ -32,7 +32,7 @@ from dataclasses import dataclass, field
 from pydrake.symbolic import Variable, abs
 from pydrake.systems.primitives import SymbolicVectorSystem
 
-from posfb.models.friction.common import joint_variables, total
+from posfb.models.friction.common import friction_system, joint_variables
 from posfb.models.friction.registry import FrictionLawSpec, LawParameter
 from posfb.models.friction.stribeck import STATIC_RATIO, STRIBECK_VELOCITY, stribeck_level
 
@@ -61,21 +61,13 @@ def lugre_system(joints: int) -> SymbolicVectorSystem:
     sigma0 = joint_variables("sigma0_", joints)
     sigma1 = joint_variables("sigma1_", joints)
     z = joint_variables("z", joints)
-    loss = Variable("friction_loss")
     rate = [
         v[j] - sigma0[j] * abs(v[j]) * z[j] / stribeck_level(levels[j], ratio[j], v_st[j], v[j])
         for j in range(joints)
     ]
     force = [-(sigma0[j] * z[j] + sigma1[j] * rate[j]) for j in range(joints)]
-    system = SymbolicVectorSystem(
-        state=[loss, *z],
-        input=v,
-        parameter=[*levels, v_s, *ratio, *v_st, *sigma0, *sigma1],
-        dynamics=[-total([force[j] * v[j] for j in range(joints)]), *rate],
-        output=force,
-    )
-    system.set_name("lugre_friction")
-    return system
+    parameters = [*levels, v_s, *ratio, *v_st, *sigma0, *sigma1]
+    return friction_system("lugre_friction", v, parameters, force, z, rate)
 
 
 SPEC = FrictionLawSpec(

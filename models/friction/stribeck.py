@@ -23,7 +23,7 @@ from dataclasses import dataclass, field
 from pydrake.symbolic import Expression, Variable, exp, tanh
 from pydrake.systems.primitives import SymbolicVectorSystem
 
-from posfb.models.friction.common import joint_variables, total
+from posfb.models.friction.common import friction_system, joint_variables
 from posfb.models.friction.registry import FrictionLawSpec, LawParameter
 
 
@@ -50,20 +50,11 @@ def stribeck_system(joints: int) -> SymbolicVectorSystem:
     v_s = Variable("v_s")
     ratio = joint_variables("static_ratio", joints)
     v_st = joint_variables("stribeck_velocity", joints)
-    loss = Variable("friction_loss")
     force = [
         -stribeck_level(levels[j], ratio[j], v_st[j], v[j]) * tanh(v[j] / v_s)
         for j in range(joints)
     ]
-    system = SymbolicVectorSystem(
-        state=[loss],
-        input=v,
-        parameter=[*levels, v_s, *ratio, *v_st],
-        dynamics=[-total([force[j] * v[j] for j in range(joints)])],
-        output=force,
-    )
-    system.set_name("stribeck_friction")
-    return system
+    return friction_system("stribeck_friction", v, [*levels, v_s, *ratio, *v_st], force)
 
 
 #: ``static_ratio >= 1``, ``stribeck_velocity > 0``.

@@ -18,7 +18,7 @@ from dataclasses import dataclass
 from pydrake.symbolic import Variable, tanh
 from pydrake.systems.primitives import SymbolicVectorSystem
 
-from posfb.models.friction.common import joint_variables, total
+from posfb.models.friction.common import friction_system, joint_variables
 from posfb.models.friction.registry import FrictionLawSpec
 
 
@@ -35,17 +35,8 @@ def coulomb_system(joints: int) -> SymbolicVectorSystem:
     v = joint_variables("v", joints)
     levels = joint_variables("fc", joints)
     v_s = Variable("v_s")
-    loss = Variable("friction_loss")
     force = [-levels[j] * tanh(v[j] / v_s) for j in range(joints)]
-    system = SymbolicVectorSystem(
-        state=[loss],
-        input=v,
-        parameter=[*levels, v_s],
-        dynamics=[-total([force[j] * v[j] for j in range(joints)])],
-        output=force,
-    )
-    system.set_name("coulomb_friction")
-    return system
+    return friction_system("coulomb_friction", v, [*levels, v_s], force)
 
 
 SPEC = FrictionLawSpec(
