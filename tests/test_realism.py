@@ -10,11 +10,14 @@ import sqlite3
 
 import numpy as np
 import pytest
+import yaml
 
 import posfb
 from posfb.analysis.cli import main
 from posfb.analysis.commands.realism import DEFAULT_STUDY
+from posfb.analysis.montecarlo.config import Gaussian, UniformDiscrete
 from posfb.analysis.realism.findings import gap_share, paper_pairs, ranking_agreement
+from posfb.analysis.realism.report import _draws_text
 from posfb.analysis.realism.spec import COMBINED, IDEAL, load_realism
 from posfb.analysis.tables import PAPER_TABLE3
 from posfb.diagrams.scenario import get_setting
@@ -161,3 +164,16 @@ def test_a_second_run_resumes_and_runs_nothing(small_study, capsys):
     assert main(["realism", str(spec), "--out", str(out), "--only", "gear", "--no-progress"]) == 0
     err = capsys.readouterr().err
     assert "gear: 2 of 2 samples (0 new in" in err and err.count("new in") == 1
+
+
+def test_the_report_writes_any_distribution_as_the_study_file_does():
+    # The report's "drawn" column is the flow map of the study file: it reads back.
+    draws = {
+        "plant.backlash": Gaussian(mean=5e-4, stddev=1e-4, min=0.0, max=1e-3),
+        "actuator.dac_bits": UniformDiscrete(values=[12, 14]),
+    }
+    for part, distribution in zip(_draws_text(draws).split("; "), draws.values(), strict=True):
+        tag, _, flow = part.split("`")[3].partition(" ")
+        assert tag == f"!{type(distribution).__name__}"
+        read = yaml.safe_load(flow)
+        assert all(read[k] == v for k, v in vars(distribution).items() if v not in (None, False))

@@ -15,6 +15,7 @@ from pathlib import Path
 
 import numpy as np
 
+from posfb.analysis.api import yaml_value
 from posfb.analysis.montecarlo.provenance import code_version
 from posfb.analysis.montecarlo.sensitivity import sensitivities
 from posfb.analysis.montecarlo.statistics import MIN_INFERENCE_ROWS
@@ -41,16 +42,16 @@ def _percent(value: float) -> str:
 
 
 def _draws_text(study_draws: dict) -> str:
+    """Each drawn key with its distribution as the study file writes it, whatever its
+    kind (``!Uniform {min: 0.0001, max: 0.002}``, ``!Gaussian {...}``, ...)."""
     parts = []
     for key, distribution in study_draws.items():
-        fields = {k: v for k, v in vars(distribution).items() if k != "relative"}
-        values = fields.get("values")
-        shown = (
-            "{" + ", ".join(f"{v:g}" for v in values) + "}"
-            if values is not None
-            else f"[{fields['min']:g}, {fields['max']:g}]"
+        fields = ", ".join(
+            f"{name}: {yaml_value(value)}"
+            for name, value in vars(distribution).items()
+            if value is not None and value is not False  # unset keys, relative: false
         )
-        parts.append(f"`{key}` {shown}")
+        parts.append(f"`{key}` `!{type(distribution).__name__} {{{fields}}}`")
     return "; ".join(parts)
 
 
@@ -58,7 +59,7 @@ def _effects_section(studies: RealismStudies) -> list[str]:
     lines = [
         "## The effects and their ranges",
         "",
-        "| study | settings | drawn (uniform; discrete: one of) | samples | source of the range |",
+        "| study | settings | drawn | samples | source of the range |",
         "|---|---|---|---:|---|",
     ]
     for effect in studies.spec.effects:
