@@ -291,7 +291,7 @@ class ClosedLoopConfig:
             raise ValueError(
                 "sensor.location = 'motor' with plant.gear_stiffness = "
                 f"{list(self.plant.gear.gear_stiffness)} (a rigid gear); "
-                "plant.gear_stiffness > 0 or sensor.location = 'link' is required"
+                "plant.gear_stiffness > 0 at some joint or sensor.location = 'link' is required"
             )
         if not isinstance(self.true_plant, TruePlant):
             raise ValueError(f"true_plant = {self.true_plant!r} is not a TruePlant")

@@ -51,7 +51,7 @@ from posfb.models.controllers import PluginError, UserPlugin, make_controller
 from posfb.models.controllers.plugin import load_plugin, module_plugin
 from posfb.models.design import ControllerConfig
 from posfb.models.friction import law_spec, law_values, tag
-from posfb.models.gear import GearConfig
+from posfb.models.gear import GearConfig, require_motor_inertia
 from posfb.models.identify import identify_urdf
 from posfb.models.lumped import TABLE1, LumpedParameters
 from posfb.models.nominal import NominalModel as NominalForm
@@ -414,6 +414,9 @@ def resolve(loaded: LoadedScenario) -> ResolvedScenario:
     except ValueError as error:
         raise in_section("plant.parameters", error) from None
     _check_law_coulomb(plant_config, overrides.get("coulomb", chain.coulomb))
+    if "rotor_inertia" in overrides:  # the URDF's values are checked on the built arm
+        stiffness = gear.values(joints)[0]
+        require_motor_inertia(stiffness, np.array(overrides["rotor_inertia"]))
     config = ClosedLoopConfig(
         controller=kind,
         design=design,

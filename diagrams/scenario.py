@@ -112,8 +112,8 @@ class PlantSettings:
     overrides and the friction law (``!TanhCoulomb {}``, ``!Stribeck``, ``!LuGre``;
     per-joint lists, one value = every joint; ``models.friction``), and the gear between
     each motor and its link: ``gear_stiffness`` (N m/rad), ``gear_damping`` (N m s/rad),
-    ``backlash`` (rad, half-width), at the link side; every stiffness 0 (the default) is
-    a rigid gear (``models.gear``)."""
+    ``backlash`` (rad, half-width), at the link side; a joint with stiffness 0 is rigid,
+    every stiffness 0 (the default) is today's rigid arm (``models.gear``)."""
 
     urdf: str = SHIPPED_URDF
     payload_mass: float = field(default_factory=default_of(ArmParameters, "payload_mass"))

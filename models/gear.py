@@ -21,13 +21,23 @@ evaluated in C++: no Python in the integrator's inner loop.
 
 Where it applies: with every ``k = 0`` (the default) the gear is rigid, no block is
 added and the MultibodyPlant keeps ``J_m`` on its actuator (today's model, every number
-unchanged). With ``k > 0`` (on every joint: a mix of rigid and compliant joints is
-refused, ``GearConfig.values``) the block is added, the actuators' rotor inertia in the
-MultibodyPlant is set to 0 per Context and ``J_m`` becomes the block's parameter.
-Compliance on/off is part of the diagram; ``k``, ``c``, ``b`` and ``J_m`` are per-Context
-parameters (a Monte-Carlo study draws them without rebuilding: they travel like the
-friction law's values, ``ClosedLoopRunner.run(..., gear=)``, and ``J_m`` with
-``ArmParameters.rotor_inertia``).
+unchanged). With ``k > 0`` at any joint the block is added over every joint and each
+joint is compliant or rigid by its own ``k`` in the Context:
+
+- a compliant joint (``k_j > 0``) follows the equations above; its actuator's rotor
+  inertia in the MultibodyPlant is 0 and ``J_m`` is the block's parameter;
+- a rigid joint (``k_j = 0``) passes the motor torque through (``tau_g = tau_m``), its
+  motor angle and speed are the link's (``theta_m = q``, ``omega_m = q'``: outputs, so
+  a motor encoder reads ``q`` there), its two motor states are idle (derivative 0) and
+  the MultibodyPlant keeps ``J_m`` on its actuator, as on the rigid arm.
+
+Each joint's branch is an ``if_then_else`` on ``k_j > 0``, so a compliant joint computes
+the same expressions whether its neighbours are rigid or not. Whether the block exists is
+part of the diagram; ``k`` (hence which joints are compliant), ``c``, ``b`` and ``J_m``
+are per-Context parameters (a Monte-Carlo study draws them without rebuilding: they
+travel like the friction law's values, ``ClosedLoopRunner.run(..., gear=)``, and ``J_m``
+with ``ArmParameters.rotor_inertia``; ``models.plant.set_gear`` moves each joint's
+``J_m`` between the block and the MultibodyPlant).
 
 Friction stays on the link side (the plant's applied generalized force, reading ``q'``):
 the Coulomb levels of ``<posfb:coulomb_friction>`` (and the paper's ``f_c``) were
@@ -84,8 +94,8 @@ class GearConfig:
         return any(float(k) > 0.0 for k in self.gear_stiffness)
 
     def values(self, joints: int, prefix: str = "") -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """``(k, c, b)``, ``joints`` values each, checked: all ``>= 0``; a compliant gear
-        needs ``k > 0`` at every joint; ``b > 0`` and ``c > 0`` need ``k > 0``."""
+        """``(k, c, b)``, ``joints`` values each, checked: all ``>= 0``; ``b > 0`` and
+        ``c > 0`` need ``k > 0`` at their joint."""
         arrays = []
         for name in ("gear_stiffness", "gear_damping", "backlash"):
             key = f"{prefix}{name}"
@@ -102,11 +112,6 @@ class GearConfig:
                         f"{prefix}gear_stiffness[{j}] = 0 (a rigid gear); "
                         f"{prefix}gear_stiffness[{j}] > 0 is required"
                     )
-        if self.compliant and not np.all(k > 0.0):
-            raise ValueError(
-                f"{prefix}gear_stiffness = {shown(list(self.gear_stiffness))}; > 0 at every "
-                "joint (a compliant gear) or 0 at every joint (rigid) is required"
-            )
         return k, c, b
 
 
@@ -156,25 +161,18 @@ class GearBlock:
         context.get_mutable_numeric_parameter(0).SetFromVector(vector)
 
     def set_gear(self, root_context: Context, settings: GearConfig) -> None:
-        """Set ``k``, ``c``, ``b`` from ``settings`` (checked; compliant at every joint)."""
+        """Set ``k``, ``c``, ``b`` from ``settings`` (checked; a joint with ``k = 0`` is
+        rigid, ``models.plant.set_gear`` moves its ``J_m`` back to the MultibodyPlant)."""
         k, c, b = settings.values(self.joints)
-        if not settings.compliant:
-            raise ValueError(
-                f"gear_stiffness = {shown(list(settings.gear_stiffness))}, but the diagram was "
-                "built with a compliant gear; > 0 at every joint is required (a rigid gear "
-                "is another diagram)"
-            )
+        require_motor_inertia(k, self._parameters(root_context)[3 * self.joints :])
         self._write(root_context, 0, np.concatenate([k, c, b]))
 
     def set_inertia(self, root_context: Context, inertia: tuple[float, ...]) -> None:
-        """Set ``J_m`` (kg m^2 at the link side, one per joint; > 0 required)."""
-        for j, value in enumerate(inertia):
-            if not value > 0.0:
-                raise ValueError(
-                    f"rotor_inertia[{j}] = {shown(value)} with a compliant gear; > 0 is "
-                    "required (the motor's own inertia J_m)"
-                )
-        self._write(root_context, 3 * self.joints, np.asarray(inertia, dtype=float))
+        """Set ``J_m`` (kg m^2 at the link side, one per joint; > 0 where the joint is
+        compliant)."""
+        inertia = np.asarray(inertia, dtype=float)
+        require_motor_inertia(self.gear(root_context)[0], inertia)
+        self._write(root_context, 3 * self.joints, inertia)
 
     def gear(self, root_context: Context) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """``(k, c, b)`` in ``root_context``."""
@@ -191,15 +189,30 @@ class GearBlock:
         context.SetContinuousState(np.concatenate([theta_m, omega_m, [0.0]]))
 
     def state(self, root_context: Context) -> tuple[np.ndarray, np.ndarray]:
-        """``(theta_m, omega_m)`` in ``root_context``."""
-        x = self.system.GetMyContextFromRoot(root_context).get_continuous_state_vector()
-        x, n = x.CopyToVector(), self.joints
-        return x[:n], x[n : 2 * n]
+        """``(theta_m, omega_m)`` in ``root_context``, as the block outputs them: a
+        compliant joint's motor state, a rigid joint's link ``q``, ``q'``."""
+        context = self.system.GetMyContextFromRoot(root_context)
+        x, n = context.get_continuous_state_vector().CopyToVector(), self.joints
+        link = self._input.get_input_port(1).Eval(self._input.GetMyContextFromRoot(root_context))
+        rigid = ~(self.gear(root_context)[0] > 0.0)
+        theta, omega = x[:n], x[n : 2 * n]
+        return np.where(rigid, link[:n], theta), np.where(rigid, link[n:], omega)
 
     def motor_work(self, root_context: Context) -> float:
         """``int sum_j tau_mj omega_mj dt`` (J) so far."""
         x = self.system.GetMyContextFromRoot(root_context).get_continuous_state_vector()
         return float(x[x.size() - 1])
+
+
+def require_motor_inertia(stiffness: np.ndarray, inertia: np.ndarray) -> None:
+    """A compliant joint (``k > 0``) needs its own motor inertia ``J_m > 0``."""
+    for j, (k, value) in enumerate(zip(stiffness, inertia, strict=True)):
+        if k > 0.0 and not value > 0.0:
+            raise ValueError(
+                f"plant.parameters.rotor_inertia[{j}] (or the URDF's) = {shown(float(value))} "
+                f"with plant.gear_stiffness[{j}] = {shown(float(k))} (a compliant joint); > 0 "
+                "is required (the motor's own inertia J_m)"
+            )
 
 
 def dead_zone(d, b):
@@ -221,17 +234,20 @@ def _gear_system(joints: int) -> SymbolicVectorSystem:
     b = [Variable(f"b{j}") for j in idx]
     inertia = [Variable(f"J_m{j}") for j in idx]
     n = range(joints)
-    tau_g = [k[j] * dead_zone(theta[j] - q[j], b[j]) + c[j] * (omega[j] - v[j]) for j in n]
+    compliant = [k[j] > 0.0 for j in n]
+    spring = [k[j] * dead_zone(theta[j] - q[j], b[j]) + c[j] * (omega[j] - v[j]) for j in n]
+    tau_g = [if_then_else(compliant[j], spring[j], tau_m[j]) for j in n]
+    motor_speed = [if_then_else(compliant[j], omega[j], v[j]) for j in n]
     system = SymbolicVectorSystem(
         state=[*theta, *omega, work],
         input=[*tau_m, *q, *v],
         parameter=[*k, *c, *b, *inertia],
         dynamics=[
-            *omega,
-            *[(tau_m[j] - tau_g[j]) / inertia[j] for j in n],
-            total([tau_m[j] * omega[j] for j in n]),
+            *[if_then_else(compliant[j], omega[j], 0.0) for j in n],
+            *[if_then_else(compliant[j], (tau_m[j] - spring[j]) / inertia[j], 0.0) for j in n],
+            total([tau_m[j] * motor_speed[j] for j in n]),
         ],
-        output=[*tau_g, *theta, *omega],
+        output=[*tau_g, *[if_then_else(compliant[j], theta[j], q[j]) for j in n], *motor_speed],
     )
     system.set_name("gear")
     return system

@@ -94,8 +94,9 @@ class PlantConfig:
     ``friction`` is the friction law's settings (``models.friction``; default
     ``!TanhCoulomb``): its kind is part of the diagram, its parameters are set per
     Context (``set_friction_law``), these by default. ``gear`` is the gear's compliance
-    and backlash (``models.gear``; default rigid: no block): compliant or not is part
-    of the diagram, its values are set per Context (``set_gear``), these by default.
+    and backlash (``models.gear``; default rigid: no block): whether the block exists
+    (any joint compliant) is part of the diagram, its values (which joints are
+    compliant included) are set per Context (``set_gear``), these by default.
     """
 
     urdf: str = str(DEFAULT_URDF)
@@ -521,8 +522,7 @@ def apply_parameters(arm: Arm, root_context: Context, parameters: ArmParameters)
         joint: RevoluteJoint = plant.GetJointByName(layout.joints[j])
         joint.SetDamping(plant_context, parameters.damping[j])
         actuator: JointActuator = plant.GetJointActuatorByName(layout.actuators[j])
-        if arm.gear is not None:  # J_m is the gear block's motor inertia (models.gear)
-            actuator.SetRotorInertia(plant_context, 0.0)
+        if arm.gear is not None:  # set_gear places J_m per joint (models.gear)
             continue
         actuator.SetRotorInertia(
             plant_context, parameters.rotor_inertia[j] / actuator.default_gear_ratio() ** 2
@@ -543,8 +543,10 @@ def apply_parameters(arm: Arm, root_context: Context, parameters: ArmParameters)
 
 def set_gear(arm: Arm, root_context: Context, settings: GearConfig) -> None:
     """Set the gear's stiffness, damping and backlash (``models.gear``) from
-    ``settings`` (compliant, as the arm was built; a Monte-Carlo sample's drawn values).
-    A rigid arm takes only a rigid ``settings``."""
+    ``settings`` (a Monte-Carlo sample's drawn values) and place each joint's motor
+    inertia ``J_m``: in the gear block where the joint is compliant (the actuator's rotor
+    inertia in the MultibodyPlant is then 0), on the actuator where it is rigid. A rigid
+    arm (built without the gear block) takes only a rigid ``settings``."""
     if arm.gear is None:
         if settings.compliant:
             raise ValueError(
@@ -554,6 +556,14 @@ def set_gear(arm: Arm, root_context: Context, settings: GearConfig) -> None:
         settings.values(arm.size)
         return
     arm.gear.set_gear(root_context, settings)
+    stiffness = arm.gear.gear(root_context)[0]
+    plant_context = arm.plant.GetMyMutableContextFromRoot(root_context)
+    for j, (name, inertia) in enumerate(
+        zip(arm.layout.actuators, arm.gear.inertia(root_context), strict=True)
+    ):
+        actuator = arm.plant.GetJointActuatorByName(name)
+        rotor = 0.0 if stiffness[j] > 0.0 else inertia / actuator.default_gear_ratio() ** 2
+        actuator.SetRotorInertia(plant_context, rotor)
 
 
 def set_motor_state(arm: Arm, root_context: Context) -> None:

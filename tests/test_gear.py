@@ -16,7 +16,13 @@ from posfb.diagrams.closed_loop import ClosedLoopConfig, ClosedLoopRunner
 from posfb.diagrams.scenario import Scenario
 from posfb.diagrams.sections import Sensor
 from posfb.models.gear import GearConfig, _gear_system
-from posfb.models.plant import PlantConfig, build_arm_diagram, read_parameters, set_motor_state
+from posfb.models.plant import (
+    PlantConfig,
+    build_arm_diagram,
+    read_parameters,
+    set_gear,
+    set_motor_state,
+)
 
 
 def _gear_alone(k: float, c: float, b: float, inertia: float, tau: float):
@@ -81,33 +87,97 @@ def test_reversal_through_the_backlash_has_a_dead_band_of_2b():
         assert 2 * b - 2 * grid - 1e-9 <= span <= 2 * b + 1e-9  # grid points at +-b may round out
 
 
+#: Joint 2's J_m raised from 2.4e-5 to keep the open-loop runs quick.
+QUICK_ROTOR = (1.69824, 1e-3)
+
+
+def _open_loop_path(config: PlantConfig, gear: GearConfig | None = None) -> np.ndarray:
+    """q every 10 ms over 0.3 s under a constant voltage (3 V, 1 V), rotor inertia
+    ``QUICK_ROTOR``; ``gear``: values set in the Context after building."""
+    diagram, arm, context = build_arm_diagram(config)
+    parameters = dataclasses.replace(arm.default_parameters, rotor_inertia=QUICK_ROTOR)
+    diagram, arm, context = build_arm_diagram(config, parameters)
+    if gear is not None:
+        set_gear(arm, context, gear)
+    diagram.get_input_port(0).FixValue(context, np.array([3.0, 1.0]))
+    simulator = Simulator(diagram, context)
+    simulator.get_mutable_integrator().set_target_accuracy(1e-7)
+    path = []
+    for t in np.arange(0.01, 0.3001, 0.01):
+        simulator.AdvanceTo(t)
+        path.append(arm.plant.GetPositions(arm.plant.GetMyContextFromRoot(context)))
+    return np.array(path)
+
+
+def _damping(k: float, inertia: float) -> float:
+    """Damping ratio 0.7 for stiffness ``k`` against ``inertia``."""
+    return 2 * 0.7 * np.sqrt(k * inertia)
+
+
 def test_a_stiff_gear_approaches_the_rigid_arm():
     """Open loop, a constant voltage for 0.3 s: |q_k - q_rigid| shrinks with k (the
     static deflection is tau / k; measured about 20x over these two decades)."""
-    rotor = (1.69824, 1e-3)  # joint 2's J_m raised from 2.4e-5 to keep the test quick
-    voltage = np.array([3.0, 1.0])
-
-    def final(config):
-        diagram, arm, context = build_arm_diagram(config)
-        parameters = dataclasses.replace(arm.default_parameters, rotor_inertia=rotor)
-        diagram, arm, context = build_arm_diagram(config, parameters)
-        diagram.get_input_port(0).FixValue(context, voltage)
-        simulator = Simulator(diagram, context)
-        simulator.get_mutable_integrator().set_target_accuracy(1e-7)
-        path = []
-        for t in np.arange(0.01, 0.3001, 0.01):
-            simulator.AdvanceTo(t)
-            path.append(arm.plant.GetPositions(arm.plant.GetMyContextFromRoot(context)))
-        return np.array(path)
-
-    rigid = final(PlantConfig())
+    rigid = _open_loop_path(PlantConfig())
     errors = []
     for k in (1e3, 1e4, 1e5):
-        c = tuple(2 * 0.7 * np.sqrt(k * j) for j in rotor)  # damping ratio 0.7 per joint
-        errors.append(np.max(np.abs(final(PlantConfig(gear=GearConfig((k,), c))) - rigid)))
+        c = tuple(_damping(k, j) for j in QUICK_ROTOR)
+        errors.append(
+            np.max(np.abs(_open_loop_path(PlantConfig(gear=GearConfig((k,), c))) - rigid))
+        )
     assert errors[0] > errors[1] > errors[2]
     assert errors[2] < errors[0] / 10.0
     assert errors[2] < 1e-3
+
+
+def test_a_rigid_joint_beside_a_compliant_one_is_the_stiff_limit():
+    """Joint 1 compliant, joint 2 rigid (k_2 = 0): the limit of joint 2 growing stiff.
+    Same 0.3 s open-loop run; |q - q_mixed| shrinks with k_2 as in the all-joint case."""
+    k1 = 3000.0
+    c1 = _damping(k1, QUICK_ROTOR[0])
+    mixed = _open_loop_path(PlantConfig(gear=GearConfig((k1, 0.0), (c1, 0.0))))
+    errors = []
+    for k2 in (1e3, 1e4, 1e5):
+        gear = GearConfig((k1, k2), (c1, _damping(k2, QUICK_ROTOR[1])))
+        errors.append(np.max(np.abs(_open_loop_path(PlantConfig(gear=gear)) - mixed)))
+    assert errors[0] > errors[1] > errors[2]
+    assert errors[2] < errors[0] / 10.0
+    assert errors[2] < 1e-3
+
+
+def test_every_joint_rigid_in_the_gear_block_is_the_rigid_arm():
+    """The gear block with k = 0 at every joint (set per Context) passes the motor torque
+    through and puts J_m back on the actuators: the run equals the arm built without the
+    block (to round-off: the block's idle states add nothing to the error norm)."""
+    rigid = _open_loop_path(PlantConfig())
+    in_block = _open_loop_path(PlantConfig(gear=GearConfig((2000.0,))), gear=GearConfig())
+    np.testing.assert_allclose(in_block, rigid, rtol=0.0, atol=1e-12)
+
+
+def test_a_rigid_joint_passes_the_torque_and_reads_its_link():
+    """In a mixed gear the rigid joint's gear torque is its motor torque exactly, its
+    motor angle is its link angle, and its actuator keeps J_m."""
+    gear = GearConfig((2000.0, 0.0))
+    diagram, arm, context = build_arm_diagram(PlantConfig(gear=gear))
+    plant = arm.plant
+    plant_context = plant.GetMyContextFromRoot(context)
+    q, v = np.array([0.3, -0.2]), np.array([0.5, -0.7])
+    plant.SetPositions(plant.GetMyMutableContextFromRoot(context), q)
+    plant.SetVelocities(plant.GetMyMutableContextFromRoot(context), v)
+    arm.gear.set_state(context, q + 0.01, np.zeros(2))
+    diagram.get_input_port(0).FixValue(context, np.array([4.0, -6.0]))
+    motor = arm.gear.motor_torque_input_port()
+    tau_m = motor.Eval(arm.gear._input.GetMyContextFromRoot(context))
+    tau_g = plant.get_actuation_input_port().Eval(plant_context)
+    assert tau_g[1] == tau_m[1]
+    assert tau_g[0] == pytest.approx(2000.0 * 0.01, rel=1e-12)
+    theta, omega = arm.gear.state(context)
+    assert (theta[1], omega[1]) == (q[1], v[1])
+    assert theta[0] == q[0] + 0.01
+    ratio = plant.GetJointActuatorByName(arm.layout.actuators[1]).default_gear_ratio()
+    rotor = [
+        plant.GetJointActuatorByName(a).rotor_inertia(plant_context) for a in arm.layout.actuators
+    ]
+    assert rotor == [0.0, arm.default_parameters.rotor_inertia[1] / ratio**2]
 
 
 def test_natural_frequencies_match_the_two_mass_eigenproblem():
@@ -188,8 +258,13 @@ def test_gear_values_are_per_context_and_rotor_inertia_moves_to_the_motor(motor_
     for name in arm.layout.actuators:  # J_m left the MultibodyPlant
         assert plant.GetJointActuatorByName(name).rotor_inertia(plant_context) == 0.0
     assert read_parameters(arm, first).rotor_inertia == arm.default_parameters.rotor_inertia
-    with pytest.raises(ValueError, match="rigid gear is another diagram"):
-        motor_runner.new_context(gear=GearConfig())
+    rigid = plant.GetMyContextFromRoot(motor_runner.new_context(gear=GearConfig()))
+    defaults = arm.default_parameters.rotor_inertia
+    for name, inertia in zip(arm.layout.actuators, defaults, strict=True):
+        actuator = plant.GetJointActuatorByName(name)  # k = 0: J_m back on the actuator
+        assert actuator.rotor_inertia(rigid) * actuator.default_gear_ratio() ** 2 == pytest.approx(
+            inertia, rel=1e-15
+        )
 
 
 def test_compliance_is_structure_and_its_values_are_not():
@@ -206,6 +281,12 @@ def test_compliance_is_structure_and_its_values_are_not():
     assert key() != key(gear_stiffness=[1e3])
 
 
-def test_mixed_rigid_and_compliant_joints_are_refused():
-    with pytest.raises(ValueError, match="0 at every joint"):
-        build_arm_diagram(PlantConfig(gear=GearConfig((1000.0, 0.0))))
+def test_a_compliant_joint_needs_its_own_motor_inertia():
+    config = PlantConfig(gear=GearConfig((1000.0, 0.0)))
+    diagram, arm, context = build_arm_diagram(config)
+    zero = dataclasses.replace(arm.default_parameters, rotor_inertia=(0.0, 1e-3))
+    needle = r"rotor_inertia\[0\] \(or the URDF's\) = 0.*gear_stiffness\[0\]"
+    with pytest.raises(ValueError, match=needle):
+        build_arm_diagram(config, zero)
+    rigid_zero = dataclasses.replace(arm.default_parameters, rotor_inertia=(1.0, 0.0))
+    build_arm_diagram(config, rigid_zero)  # a rigid joint may have J_m = 0

@@ -431,10 +431,21 @@ CASES = {
         "plant.backlash[0] = 0.01 with plant.gear_stiffness[0] = 0 (a rigid gear); "
         "plant.gear_stiffness[0] > 0 is required",
     ),
+    "compliant joint without motor inertia": Case(
+        (
+            "simulate",
+            "--set",
+            "plant.gear_stiffness=[1000, 0]",
+            "--set",
+            "plant.parameters.rotor_inertia=[0, 0.001]",
+        ),
+        "plant.parameters.rotor_inertia[0] (or the URDF's) = 0.0 with plant.gear_stiffness[0] "
+        "= 1000.0 (a compliant joint); > 0 is required (the motor's own inertia J_m)",
+    ),
     "motor encoder on a rigid gear": Case(
         ("simulate", "--set", "sensor.location=motor"),
         "sensor.location = 'motor' with plant.gear_stiffness = [0.0] (a rigid gear); "
-        "plant.gear_stiffness > 0 or sensor.location = 'link' is required",
+        "plant.gear_stiffness > 0 at some joint or sensor.location = 'link' is required",
     ),
 }
 
