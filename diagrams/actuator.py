@@ -46,20 +46,32 @@ Models (``T_s`` the sample time, ``V`` the voltage limit of a joint):
   ``L di/dt = v - R i - k_e w`` lags the current behind the voltage with time constant
   ``tau = L/R``. The motor block of ``models.plant`` takes a voltage and is static
   (``i = (v - k_e w) / R``), so the lag is modelled on the voltage reaching it:
-  ``tau v_m' = v - v_m`` (Drake's ``FirstOrderLowPassFilter``), ``v_m(0) = 0`` (the motor
+  ``tau v_m' = v - v_m``, ``v_m(0) = 0`` (the motor
   at rest, no current). This equals the armature-current lag where the back-EMF
   ``k_e w`` changes little over ``tau`` (the mechanical time constants are 10-100x
   longer); it does not lag the back-EMF term itself. DC servo motors have
   ``L/R`` of 0.1-5 ms (e.g. Maxon RE 40: 0.082 mH / 0.299 Ohm = 0.27 ms; larger
   brushed motors a few ms). A joint with ``tau = 0`` passes its voltage through
-  unfiltered (exactly, not a tiny time constant): the filter then covers only the
-  joints with ``tau > 0``, between a ``Demultiplexer`` and a ``Multiplexer``.
+  unfiltered (exactly, not a tiny time constant).
   An explicit integrator must take steps of about ``tau`` or shorter on a lagged run,
   so a short ``tau`` costs integrator steps (README, "Non-idealities").
 
-The DAC is the one Python block: its output is declared to depend on its input only,
-so Drake's cache recomputes it only when its input changes, i.e. once per period
-(at ``t_k``, or at ``t_k + d`` behind a compute delay), never per integrator step
+Per Context or per diagram: the lag's ``tau`` (per joint) and the DAC's ``b`` are
+parameters of their blocks' Contexts (``ActuatorState``, ``ActuatorBlocks.set_state``), so
+one diagram serves every Monte-Carlo sample that draws them. Whether a block exists is the
+diagram's: a lag block where any joint has ``tau > 0`` (one C++ ``SymbolicVectorSystem``
+over every joint, ``v_m' = (v - v_m) / tau`` as Drake's ``FirstOrderLowPassFilter``
+computes it, so a run is the same to the bit; a joint with ``tau = 0`` passes ``v``
+through by an ``if_then_else``), a DAC where ``b > 0`` (``b = 0`` in its Context passes
+the voltage through). The compute delay stays the diagram's: ``d`` is an event time,
+and Drake fixes a system's periodic event times when the system is declared (pydrake has
+no per-Context ``DoCalcNextUpdateTime``; a witness function would evaluate Python at
+every integrator step), so each distinct ``d`` is its own diagram (a study caches one
+per value).
+
+The DAC is the one Python block: its output is declared to depend on its input and its
+bits only, so Drake's cache recomputes it only when its input changes, i.e. once per
+period (at ``t_k``, or at ``t_k + d`` behind a compute delay), never per integrator step
 (``tests/test_actuator_effects.py`` counts the calls).
 """
 
@@ -70,14 +82,16 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
-from pydrake.systems.framework import BasicVector, Context, DiagramBuilder, LeafSystem, OutputPort
-from pydrake.systems.primitives import (
-    Demultiplexer,
-    FirstOrderLowPassFilter,
-    Multiplexer,
-    Saturation,
-    ZeroOrderHold,
+from pydrake.symbolic import Variable, if_then_else
+from pydrake.systems.framework import (
+    BasicVector,
+    Context,
+    DiagramBuilder,
+    LeafSystem,
+    NumericParameterIndex,
+    OutputPort,
 )
+from pydrake.systems.primitives import Saturation, SymbolicVectorSystem, ZeroOrderHold
 
 #: Names of the actuator blocks that exist only where an effect is on.
 EFFECT_BLOCKS = ("compute_delay", "dac", "electrical_lag")
@@ -100,74 +114,108 @@ def dac_quantise(voltage: Sequence[float], limits: Sequence[float], bits: int) -
 
 
 class Dac(LeafSystem):
-    """Input ``u`` (V), output ``u_dac`` (V), both size ``n``: ``dac_quantise(u)``.
+    """Input ``u`` (V), output ``u_dac`` (V), both size ``n``: ``dac_quantise(u)`` with the
+    Context's ``bits`` (a parameter; 0 passes ``u`` through).
 
-    Stateless, but its output depends on its input alone (declared), so it is computed
-    only when the input changes: the controller's output and a hold's output change
-    only at sample instants."""
+    Stateless, but its output depends on its input and its bits alone (declared), so it
+    is computed only when the input changes: the controller's output and a hold's output
+    change only at sample instants."""
 
-    def __init__(self, limits: Sequence[float], bits: int) -> None:
+    def __init__(self, limits: Sequence[float], bits: int = 0) -> None:
         super().__init__()
         self.set_name("dac")
         self._limits = [float(limit) for limit in limits]
-        self._bits = int(bits)
+        default = BasicVector([float(require_dac_bits("bits", bits))])
+        self._bits = self.DeclareNumericParameter(default)
         self._u = self.DeclareVectorInputPort("u", len(self._limits))
         self.DeclareVectorOutputPort(
             "u_dac",
             len(self._limits),
             self._calc_output,
-            prerequisites_of_calc={self._u.ticket()},
+            prerequisites_of_calc={
+                self._u.ticket(),
+                self.numeric_parameter_ticket(NumericParameterIndex(self._bits)),
+            },
         )
         #: How often the output was computed (once per period in a run; a diagnostic).
         self.evaluations = 0
 
-    @property
-    def bits(self) -> int:
-        return self._bits
+    def bits(self, context: Context) -> int:
+        """The resolution in ``context`` (its own Context)."""
+        return int(context.get_numeric_parameter(self._bits)[0])
 
-    def step(self) -> list[float]:
-        """``Delta`` (V) of each joint."""
-        return [dac_step(limit, self._bits) for limit in self._limits]
+    def set_bits(self, context: Context, bits: int) -> None:
+        """Set the resolution (0..32, 0: ideal) in ``context`` (its own Context)."""
+        bits = require_dac_bits("actuator.dac_bits", bits)
+        context.get_mutable_numeric_parameter(self._bits).SetAtIndex(0, float(bits))
+
+    def step(self, context: Context) -> list[float]:
+        """``Delta`` (V) of each joint at the resolution in ``context``."""
+        return [dac_step(limit, self.bits(context)) for limit in self._limits]
 
     def _calc_output(self, context: Context, output: BasicVector) -> None:
         self.evaluations += 1
         voltage = self._u.Eval(context).tolist()
-        output.SetFromVector(dac_quantise(voltage, self._limits, self._bits))
+        bits = self.bits(context)
+        output.SetFromVector(dac_quantise(voltage, self._limits, bits) if bits else voltage)
+
+
+def electrical_lag(joints: int) -> SymbolicVectorSystem:
+    """The armature lag of ``joints`` joints (module docstring): input ``v``, state and
+    (where ``tau > 0``) output ``v_m``, parameters ``tau`` (s; NaN until set: a Context
+    that never got them fails loudly). A joint with ``tau = 0`` outputs ``v`` and its state
+    stays idle."""
+    idx = range(1, joints + 1)
+    lagged = [Variable(f"v_m{j}") for j in idx]
+    voltage = [Variable(f"v{j}") for j in idx]
+    taus = [Variable(f"tau{j}") for j in idx]
+    rows = list(zip(taus, lagged, voltage, strict=True))
+    system = SymbolicVectorSystem(
+        state=lagged,
+        input=voltage,
+        parameter=taus,
+        dynamics=[if_then_else(tau == 0.0, 0.0, (v - x) / tau) for tau, x, v in rows],
+        output=[if_then_else(tau == 0.0, v, x) for tau, x, v in rows],
+    )
+    system.set_name("electrical_lag")
+    return system
+
+
+def set_time_constants(
+    lag: SymbolicVectorSystem, context: Context, time_constants: Sequence[float]
+) -> None:
+    """Set the lag's ``tau`` (s, one per joint, each finite and >= 0) in ``context`` (the
+    lag's own Context)."""
+    key = "actuator.electrical_time_constant"
+    taus = [require_time_constant(f"{key}[{j}]", tau) for j, tau in enumerate(time_constants)]
+    parameter = context.get_mutable_numeric_parameter(0)
+    if len(taus) != parameter.size():
+        raise ValueError(f"{key} = {taus!r}; {parameter.size()} values (one per joint) required")
+    parameter.SetFromVector(taus)
 
 
 def add_electrical_lag(
     builder: DiagramBuilder, voltage: OutputPort, time_constants: Sequence[float]
-) -> tuple[OutputPort, FirstOrderLowPassFilter | None]:
-    """``voltage`` through a first-order lag of ``time_constants[j]`` (s) per joint (0:
-    passed through); the lagged port and the filter (``None`` when every constant is 0:
-    nothing is added)."""
-    taus = [float(tau) for tau in time_constants]
-    lagged = [j for j, tau in enumerate(taus) if tau > 0.0]
-    if not lagged:
+) -> tuple[OutputPort, SymbolicVectorSystem | None]:
+    """``voltage`` through the armature lag (``electrical_lag``) when any of
+    ``time_constants`` (s, one per joint) is > 0; the lagged port and the lag (``None``
+    when every constant is 0: nothing is added). Its Contexts take their ``tau`` from
+    ``set_time_constants``."""
+    if not any(float(tau) > 0.0 for tau in time_constants):
         return voltage, None
-    lag = builder.AddSystem(FirstOrderLowPassFilter(np.array([taus[j] for j in lagged])))
-    lag.set_name("electrical_lag")
-    n = len(taus)
-    if len(lagged) == n:
-        builder.Connect(voltage, lag.get_input_port())
-        return lag.get_output_port(), lag
-    split = builder.AddSystem(Demultiplexer(n, 1))
-    split.set_name("electrical_lag_split")
-    gather = builder.AddSystem(Multiplexer(len(lagged)))
-    gather.set_name("electrical_lag_gather")
-    scatter = builder.AddSystem(Demultiplexer(len(lagged), 1))
-    scatter.set_name("electrical_lag_scatter")
-    merge = builder.AddSystem(Multiplexer(n))
-    merge.set_name("electrical_lag_merge")
-    builder.Connect(voltage, split.get_input_port(0))
-    builder.Connect(gather.get_output_port(0), lag.get_input_port())
-    builder.Connect(lag.get_output_port(), scatter.get_input_port(0))
-    for slot, j in enumerate(lagged):
-        builder.Connect(split.get_output_port(j), gather.get_input_port(slot))
-        builder.Connect(scatter.get_output_port(slot), merge.get_input_port(j))
-    for j in (j for j in range(n) if j not in lagged):
-        builder.Connect(split.get_output_port(j), merge.get_input_port(j))
-    return merge.get_output_port(0), lag
+    lag = builder.AddSystem(electrical_lag(voltage.size()))
+    builder.Connect(voltage, lag.get_input_port(0))
+    return lag.get_output_port(0), lag
+
+
+@dataclass(frozen=True)
+class ActuatorState:
+    """The actuator settings one run's Context holds (``ActuatorBlocks.set_state``):
+    ``electrical_time_constant`` (s, one per joint) and ``dac_bits``. Whether the lag and
+    the DAC exist, and the compute delay, are part of the diagram."""
+
+    electrical_time_constant: tuple[float, ...]
+    dac_bits: int
 
 
 @dataclass(frozen=True, eq=False)
@@ -179,9 +227,28 @@ class ActuatorBlocks:
     saturation: Saturation
     compute_delay: ZeroOrderHold | None
     dac: Dac | None
-    electrical_lag: FirstOrderLowPassFilter | None
+    electrical_lag: SymbolicVectorSystem | None
     applied: OutputPort
     motor_voltage: OutputPort
+
+    def set_state(self, root_context: Context, state: ActuatorState) -> None:
+        """Set the lag's time constants and the DAC's bits in ``root_context``; an effect
+        the diagram was built without must be off in ``state``."""
+        lagged = any(tau > 0.0 for tau in state.electrical_time_constant)
+        for name, on, block in (
+            ("electrical_time_constant", lagged, self.electrical_lag),
+            ("dac_bits", state.dac_bits > 0, self.dac),
+        ):
+            if on and block is None:
+                raise ValueError(
+                    f"actuator.{name} = {getattr(state, name)!r} needs a diagram built with "
+                    f"that effect (a config with actuator.{name} > 0)"
+                )
+        if self.electrical_lag is not None:
+            context = self.electrical_lag.GetMyMutableContextFromRoot(root_context)
+            set_time_constants(self.electrical_lag, context, state.electrical_time_constant)
+        if self.dac is not None:
+            self.dac.set_bits(self.dac.GetMyMutableContextFromRoot(root_context), state.dac_bits)
 
 
 def add_actuator(
@@ -195,7 +262,8 @@ def add_actuator(
     electrical_time_constant: Sequence[float] = (0.0,),
 ) -> ActuatorBlocks:
     """controller ``command`` -> [compute delay] -> [DAC] -> saturation -> [lag]
-    (module docstring); a 0 setting adds no block."""
+    (module docstring); a 0 setting adds no block. The lag's and the DAC's values are
+    the Context's (``ActuatorBlocks.set_state``): here they decide which blocks exist."""
     n = len(limits)
     voltage = command
     delay = None
@@ -209,7 +277,7 @@ def add_actuator(
         voltage = delay.get_output_port()
     dac = None
     if dac_bits > 0:
-        dac = builder.AddSystem(Dac(limits, dac_bits))
+        dac = builder.AddSystem(Dac(limits))
         builder.Connect(voltage, dac.get_input_port())
         voltage = dac.get_output_port()
     limit = np.array(limits, dtype=float)

@@ -98,6 +98,7 @@ from pydrake.systems.primitives import (
 
 from posfb.diagrams.actuator import (
     ActuatorBlocks,
+    ActuatorState,
     add_actuator,
     require_compute_delay,
     require_dac_bits,
@@ -225,8 +226,7 @@ class ClosedLoopConfig:
             )
         if not isinstance(plugin, UserPlugin) and self.controller not in REGISTRY:
             raise ValueError(
-                f"controller.kind = {self.controller!r}; one of {', '.join(REGISTRY)} is "
-                "required"
+                f"controller.kind = {self.controller!r}; one of {', '.join(REGISTRY)} is required"
             )
         if not isinstance(self.design, ControllerConfig):
             raise ValueError(f"design = {self.design!r} is not a ControllerConfig")
@@ -417,6 +417,12 @@ class ClosedLoopConfig:
         return SensorState(self.encoder_counts, self.zero_offset, self.noise_std, self.noise_seed)
 
     @property
+    def actuator_state(self) -> ActuatorState:
+        """The actuator settings a Context holds (the lag's time constants and the DAC's
+        bits; they change per run without rebuilding, ``diagrams.actuator``)."""
+        return ActuatorState(self.electrical_time_constant, self.dac_bits)
+
+    @property
     def noisy(self) -> bool:
         """Whether the sensor adds noise (the diagram then has a noise source)."""
         return any(std > 0.0 for std in self.noise_std)
@@ -481,7 +487,7 @@ class LoopSystems:
     logger: VectorLogSink
     log_columns: dict[str, slice]
     scene_graph: SceneGraph
-    actuator: ActuatorBlocks | None = None
+    actuator: ActuatorBlocks
 
 
 #: ``extend(builder, systems)``: wires more into a closed loop before it is built.
@@ -668,12 +674,15 @@ class ClosedLoopRunner:
         sensor: SensorState | None = None,
         friction: object | None = None,
         gear: GearConfig | None = None,
+        actuator: ActuatorState | None = None,
     ) -> Context:
         """A fresh Context: true ``parameters`` (default: ``true_parameters()``), the
         ``sensor`` settings (default: the config's), the friction law's values
         (``friction``, an entry of the law the diagram was built with, e.g. a Monte-Carlo
         sample's draw; default: the config's), the gear's values (``gear``, compliant as
-        the diagram; default: the config's), the arm at rest at ``q_d(0)`` (with a
+        the diagram; default: the config's), the ``actuator`` settings (the electrical
+        lag's time constants and the DAC's bits, ``diagrams.actuator``; default: the
+        config's), the arm at rest at ``q_d(0)`` (with a
         compliant gear, each motor too: ``theta_m = q``, ``models.plant.set_motor_state``); a sensor
         delay line is filled with the first measurement; a compute-delay hold
         (``diagrams.actuator``) starts at the controller's voltage before its first update."""
@@ -690,6 +699,7 @@ class ClosedLoopRunner:
             set_friction_law(loop.arm, context, friction)
         if gear is not None:
             set_gear(loop.arm, context, gear)
+        loop.actuator.set_state(context, config.actuator_state if actuator is None else actuator)
         encoder_context = loop.encoder.GetMyMutableContextFromRoot(context)
         loop.encoder.set_counts(encoder_context, sensor.encoder_counts)
         loop.encoder.set_zero_offset(encoder_context, sensor.zero_offset)
@@ -717,7 +727,7 @@ class ClosedLoopRunner:
             loop.desired_hold.GetMyMutableContextFromRoot(context),
             np.concatenate(config.trajectory.evaluate(0.0)),
         )
-        hold = loop.actuator.compute_delay if loop.actuator is not None else None
+        hold = loop.actuator.compute_delay
         if hold is not None:  # applied until t = compute_delay (diagrams.actuator)
             voltage = loop.controller.GetOutputPort("voltage").Eval(
                 loop.controller.GetMyContextFromRoot(context)
@@ -731,11 +741,12 @@ class ClosedLoopRunner:
         sensor: SensorState | None = None,
         friction: object | None = None,
         gear: GearConfig | None = None,
+        actuator: ActuatorState | None = None,
     ) -> Simulator:
-        """A ``Simulator`` on ``new_context(parameters, sensor, friction, gear)`` with the
-        config's integrator (``simulator_config``), not yet initialised."""
+        """A ``Simulator`` on ``new_context(parameters, sensor, friction, gear, actuator)``
+        with the config's integrator (``simulator_config``), not yet initialised."""
         simulator = Simulator(
-            self.loop.diagram, self.new_context(parameters, sensor, friction, gear)
+            self.loop.diagram, self.new_context(parameters, sensor, friction, gear, actuator)
         )
         ApplySimulatorConfig(self.simulator_config(), simulator)
         return simulator
@@ -747,12 +758,14 @@ class ClosedLoopRunner:
         progress: Callable[[float], None] | None = None,
         friction: object | None = None,
         gear: GearConfig | None = None,
+        actuator: ActuatorState | None = None,
     ) -> ClosedLoopResult:
         """Simulate ``duration`` seconds on the true ``parameters`` with the ``sensor``
-        settings, the friction law's and the gear's values (defaults: ``true_parameters()``
-        and the config's); ``progress`` is called with the simulated time after every
-        ``MONITOR_SAMPLES`` periods. Never raises for a diverging run."""
-        return self.advance(self.new_simulator(parameters, sensor, friction, gear), progress)
+        settings, the friction law's, the gear's and the ``actuator``'s values (defaults:
+        ``true_parameters()`` and the config's); ``progress`` is called with the simulated
+        time after every ``MONITOR_SAMPLES`` periods. Never raises for a diverging run."""
+        simulator = self.new_simulator(parameters, sensor, friction, gear, actuator)
+        return self.advance(simulator, progress)
 
     def advance(
         self, simulator: Simulator, progress: Callable[[float], None] | None = None

@@ -13,8 +13,15 @@ from pydrake.systems.primitives import ConstantVectorSource, Multiplexer, Vector
 
 from posfb.analysis.metrics import run_metrics
 from posfb.analysis.montecarlo.config import study_from_text
+from posfb.analysis.montecarlo.sampling import sample_scenario
 from posfb.analysis.montecarlo.worker import ClosedLoopEvaluator, structure_key
-from posfb.diagrams.actuator import EFFECT_BLOCKS, add_electrical_lag, dac_step
+from posfb.diagrams.actuator import (
+    EFFECT_BLOCKS,
+    ActuatorState,
+    add_electrical_lag,
+    dac_step,
+    set_time_constants,
+)
 from posfb.diagrams.closed_loop import ClosedLoopRunner, LoopSystems
 from posfb.diagrams.resolve import load_scenario, resolve
 
@@ -47,11 +54,12 @@ def test_the_electrical_lag_step_response_has_time_constant_L_over_R():
     builder = DiagramBuilder()
     source = builder.AddSystem(ConstantVectorSource(step))
     lagged, lag = add_electrical_lag(builder, source.get_output_port(), taus)
-    assert lag is not None and lag.get_input_port().size() == 2  # joint 2 passes through
+    assert lag is not None
     logger = builder.AddSystem(VectorLogSink(3, 1e-4))
     builder.Connect(lagged, logger.get_input_port())
     diagram = builder.Build()
     simulator = Simulator(diagram)
+    set_time_constants(lag, lag.GetMyMutableContextFromRoot(simulator.get_mutable_context()), taus)
     simulator.get_mutable_integrator().set_target_accuracy(1e-10)
     simulator.AdvanceTo(0.01)
     log = logger.FindLog(simulator.get_context())
@@ -64,6 +72,31 @@ def test_the_electrical_lag_step_response_has_time_constant_L_over_R():
     assert abs(at_tau - (1.0 - math.exp(-1.0))) < 1e-6
 
 
+def test_the_lag_and_the_dac_are_per_context_values():
+    """One diagram built with a lag and a DAC runs other time constants and resolutions
+    set in its Context exactly as a diagram built with them; off in the Context (every
+    tau = 0, 0 bits) it is today's run to the bit (the pass-through is exact, the idle lag
+    states add nothing to the integrator's error norm)."""
+    names = ("q_true", "q_measured", "u_commanded", "u_applied")
+    built = ClosedLoopRunner(
+        config("actuator.electrical_time_constant=0.001", "actuator.dac_bits=12")
+    )
+    other = ("actuator.electrical_time_constant=[0.0004, 0]", "actuator.dac_bits=9")
+    expected = ClosedLoopRunner(config(*other)).run()
+    found = built.run(actuator=ActuatorState((0.0004, 0.0), 9))
+    for name in names:
+        np.testing.assert_array_equal(getattr(found, name), getattr(expected, name))
+    today = ClosedLoopRunner(config()).run()
+    off = built.run(actuator=ActuatorState((0.0, 0.0), 0))
+    for name in names:
+        np.testing.assert_array_equal(getattr(off, name), getattr(today, name))
+    bare = ClosedLoopRunner(config())  # no lag, no DAC: an effect it lacks is refused
+    with pytest.raises(ValueError, match=r"actuator.dac_bits = 8 needs a diagram built"):
+        bare.run(actuator=ActuatorState((0.0, 0.0), 8))
+    with pytest.raises(ValueError, match=r"electrical_time_constant\[1\] = -1.0"):
+        built.run(actuator=ActuatorState((0.001, -1.0), 12))
+
+
 def test_a_vanishing_electrical_lag_recovers_the_static_motor():
     static = run_metrics(ClosedLoopRunner(config()).run())
     errors = []
@@ -71,9 +104,7 @@ def test_a_vanishing_electrical_lag_recovers_the_static_motor():
         lagged = run_metrics(
             ClosedLoopRunner(config(f"actuator.electrical_time_constant={tau}")).run()
         )
-        errors.append(
-            max(abs(a - b) / b for a, b in zip(lagged.rms_q, static.rms_q, strict=True))
-        )
+        errors.append(max(abs(a - b) / b for a, b in zip(lagged.rms_q, static.rms_q, strict=True)))
     # The difference shrinks with tau (about in proportion) and is small at the end.
     assert errors[0] > errors[1] > errors[2], errors
     assert errors[2] < 0.5 * errors[0] and errors[2] < 0.05, errors
@@ -97,9 +128,7 @@ def test_every_applied_voltage_lies_on_the_dac_grid():
     np.testing.assert_array_equal(codes, np.round(codes))  # on the grid, to the bit
     assert codes.min() >= -(2 ** (bits - 1)) and codes.max() <= 2 ** (bits - 1) - 1
     commanded = result.u_commanded
-    np.testing.assert_array_equal(
-        result.u_applied, quantised_independently(commanded, limit, bits)
-    )
+    np.testing.assert_array_equal(result.u_applied, quantised_independently(commanded, limit, bits))
     inside = (commanded >= -limit) & (commanded <= limit - delta / 2)
     error = np.abs(result.u_applied - commanded)[inside]
     assert error.max() <= delta / 2 * (1 + 1e-12)
@@ -196,6 +225,9 @@ def test_a_study_draws_the_electrical_time_constant():
         assert run.status == "ok"
         assert run.metrics["rms_q2"] == direct.rms_q[1]
     assert taus[0] != taus[1]
+    # one diagram serves every sample: the drawn tau is a Context value
+    keys = {structure_key(sample_scenario(study, i)[0], "pid") for i in range(study.samples)}
+    assert len(keys) == 1
 
 
 def test_switching_an_effect_on_changes_the_monte_carlo_structure_key():
@@ -207,3 +239,14 @@ def test_switching_an_effect_on_changes_the_monte_carlo_structure_key():
     ):
         on = load_scenario(None, [SHORT, setting]).scenario
         assert structure_key(on, "pid") != structure_key(off, "pid"), setting
+
+
+def test_lag_and_dac_values_share_a_structure_and_delays_do_not():
+    def key(*settings: str) -> str:
+        return structure_key(load_scenario(None, [SHORT, *settings]).scenario, "pid")
+
+    assert key("actuator.dac_bits=12") == key("actuator.dac_bits=14")
+    lag = "actuator.electrical_time_constant"
+    assert key(f"{lag}=0.001") == key(f"{lag}=[0.0002, 0]")
+    # an event time is the diagram's (diagrams.actuator)
+    assert key("actuator.compute_delay=0.002") != key("actuator.compute_delay=0.003")

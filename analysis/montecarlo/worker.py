@@ -30,6 +30,7 @@ from posfb.analysis.montecarlo.config import Study, study_from_text
 from posfb.analysis.montecarlo.coverage import Coverage, coverage, serial_coverage
 from posfb.analysis.montecarlo.records import ControllerRun, SampleResult, metric_columns
 from posfb.analysis.montecarlo.sampling import SampledPlant, sample_plant, sample_scenario
+from posfb.diagrams.actuator import ActuatorState
 from posfb.diagrams.closed_loop import (
     ClosedLoopConfig,
     ClosedLoopResult,
@@ -65,10 +66,11 @@ def _one_line(error: BaseException) -> str:
     return f"{type(error).__name__}: {text.splitlines()[0] if text else ''}".rstrip(": ")
 
 
-#: Diagrams a worker keeps, one per distinct structure (sample time, delay, noise,
-#: voltage limit, design, trajectory, controller, friction law kind). Draws that only
-#: change Context values (plant parameters, the friction law's parameters, encoder
-#: counts, offsets, noise levels) reuse one.
+#: Diagrams a worker keeps, one per distinct structure (sample time, sensor delay,
+#: noise or none, voltage limit, design, trajectory, controller, friction law kind, a
+#: gear, a lag, a DAC or none, compute delay). Draws that only change Context values
+#: (plant parameters, the friction law's and the gear's, encoder counts, offsets, noise
+#: levels, electrical time constants, DAC bits) reuse one.
 RUNNER_CACHE_SIZE = 16
 
 
@@ -81,6 +83,9 @@ def structure_key(scenario: Scenario, controller: str) -> str:
     compliant = any(k > 0.0 for k in shape.plant.gear_stiffness)  # a gear block or none
     shape.plant.gear_stiffness = [1.0 if compliant else 0.0]
     shape.plant.gear_damping, shape.plant.backlash = [0.0], [0.0]
+    lagged = any(tau > 0.0 for tau in shape.actuator.electrical_time_constant)  # a lag or none
+    shape.actuator.electrical_time_constant = [1.0 if lagged else 0.0]
+    shape.actuator.dac_bits = min(shape.actuator.dac_bits, 1)  # a DAC block or none
     noisy = any(std > 0.0 for std in shape.sensor.noise_std)
     shape.sensor.encoder_counts, shape.sensor.zero_offset = [0], [0.0]
     shape.sensor.noise_std, shape.sensor.noise_seed = [1.0 if noisy else 0.0], 0
@@ -166,6 +171,7 @@ class ClosedLoopEvaluator:
                 radii.get(controller),
                 config.plant.friction,
                 config.plant.gear,
+                config.actuator_state,
             )
             runs.append(run)
             if result is not None:
@@ -242,16 +248,19 @@ class ClosedLoopEvaluator:
         radius: float | None,
         friction: object,
         gear: object = None,
+        actuator: ActuatorState | None = None,
     ) -> tuple[ControllerRun, ClosedLoopResult | None]:
-        """One controller on ``plant`` with the sample's ``friction`` law settings and
-        ``gear`` values (set in the Context: the cached diagram may have been built with
-        another sample's) and
+        """One controller on ``plant`` with the sample's ``friction`` law settings,
+        ``gear`` and ``actuator`` values (set in the Context: the cached diagram may have
+        been built with another sample's) and
         its run; an exception (building its runner or running it) is recorded as
         ``error`` (and there is no run)."""
         try:
             if isinstance(runner, Exception):
                 raise runner
-            result = runner.run(plant.parameters, sensor, friction=friction, gear=gear)
+            result = runner.run(
+                plant.parameters, sensor, friction=friction, gear=gear, actuator=actuator
+            )
         except Exception as error:  # recorded, never stops the study
             return ControllerRun(controller, "error", _one_line(error), {}, radius), None
         metrics = _metrics_dict(run_metrics(result))
