@@ -218,6 +218,12 @@ class Run:
         return self.metrics.rms_u
 
     @property
+    def rms_q_measured(self) -> tuple[float, ...]:
+        """RMS of the error the encoder reads, ``q_m - q_d``, per joint (rad): what a
+        hardware experiment reports (``analysis.metrics``)."""
+        return self.metrics.rms_q_measured
+
+    @property
     def status(self) -> str:
         """``ok``, or ``diverged`` (``message`` says why)."""
         return self.result.status
@@ -396,7 +402,8 @@ class Comparison:
 
     def table(self) -> pd.DataFrame:
         """One row per controller: label, status, RMS(q~) and RMS(u) per joint (rad, V),
-        max |q~| (rad) and the share of saturated samples."""
+        max |q~| (rad), the share of saturated samples and the RMS of the measured error
+        per joint (rad, ``analysis.metrics``)."""
         import pandas as pd
 
         rows = []
@@ -408,6 +415,7 @@ class Comparison:
             row |= {f"rms_u{j + 1}_V": v for j, v in enumerate(metrics.rms_u)}
             row |= {"max_abs_q_err_rad": metrics.max_abs_q_err,
                     "saturated_fraction": metrics.saturated_fraction}  # fmt: skip
+            row |= {f"rms_measured_q{j + 1}_rad": v for j, v in enumerate(metrics.rms_q_measured)}
             rows.append(row)
         return pd.DataFrame(rows)
 

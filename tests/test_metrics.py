@@ -7,7 +7,7 @@ import math
 import numpy as np
 import pytest
 
-from posfb.analysis.metrics import RunMetrics, compute_metrics, rms
+from posfb.analysis.metrics import RunMetrics, compute_metrics, rms, run_metrics
 
 
 def _paper_rms(samples: list[float]) -> float:
@@ -41,11 +41,42 @@ def test_compute_metrics_counts_saturated_samples_and_uses_applied_voltage():
     error = np.array([[0.001, -0.002], [0.0, 0.004]])
     commanded = np.array([[30.0, 0.0], [1.0, -2.0]])
     applied = np.clip(commanded, -24.0, 24.0)
-    metrics = compute_metrics(error, applied, commanded, 24.0, wall_time_s=0.5)
+    measured = np.array([[0.0, -0.003], [0.0, 0.004]])
+    metrics = compute_metrics(error, applied, commanded, 24.0, 0.5, measured)
     assert metrics.saturated_fraction == 0.5
     assert metrics.rms_u[0] == pytest.approx(math.sqrt((24.0**2 + 1.0) / 2))
     assert metrics.max_abs_q_err == 0.004
+    assert metrics.rms_q_measured == pytest.approx((0.0, 0.005 / math.sqrt(2)))  # 3-4-5
     data = metrics.as_dict()
-    assert set(data) == {"rms_q", "rms_u", "max_abs_q_err", "saturated_fraction", "wall_time_s"}
+    assert set(data) == {
+        "rms_q", "rms_u", "max_abs_q_err", "saturated_fraction", "wall_time_s", "rms_q_measured"
+    }  # fmt: skip
     assert isinstance(data["rms_q"], list) and len(data["rms_q"]) == 2
     assert isinstance(metrics, RunMetrics)
+
+
+def _run(*settings: str):
+    from posfb.diagrams.closed_loop import ClosedLoopRunner
+    from posfb.diagrams.resolve import load_scenario, resolve
+
+    loaded = load_scenario(None, ["timing.duration=1", "controller.kind=lin_lc", *settings])
+    runner = ClosedLoopRunner(resolve(loaded).config)
+    return runner, runner.run()
+
+
+def test_the_measured_error_of_an_ideal_encoder_is_the_true_error():
+    _, result = _run("sensor.encoder_counts=0")
+    metrics = run_metrics(result)
+    assert metrics.rms_q_measured == metrics.rms_q
+
+
+@pytest.mark.parametrize("counts", [4096, 20000])
+def test_a_quantised_encoder_moves_the_measured_rms_by_at_most_half_a_count(counts):
+    """|RMS(a) - RMS(b)| <= RMS(a - b) <= max |a - b| <= Delta / 2 (Minkowski, and the
+    encoder rounds to the nearest count): a bound, not a measured number."""
+    runner, result = _run(f"sensor.encoder_counts={counts}")
+    metrics = run_metrics(result)
+    half_count = math.pi / counts
+    for true, measured in zip(metrics.rms_q, metrics.rms_q_measured, strict=True):
+        assert abs(measured - true) <= half_count * (1 + 1e-9)
+    assert metrics.rms_q_measured != metrics.rms_q  # the quantisation does show

@@ -188,7 +188,12 @@ def test_compare_is_exact_and_treats_missing_metrics_as_the_store_does():
 
     assert [d.column for d in compare(sample_row, [], _sample(metrics))[1].differences] == ["row"]
     version_1 = {**run_row, "sampled_data_spectral_radius": None}  # no radius stored
-    assert all(c.matches for c in compare(sample_row, [version_1], _sample(metrics), False))
+    unrecorded = ("sampled_data_spectral_radius",)
+    assert all(c.matches for c in compare(sample_row, [version_1], _sample(metrics), unrecorded))
+    measured = {**metrics, "rms_measured_q1": 0.1}  # replayed; a version-2 row has none
+    assert not all(c.matches for c in compare(sample_row, [run_row], _sample(measured)))
+    unrecorded = ("rms_measured_q1", "rms_measured_q2")
+    assert all(c.matches for c in compare(sample_row, [run_row], _sample(measured), unrecorded))
 
 
 def test_same_and_index_ranges():

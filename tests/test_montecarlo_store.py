@@ -102,3 +102,33 @@ def test_a_second_writer_is_refused_naming_the_first(tmp_path, study):
         ResultStore.create_or_resume(path, study, "v1")
     first.close()
     ResultStore.create_or_resume(path, study, "v1").close()  # the lock went with the first
+
+
+def _as_version_2(path):
+    """Turn a store into what posfb wrote before schema version 3 (no measured error)."""
+    connection = sqlite3.connect(path)
+    with connection:
+        for column in ("rms_measured_q1", "rms_measured_q2"):
+            connection.execute(f"ALTER TABLE runs DROP COLUMN {column}")
+        connection.execute("UPDATE meta SET value = '2' WHERE key = 'schema_version'")
+    connection.close()
+
+
+def test_a_version_2_store_reads_and_resumes_with_its_samples_marked_unmeasured(tmp_path, study):
+    path = tmp_path / "r.sqlite"
+    with ResultStore.create_or_resume(path, study, "v1") as store:
+        store.write(make_result(0), "v1")
+    _as_version_2(path)
+    with ResultStore.open_existing(path) as store:  # read as it is: the columns read None
+        assert store.run_rows()[0]["rms_measured_q1"] is None
+        assert store.unrecorded(0) == ("rms_measured_q1", "rms_measured_q2")
+    with ResultStore.create_or_resume(path, study, "v2") as store:  # resumed: migrated
+        store.write(make_result(1), "v2")
+        assert store.meta()["schema_version"] == "3"
+        runs = {row["sample"]: row for row in store.run_rows()}
+        assert runs[0]["rms_measured_q1"] is None and runs[1]["rms_measured_q1"] is not None
+        assert runs[0]["rms_q1"] == make_result(0).runs[0].metrics["rms_q1"]
+        assert store.unrecorded(0) == ("rms_measured_q1", "rms_measured_q2")
+        assert store.unrecorded(1) == ()
+    with ResultStore.create_or_resume(path, study, "v3") as store:  # migrated once only
+        assert store.unrecorded(1) == ()

@@ -224,8 +224,9 @@ def replay_command(args: argparse.Namespace) -> int:
 
     out = output_folder("--out", args.out)
     with ResultStore.open_existing(args.db) as store:
-        study, schema = store.study(), store.meta().get("schema_version")
+        study = store.study()
         require_stored(args.sample, store.finished(), args.db)
+        unrecorded = store.unrecorded(args.sample)
         controllers = chosen_controllers(study, args.controller, args.db)
         (stored_sample,) = store.sample_rows(args.sample)
         stored_runs = store.run_rows(args.sample)
@@ -238,7 +239,7 @@ def replay_command(args: argparse.Namespace) -> int:
     if changed:
         print(f"  note: {changed}", flush=True)
     replayed, results = ClosedLoopEvaluator(study).evaluate(args.sample, controllers)
-    comparisons = compare(stored_sample, stored_runs, replayed, with_radius=schema != "1")
+    comparisons = compare(stored_sample, stored_runs, replayed, unrecorded)
     for comparison in comparisons:
         print(f"  {comparison.line()}")
     matches = all(comparison.matches for comparison in comparisons)

@@ -70,6 +70,8 @@ def _print_summary(run: object, written: object) -> None:
     rms_q = ", ".join(f"{v:.5f}" for v in m.rms_q)
     rms_u = ", ".join(f"{v:.3f}" for v in m.rms_u)
     print(f"  RMS(q~) = ({rms_q}) rad, max |q~| = {m.max_abs_q_err:.5f}")
+    measured = ", ".join(f"{v:.5f}" for v in m.rms_q_measured)
+    print(f"  RMS(q_m - q_d) = ({measured}) rad, as the encoder reads it")
     print(f"  RMS(u)  = ({rms_u}) V applied")
     print(f"  saturated: {100 * m.saturated_fraction:.1f} % of the samples")
     rate = config.duration / m.wall_time_s

@@ -8,12 +8,19 @@ from dataclasses import dataclass
 #: Outcomes of one controller on one sample.
 STATUSES = ("ok", "diverged", "error")
 
+def measured_columns(joints: int) -> tuple[str, ...]:
+    """``rms_measured_q1 .. rms_measured_qn``: the RMS of the measured error per joint
+    (``RunMetrics.rms_q_measured``; store schema version 3)."""
+    return tuple(f"rms_measured_q{j + 1}" for j in range(joints))
+
+
 def metric_columns(joints: int) -> tuple[str, ...]:
     """The per-controller numbers the store keeps for an arm of ``joints`` joints (from
-    ``analysis.metrics.RunMetrics``): ``rms_q1 .. rms_qn``, ``rms_u1 .. rms_un``, then
-    the scalars."""
+    ``analysis.metrics.RunMetrics``): ``rms_q1 .. rms_qn``, ``rms_u1 .. rms_un``, the
+    scalars, then ``measured_columns``."""
     per_joint = tuple(f"rms_{x}{j + 1}" for x in ("q", "u") for j in range(joints))
-    return (*per_joint, "max_abs_q_err", "saturated_fraction", "wall_time_s")
+    scalars = ("max_abs_q_err", "saturated_fraction", "wall_time_s")
+    return (*per_joint, *scalars, *measured_columns(joints))
 
 
 @dataclass(frozen=True)

@@ -20,8 +20,9 @@ Compared: the sample's ``encoder_counts``, ``payload_mass``, ``inside_bounds``
 and every entry of ``parameters``, ``theta`` and ``bound_ratios``; per
 controller ``status``, ``message``, the metric columns but ``wall_time_s`` (a
 timing, never reproducible) and ``sampled_data_spectral_radius``. Not compared:
-``code_version``, ``finished_at`` (when and by what the row was written); in a
-version-1 store, which has no spectral radius, the radius.
+``code_version``, ``finished_at`` (when and by what the row was written); what the
+store never recorded for the sample (``ResultStore.unrecorded``: a version-1 store's
+radius, a version-1 or 2 store's measured error).
 
 Written (``write_outputs``): per controller the time series
 ``sample_<I>_<controller>.csv`` (``analysis.export.export_run``, the format of
@@ -35,7 +36,7 @@ from __future__ import annotations
 
 import json
 import math
-from collections.abc import Iterable, Mapping
+from collections.abc import Collection, Iterable, Mapping
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -205,13 +206,13 @@ def compare(
     stored_sample: Mapping[str, object],
     stored_runs: Iterable[Mapping[str, object]],
     replayed: SampleResult,
-    with_radius: bool = True,
+    unrecorded: Collection[str] = (),
 ) -> list[Comparison]:
     """The sample's own row, then one ``Comparison`` per replayed controller (in the
     replay's order), of the stored rows of sample ``replayed.index`` against the
     recomputed ``replayed``. A controller without a stored row differs in ``row``.
-    ``with_radius=False`` leaves out ``sampled_data_spectral_radius`` (a version-1
-    store has none)."""
+    ``unrecorded``: columns the store never recorded for this sample, left out
+    (``ResultStore.unrecorded``: an older store's radius or measured error)."""
     runs = {row["controller"]: row for row in stored_runs if row["sample"] == replayed.index}
     comparisons = [
         Comparison(
@@ -226,8 +227,8 @@ def compare(
             comparisons.append(Comparison(run.controller, missing))
             continue
         stored_values, replayed_values = run_values(stored), replayed_run_values(run)
-        if not with_radius:
-            del stored_values[RADIUS_COLUMN], replayed_values[RADIUS_COLUMN]
+        for column in unrecorded:
+            stored_values.pop(column, None), replayed_values.pop(column, None)
         found = _differences(stored_values, replayed_values)
         comparisons.append(Comparison(run.controller, tuple(found)))
     return comparisons

@@ -13,13 +13,14 @@ Conventions (the report states them too):
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
 
 from posfb.analysis.montecarlo.config import Study, VariedScalar, study_joints, varied_scalars
 from posfb.analysis.montecarlo.coverage import BOUND_NAMES
-from posfb.analysis.montecarlo.records import STATUSES
+from posfb.analysis.montecarlo.records import STATUSES, measured_columns
 from posfb.analysis.montecarlo.statistics import Interval, median_interval, quantile_interval
 from posfb.analysis.montecarlo.store import RADIUS_COLUMN, ResultStore
 
@@ -30,7 +31,9 @@ class StudyData:
 
     ``rms_q[controller]`` has shape ``(samples, joints)`` and ``saturated[controller]`` (the share
     of control samples with a commanded voltage beyond the limit) shape ``(n,)``, NaN
-    where the run is not ``ok``; ``status[controller]`` holds the status strings.
+    where the run is not ``ok``; ``rms_q_measured[controller]``, the RMS of the error the
+    encoder reads, is shaped as ``rms_q`` and NaN also where the store did not record it
+    (a version-2 store's samples); ``status[controller]`` holds the status strings.
     ``inputs`` maps the export column of every varied scalar (``varied_scalars``) to its
     drawn values; ``radius[controller]`` is the sampled-data spectral radius of the
     controller's designed loop on each plant (NaN where it has none)."""
@@ -44,6 +47,7 @@ class StudyData:
     code_versions: tuple[str, ...]
     controllers: tuple[str, ...]
     rms_q: dict[str, np.ndarray]
+    rms_q_measured: dict[str, np.ndarray]
     saturated: dict[str, np.ndarray]
     status: dict[str, np.ndarray]
     messages: dict[str, list[str]]
@@ -75,6 +79,7 @@ def load(store: ResultStore) -> StudyData:
     n, joints = len(samples), study_joints(study)
     rms_columns = [f"rms_q{j + 1}" for j in range(joints)]
     rms_q = {c: np.full((n, joints), np.nan) for c in study.controllers}
+    measured = {c: np.full((n, joints), np.nan) for c in study.controllers}
     saturated = {c: np.full(n, np.nan) for c in study.controllers}
     status = {c: np.full(n, "error", dtype=object) for c in study.controllers}
     messages: dict[str, list[str]] = {c: [] for c in study.controllers}
@@ -86,6 +91,10 @@ def load(store: ResultStore) -> StudyData:
             radius[controller][i] = run[RADIUS_COLUMN]
         if run["status"] == "ok":
             rms_q[controller][i] = [run[column] for column in rms_columns]
+            measured[controller][i] = [
+                math.nan if run[column] is None else run[column]
+                for column in measured_columns(joints)
+            ]
             saturated[controller][i] = run["saturated_fraction"]
         elif run["message"]:
             messages[controller].append(f"sample {run['sample']}: {run['message']}")
@@ -101,6 +110,7 @@ def load(store: ResultStore) -> StudyData:
         code_versions=tuple(sorted({row["code_version"] for row in samples})),
         controllers=tuple(study.controllers),
         rms_q=rms_q,
+        rms_q_measured=measured,
         saturated=saturated,
         status=status,
         messages=messages,

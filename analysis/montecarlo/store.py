@@ -1,6 +1,6 @@
 """The results of a study in one SQLite file: durable, resumable, self-describing.
 
-Schema (version 2)::
+Schema (version 3)::
 
     meta(key PRIMARY KEY, value)      -- schema_version, study (canonical YAML),
                                       -- identity, code_version, created_at
@@ -9,13 +9,19 @@ Schema (version 2)::
             code_version, finished_at)
     runs(sample, controller, status, message,
          rms_q1 .. rms_qn, rms_u1 .. rms_un, max_abs_q_err, saturated_fraction,
-         wall_time_s, sampled_data_spectral_radius, PRIMARY KEY (sample, controller))
+         wall_time_s, rms_measured_q1 .. rms_measured_qn, sampled_data_spectral_radius,
+         PRIMARY KEY (sample, controller))
 
 with ``n`` the joints of the study's arm (``records.metric_columns``; two for the
 paper's arm, as every earlier store).
 
 Version 2 added ``sampled_data_spectral_radius`` (NULL for PID); a version-1 store
-is read (the radius reads as missing) but not resumed.
+is read (the radius reads as missing) but not resumed. Version 3 added
+``rms_measured_q1 .. n``, the RMS of the error the encoder reads
+(``analysis.metrics``). A version-2 store is read (the measured error reads as
+missing) and, when a run resumes it, migrated in place: the columns are added (NULL in
+the rows already there) and ``meta.unmeasured_samples`` lists the samples stored before
+(``ResultStore.unrecorded``: a replay does not compare what was never recorded).
 
 The file carries SQLite's ``application_id`` ``APPLICATION_ID`` ("posf"). Before
 anything is written, an existing file is looked at read-only: a file that is not
@@ -53,9 +59,18 @@ from posfb.analysis.montecarlo.config import (
     study_from_text,
     study_joints,
 )
-from posfb.analysis.montecarlo.records import STATUSES, SampleResult, metric_columns
+from posfb.analysis.montecarlo.records import (
+    STATUSES,
+    SampleResult,
+    measured_columns,
+    metric_columns,
+)
 
-SCHEMA_VERSION = "2"
+SCHEMA_VERSION = "3"
+
+#: The meta key of a migrated version-2 store: the samples stored without the
+#: measured error (JSON list of indices).
+UNMEASURED_KEY = "unmeasured_samples"
 
 #: SQLite ``PRAGMA application_id`` of a posfb store: "posf" in ASCII.
 APPLICATION_ID = 0x706F7366
@@ -178,6 +193,8 @@ class ResultStore:
                 store._write_meta(study, code_version)
             else:
                 store._check_resumable(meta, study)
+                if meta["schema_version"] == "2":
+                    store._migrate_from_2(study_joints(study))
         except BaseException:
             connection.close()
             raise
@@ -207,8 +224,34 @@ class ResultStore:
         with self._transaction():
             self._connection.executemany("INSERT INTO meta VALUES (?, ?)", values.items())
 
+    def _migrate_from_2(self, joints: int) -> None:
+        """Add the version-3 columns to a version-2 store, in one transaction (module
+        docstring)."""
+        with self._transaction():
+            for column in measured_columns(joints):
+                self._connection.execute(f"ALTER TABLE runs ADD COLUMN {column} REAL")
+            self._connection.execute(
+                "INSERT INTO meta VALUES (?, ?)",
+                (UNMEASURED_KEY, json.dumps(sorted(self.finished()))),
+            )
+            self._connection.execute(
+                "UPDATE meta SET value = ? WHERE key = 'schema_version'", (SCHEMA_VERSION,)
+            )
+
+    def unrecorded(self, sample: int) -> tuple[str, ...]:
+        """The ``runs`` columns the store did not record for ``sample`` (they read as
+        ``None``): the radius in a version-1 store, the measured error in a version-1
+        or 2 store and for the samples a migrated store held before (module docstring)."""
+        meta = self.meta()
+        version, joints = meta.get("schema_version"), study_joints(self.study())
+        unmeasured = json.loads(meta.get(UNMEASURED_KEY, "[]"))
+        columns = (RADIUS_COLUMN,) if version == "1" else ()
+        if version in ("1", "2") or sample in unmeasured:
+            columns += measured_columns(joints)
+        return columns
+
     def _check_resumable(self, meta: dict[str, str], study: Study) -> None:
-        if meta.get("schema_version") != SCHEMA_VERSION:
+        if meta.get("schema_version") not in (SCHEMA_VERSION, "2"):
             raise UsageError(
                 f"{self.path} has schema version {meta.get('schema_version')!r}; "
                 f"this posfb writes {SCHEMA_VERSION!r}"
@@ -285,14 +328,13 @@ class ResultStore:
         return rows
 
     def run_rows(self, sample: int | None = None) -> list[dict[str, object]]:
-        """Every ``runs`` row, by sample index and controller (a version-1 store's rows
-        have ``sampled_data_spectral_radius`` ``None``); only sample ``sample``'s where
+        """Every ``runs`` row, by sample index and controller (the columns an older
+        store lacks read as ``None``, ``unrecorded``); only sample ``sample``'s where
         given."""
         query, arguments = _where("SELECT * FROM runs", sample, "ORDER BY sample, controller")
-        return [
-            {RADIUS_COLUMN: None, **dict(row)}
-            for row in self._connection.execute(query, arguments)
-        ]
+        joints = study_joints(self.study())
+        missing = dict.fromkeys((*measured_columns(joints), RADIUS_COLUMN))
+        return [{**missing, **dict(row)} for row in self._connection.execute(query, arguments)]
 
     def close(self) -> None:
         self._connection.close()

@@ -37,6 +37,7 @@ import pandas as pd
 from posfb.analysis.export import write_table
 from posfb.analysis.montecarlo.config import study_joints
 from posfb.analysis.montecarlo.coverage import BOUND_NAMES
+from posfb.analysis.montecarlo.records import measured_columns
 from posfb.analysis.montecarlo.store import RADIUS_COLUMN, ResultStore
 from posfb.models.plant import JOINT_PARAMETERS, PARAMETER_UNITS
 
@@ -49,6 +50,7 @@ def metric_names(joints: int) -> dict[str, str]:
         **names,
         "max_abs_q_err": "max_abs_q_err_rad",
         "saturated_fraction": "saturated_fraction",
+        **{column: f"{column}_rad" for column in measured_columns(joints)},
     }
 
 

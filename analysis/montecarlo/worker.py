@@ -53,7 +53,7 @@ from posfb.models.nominal import nominal_model
 
 def _metrics_dict(metrics: RunMetrics) -> dict[str, float | None]:
     values = (*metrics.rms_q, *metrics.rms_u, metrics.max_abs_q_err)
-    values += (metrics.saturated_fraction, metrics.wall_time_s)
+    values += (metrics.saturated_fraction, metrics.wall_time_s, *metrics.rms_q_measured)
     columns = metric_columns(len(metrics.rms_q))
     return {
         column: float(value) if math.isfinite(value) else None

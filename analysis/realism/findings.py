@@ -66,18 +66,30 @@ def ranking_agreement(errors: dict[str, np.ndarray], pairs: list[tuple[str, str]
     return agree
 
 
+def _finite_median(values: np.ndarray) -> float:
+    values = values[np.isfinite(values)]
+    return float(np.median(values)) if values.size else math.nan
+
+
 @dataclass(frozen=True)
 class ControllerErrors:
-    """One controller in one study: its RMS errors (rad) per sample and joint (NaN
-    where the run did not finish), and the count of runs that did not."""
+    """One controller in one study: its true RMS errors (rad) per sample and joint (NaN
+    where the run did not finish), the measured ones (``analysis.metrics``; NaN also
+    where the store did not record them), and the count of runs that did not finish."""
 
     rms: np.ndarray
+    measured: np.ndarray
     unfinished: int
 
     def median(self, joint: int) -> float:
-        values = self.rms[:, joint]
-        values = values[np.isfinite(values)]
-        return float(np.median(values)) if values.size else math.nan
+        return _finite_median(self.rms[:, joint])
+
+    def measured_median(self, joint: int) -> float:
+        return _finite_median(self.measured[:, joint])
+
+    def measured_count(self, joint: int) -> int:
+        """The samples with a measured error at ``joint``."""
+        return int(np.sum(np.isfinite(self.measured[:, joint])))
 
 
 @dataclass(frozen=True)
@@ -153,7 +165,9 @@ class Findings:
 
 def _study_findings(name: str, label: str, data: StudyData) -> StudyFindings:
     errors = {
-        c: ControllerErrors(data.rms_q[c], int(np.sum(data.status[c] != "ok")))
+        c: ControllerErrors(
+            data.rms_q[c], data.rms_q_measured[c], int(np.sum(data.status[c] != "ok"))
+        )
         for c in data.controllers
     }
     return StudyFindings(name, label, len(data.samples), data.study.samples, errors, data)

@@ -83,7 +83,8 @@ def _errors_section(found: Findings) -> list[str]:
         f"Median over the samples of RMS(q̃j) in mrad (the true link error; runs that "
         f"finished), `n/N` runs that did not finish where any; the paper's {table} first. "
         "With the encoder on the motor the paper measured `θ_m - q_d`, not `q - q_d`: the "
-        "two differ by the gear's deflection `τ_g / k` plus at most the backlash `b`."
+        "two differ by the gear's deflection `τ_g / k` plus at most the backlash `b` (the "
+        "next section gives the measured error)."
     )
     for joint in range(found.joints):
         lines += [
@@ -102,6 +103,42 @@ def _errors_section(found: Findings) -> list[str]:
                 cell = _mrad(errors.median(joint))
                 if errors.unfinished:
                     cell += f" ({errors.unfinished}/{study.samples} unfinished)"
+                cells.append(cell)
+            lines.append(f"| {name} | {' | '.join(cells)} |")
+    return [*lines, ""]
+
+
+def _measured_section(found: Findings) -> list[str]:
+    table = TABLE_NAMES[found.studies.spec.paper_table]
+    lines = [
+        "## The error the encoder reads",
+        "",
+        f"Median over the samples of RMS(q_m,j - q_d,j) in mrad, with `q_m` the encoder's "
+        f"reading (`analysis.metrics`): the error a hardware experiment computes, as the "
+        f"paper's {table} was. It is the true error plus the encoder's quantisation where "
+        "the encoder reads the link, and the error of the motor angle where it reads the "
+        "motor. `m/N` gives the samples that recorded it where not every finished one did "
+        "(a store written before schema version 3).",
+    ]
+    for joint in range(found.joints):
+        lines += [
+            "",
+            f"**Joint {joint + 1}**",
+            "",
+            "| study | " + " | ".join(found.controllers) + " |",
+            "|---|" + "---:|" * len(found.controllers),
+        ]
+        paper = " | ".join(_mrad(found.paper_value(c, joint)) for c in found.controllers)
+        lines.append(f"| paper ({table}) | {paper} |")
+        for name, study in found.found.items():
+            cells = []
+            for c in found.controllers:
+                errors = study.errors[c]
+                cell = _mrad(errors.measured_median(joint))
+                finished = study.samples - errors.unfinished
+                recorded = errors.measured_count(joint)
+                if recorded < finished:
+                    cell += f" ({recorded}/{finished} recorded)"
                 cells.append(cell)
             lines.append(f"| {name} | {' | '.join(cells)} |")
     return [*lines, ""]
@@ -289,6 +326,7 @@ def markdown(found: Findings, command: str) -> str:
     lines += _effects_section(found.studies)
     lines += _errors_section(found)
     lines += ["![RMS error of every sample, per study and controller](errors.png)", ""]
+    lines += _measured_section(found)
     lines += _gap_section(found)
     lines += _ranking_section(found)
     lines += _verdict_section(found)
