@@ -125,9 +125,11 @@ def test_the_small_study_writes_its_report_and_figure(small_study):
         "## The effects and their ranges", "## RMS tracking error with each effect",
         "## How much of the gap each effect closes", "## Does the paper's ranking survive?",
         "## Verdict per effect", "## Which drawn value matters",
+        "## The error the encoder reads",
     ):  # fmt: skip
         assert heading in text
     assert "Incomplete" not in text
+    assert "recorded)" not in text  # a fresh store records the measured error of every run
     assert "Astrom and Wittenmark" in text
     assert (out / "errors.png").stat().st_size > 0
 
@@ -139,6 +141,9 @@ def test_the_ideal_arm_of_the_study_is_an_independent_simulate_run(small_study):
     paper = posfb.shipped_scenarios()["paper_nominal"]
     run = posfb.simulate(posfb.load_scenario(paper, set={"timing.duration": 0.2}), "lin_lc")
     assert rows["lin_lc"] == run.rms_q[1]  # the worker's path and simulate's, to the bit
+    with sqlite3.connect(out / "stores" / f"{IDEAL}.sqlite") as db:
+        measured = dict(db.execute("SELECT controller, rms_measured_q2 FROM runs").fetchall())
+    assert measured["lin_lc"] == run.rms_q_measured[1]
     assert rows["lin_lc_again"] == rows["lin_lc"]  # the same controller under two names
 
 

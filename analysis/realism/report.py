@@ -11,6 +11,7 @@ effect and joint from the bands of ``findings``.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
@@ -26,6 +27,7 @@ from posfb.analysis.realism.findings import (
     NEGLIGIBLE,
     OVERSHOOTS,
     Findings,
+    StudyFindings,
     findings,
 )
 from posfb.analysis.realism.spec import COMBINED, IDEAL, RealismStudies
@@ -76,16 +78,11 @@ def _effects_section(studies: RealismStudies) -> list[str]:
     return [*lines, ""]
 
 
-def _errors_section(found: Findings) -> list[str]:
+def _joint_tables(found: Findings, cell: Callable[[StudyFindings, str, int], str]) -> list[str]:
+    """Per joint, a table of every study (rows, after the paper's) by controller, each
+    cell ``cell(study, controller, joint)``."""
     table = TABLE_NAMES[found.studies.spec.paper_table]
-    lines = ["## RMS tracking error with each effect", ""]
-    lines.append(
-        f"Median over the samples of RMS(q̃j) in mrad (the true link error; runs that "
-        f"finished), `n/N` runs that did not finish where any; the paper's {table} first. "
-        "With the encoder on the motor the paper measured `θ_m - q_d`, not `q - q_d`: the "
-        "two differ by the gear's deflection `τ_g / k` plus at most the backlash `b` (the "
-        "next section gives the measured error)."
-    )
+    lines = []
     for joint in range(found.joints):
         lines += [
             "",
@@ -97,15 +94,41 @@ def _errors_section(found: Findings) -> list[str]:
         paper = " | ".join(_mrad(found.paper_value(c, joint)) for c in found.controllers)
         lines.append(f"| paper ({table}) | {paper} |")
         for name, study in found.found.items():
-            cells = []
-            for c in found.controllers:
-                errors = study.errors[c]
-                cell = _mrad(errors.median(joint))
-                if errors.unfinished:
-                    cell += f" ({errors.unfinished}/{study.samples} unfinished)"
-                cells.append(cell)
-            lines.append(f"| {name} | {' | '.join(cells)} |")
+            cells = " | ".join(cell(study, c, joint) for c in found.controllers)
+            lines.append(f"| {name} | {cells} |")
     return [*lines, ""]
+
+
+def _true_cell(study: StudyFindings, controller: str, joint: int) -> str:
+    """The median true error, and the runs that did not finish where any."""
+    errors = study.errors[controller]
+    text = _mrad(errors.median(joint))
+    if errors.unfinished:
+        text += f" ({errors.unfinished}/{study.samples} unfinished)"
+    return text
+
+
+def _measured_cell(study: StudyFindings, controller: str, joint: int) -> str:
+    """The median measured error, and how many finished runs recorded it where not all."""
+    errors = study.errors[controller]
+    text = _mrad(errors.measured_median(joint))
+    finished, recorded = study.samples - errors.unfinished, errors.measured_count(joint)
+    if recorded < finished:
+        text += f" ({recorded}/{finished} recorded)"
+    return text
+
+
+def _errors_section(found: Findings) -> list[str]:
+    table = TABLE_NAMES[found.studies.spec.paper_table]
+    lines = ["## RMS tracking error with each effect", ""]
+    lines.append(
+        f"Median over the samples of RMS(q̃j) in mrad (the true link error; runs that "
+        f"finished), `n/N` runs that did not finish where any; the paper's {table} first. "
+        "With the encoder on the motor the paper measured `θ_m - q_d`, not `q - q_d`: the "
+        "two differ by the gear's deflection `τ_g / k` plus at most the backlash `b` (the "
+        "next section gives the measured error)."
+    )
+    return lines + _joint_tables(found, _true_cell)
 
 
 def _measured_section(found: Findings) -> list[str]:
@@ -120,28 +143,7 @@ def _measured_section(found: Findings) -> list[str]:
         "motor. `m/N` gives the samples that recorded it where not every finished one did "
         "(a store written before schema version 3).",
     ]
-    for joint in range(found.joints):
-        lines += [
-            "",
-            f"**Joint {joint + 1}**",
-            "",
-            "| study | " + " | ".join(found.controllers) + " |",
-            "|---|" + "---:|" * len(found.controllers),
-        ]
-        paper = " | ".join(_mrad(found.paper_value(c, joint)) for c in found.controllers)
-        lines.append(f"| paper ({table}) | {paper} |")
-        for name, study in found.found.items():
-            cells = []
-            for c in found.controllers:
-                errors = study.errors[c]
-                cell = _mrad(errors.measured_median(joint))
-                finished = study.samples - errors.unfinished
-                recorded = errors.measured_count(joint)
-                if recorded < finished:
-                    cell += f" ({recorded}/{finished} recorded)"
-                cells.append(cell)
-            lines.append(f"| {name} | {' | '.join(cells)} |")
-    return [*lines, ""]
+    return lines + _joint_tables(found, _measured_cell)
 
 
 def _gap_section(found: Findings) -> list[str]:
