@@ -94,6 +94,54 @@ def test_ctrl_c_keeps_finished_samples_says_so_and_the_same_command_resumes(tmp_
     assert [row[0] for row in rows] == list(range(40))  # every sample once
 
 
+def _descendants(pid: int) -> set[int]:
+    """Every process below ``pid`` (from ``/proc``: parent ids)."""
+    parents = {}
+    for entry in Path("/proc").iterdir():
+        if entry.name.isdigit():
+            try:
+                stat = (entry / "stat").read_text()
+            except OSError:
+                continue
+            parents[int(entry.name)] = int(stat.rsplit(")", 1)[1].split()[1])
+    found, frontier = set(), {pid}
+    while frontier:
+        frontier = {child for child, parent in parents.items() if parent in frontier}
+        found |= frontier
+    return found
+
+
+def _running(pid: int) -> bool:
+    """Whether ``pid`` exists and is not a zombie (dead, waiting to be reaped)."""
+    try:
+        return (Path("/proc") / str(pid) / "stat").read_text().rsplit(")", 1)[1].split()[0] != "Z"
+    except OSError:
+        return False
+
+
+def test_a_run_killed_by_sigterm_leaves_no_worker_behind(tmp_path):
+    """The forkserver's workers are not the run's children: killed outright, the run
+    cannot stop them, so they end themselves (``analysis.montecarlo.watchdog``)."""
+    study, db = tmp_path / "study.yaml", tmp_path / "store.sqlite"
+    study.write_text(STUDY)
+    process = subprocess.Popen(
+        [*CLI, "montecarlo", "run", str(study), "--db", str(db), "--no-progress",
+         "--workers", "2"],
+        stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, start_new_session=True,
+    )  # fmt: skip
+    deadline = time.monotonic() + 120
+    while time.monotonic() < deadline and not (db.exists() and _count(db) >= 1):
+        time.sleep(0.2)
+    below = _descendants(process.pid)
+    assert len(below) >= 3  # the forkserver and two workers (and the resource tracker)
+    process.terminate()  # SIGTERM to the run alone, not its process group
+    process.wait(timeout=60)
+    deadline = time.monotonic() + 30
+    while time.monotonic() < deadline and any(_running(pid) for pid in below):
+        time.sleep(0.2)
+    assert not [pid for pid in below if _running(pid)]
+
+
 def _count(db: Path) -> int:
     try:
         with sqlite3.connect(db) as connection:

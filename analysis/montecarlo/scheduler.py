@@ -5,7 +5,9 @@ Only the parent process writes to the store (one transaction per sample, in
 completion order). At most ``2 x workers`` samples are in flight at a time, so
 a killed run loses at most those; the rest were never started. On Ctrl-C (the
 workers ignore it) the queued samples are dropped and the running ones are
-finished and stored before the run stops.
+finished and stored before the run stops. A run killed outright (SIGTERM, SIGKILL)
+loses its samples in flight, and its workers end themselves within a second
+(``watchdog``).
 Local workers come from a ``forkserver`` context (fresh processes, never a fork
 of a parent with Drake threads) whose server preloads the worker module, so
 each worker starts without importing Drake again. With a Dask scheduler
@@ -17,6 +19,7 @@ from __future__ import annotations
 
 import itertools
 import multiprocessing
+import os
 import signal
 import sys
 import threading
@@ -34,6 +37,7 @@ from posfb.analysis.montecarlo import worker
 from posfb.analysis.montecarlo.config import Study, canonical_text, identity
 from posfb.analysis.montecarlo.records import SampleResult
 from posfb.analysis.montecarlo.store import ResultStore
+from posfb.analysis.montecarlo.watchdog import watch_run
 
 #: Samples in flight per worker (one running, one queued so no worker idles).
 IN_FLIGHT_PER_WORKER = 2
@@ -73,7 +77,9 @@ def _local_results(
     ctrl_c = _DeferredCtrlC()
     previous = ctrl_c.install()
     started = False
-    pool = ProcessPoolExecutor(max_workers=workers, mp_context=context)
+    pool = ProcessPoolExecutor(
+        max_workers=workers, mp_context=context, initializer=watch_run, initargs=(os.getpid(),)
+    )
     try:
         while True:
             for index in queue:
