@@ -75,6 +75,35 @@ def test_the_shipped_study_has_a_source_per_effect_and_changes_no_default():
     ]
 
 
+def test_the_table_4_study_is_the_table_3_study_on_the_payload_arm():
+    table4 = load_realism(DEFAULT_STUDY.with_name("paper_table4.yaml"))
+    table3 = load_realism(DEFAULT_STUDY)
+    assert table4.spec.paper_table == "payload" and table3.spec.paper_table == "nominal"
+    assert table4.spec.effects == table3.spec.effects
+    assert table4.spec.stand_ins == table3.spec.stand_ins
+    assert list(table4.studies) == list(table3.studies)
+    payload = posfb.load_scenario(posfb.shipped_scenarios()["paper_payload"]).scenario
+    for name, study in table4.studies.items():
+        nominal = table3.studies[name]
+        assert study.base.plant.payload_mass == payload.plant.payload_mass == 0.288
+        # with the payload taken away, each study is the Table 3 one, key for key
+        study.base.plant.payload_mass = nominal.base.plant.payload_mass
+        assert (study.seed, study.samples, study.draws) == (
+            nominal.seed, nominal.samples, nominal.draws
+        )
+        assert study.base == nominal.base, name
+
+
+def test_extends_refuses_a_cycle_and_a_missing_file(tmp_path):
+    (tmp_path / "a.yaml").write_text("extends: b.yaml\n")
+    (tmp_path / "b.yaml").write_text("extends: a.yaml\n")
+    with pytest.raises(ValueError, match="extends: 'a.yaml' extends this file again"):
+        load_realism(tmp_path / "a.yaml")
+    (tmp_path / "c.yaml").write_text("extends: gone.yaml\n")
+    with pytest.raises(FileNotFoundError, match="extends: realism study .*gone.yaml does not"):
+        load_realism(tmp_path / "c.yaml")
+
+
 SMALL = """\
 study:
   seed: 7

@@ -312,8 +312,9 @@ def markdown(found: Findings, command: str) -> str:
         "",
         f"Regenerate: `{command}` ({code_version()}). An explanation, not a calibration: "
         "no default of posfb changes; every range is the literature's for small geared "
-        "DC-motor arms, with its source. The arm is the nominal one, so each change is "
-        f"the effect's own. Compared with the paper's {TABLE_NAMES[spec.paper_table]}, "
+        "DC-motor arms, with its source. The arm is the paper's (the URDF identified from "
+        "Table 1, with the scenario's payload) in every study, so each change is the "
+        f"effect's own. Compared with the paper's {TABLE_NAMES[spec.paper_table]}, "
         "hardware measurements: orderings and ratios, not digits.",
         "",
     ]

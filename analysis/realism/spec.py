@@ -22,6 +22,11 @@
     combined: [electrical_lag, ...]   # the effects drawn together in one more study
     combined_samples: 4
 
+or ``extends: OTHER.yaml`` (relative to this file) and only the keys that differ: the
+other file's settings with this file's keys in their place, key by key inside ``study``
+(e.g. another scenario and ``paper_table: payload`` over the same effects). The other
+file's ``study.scenario`` stays relative to its own folder.
+
 Each effect becomes the shared study with its ``settings`` appended and its ``draws``
 (``realism_studies``); the combined study takes every listed effect's settings and draws,
 in the listed order (a later effect's setting of the same key wins, and a drawn key
@@ -61,6 +66,7 @@ class Effect:
 class RealismSpec:
     """The study file (module docstring)."""
 
+    extends: str = ""
     study: Study = field(default_factory=Study)
     paper_table: str = "nominal"
     stand_ins: dict[str, str] = field(default_factory=dict)
@@ -168,11 +174,26 @@ def realism_studies(spec: RealismSpec, source: str, folder: Path) -> RealismStud
     return RealismStudies(spec, studies)
 
 
+def _load_spec(path: Path, extended_by: tuple[Path, ...] = ()) -> RealismSpec:
+    """The spec of ``path`` with what it ``extends`` folded in (module docstring)."""
+    source = f"realism study {path}"
+    what = "realism study" if not extended_by else f"{extended_by[-1]}: extends: realism study"
+    text = read_text(path, what, missing=FileNotFoundError)
+    spec = load_typed(RealismSpec, text, source)
+    if not spec.extends:
+        return spec
+    other = path.parent / spec.extends
+    if other.resolve() in {p.resolve() for p in (*extended_by, path)}:
+        raise ValueError(f"{source}: extends: {spec.extends!r} extends this file again (a cycle)")
+    base = _load_spec(other, (*extended_by, path))
+    scenario = base.study.scenario
+    if scenario and not Path(scenario).is_absolute():  # relative to its own file
+        base = replace(base, study=replace(base.study, scenario=str(other.parent / scenario)))
+    return replace(load_typed(RealismSpec, text, source, defaults=base), extends="")
+
+
 def load_realism(path: str | Path) -> RealismStudies:
     """The studies of the realism file ``path``; every problem is one ``ValueError``
     line naming the file and the key."""
     path = Path(path)
-    source = f"realism study {path}"
-    text = read_text(path, "realism study", missing=FileNotFoundError)
-    spec = load_typed(RealismSpec, text, source)
-    return realism_studies(spec, source, path.parent)
+    return realism_studies(_load_spec(path), f"realism study {path}", path.parent)
