@@ -62,4 +62,5 @@ def realism_command(args: argparse.Namespace) -> int:
 def _command(args: argparse.Namespace) -> str:
     """The command that regenerates the report (in the report's header)."""
     study = "" if args.study == str(DEFAULT_STUDY) else f" {args.study}"
-    return f"posfb realism{study} --out {args.out} --workers {args.workers}"
+    stores = "" if args.stores is None else f" --stores {args.stores}"
+    return f"posfb realism{study} --out {args.out}{stores} --workers {args.workers}"
