@@ -679,13 +679,14 @@ class ClosedLoopRunner:
         """A fresh Context: true ``parameters`` (default: ``true_parameters()``), the
         ``sensor`` settings (default: the config's), the friction law's values
         (``friction``, an entry of the law the diagram was built with, e.g. a Monte-Carlo
-        sample's draw; default: the config's), the gear's values (``gear``, compliant as
-        the diagram; default: the config's), the ``actuator`` settings (the electrical
-        lag's time constants and the DAC's bits, ``diagrams.actuator``; default: the
-        config's), the arm at rest at ``q_d(0)`` (with a
-        compliant gear, each motor too: ``theta_m = q``, ``models.plant.set_motor_state``); a sensor
-        delay line is filled with the first measurement; a compute-delay hold
-        (``diagrams.actuator``) starts at the controller's voltage before its first update."""
+        sample's draw; default: the config's), the gear's values (``gear``; any joint
+        compliant only where the diagram has a gear block; default: the config's), the
+        ``actuator`` settings (the electrical lag's time constants and the DAC's bits,
+        ``diagrams.actuator``; default: the config's), the arm at rest at ``q_d(0)``
+        (with a gear block, each motor too: ``theta_m = q``,
+        ``models.plant.set_motor_state``); a sensor delay line is filled with the first
+        measurement; a compute-delay hold (``diagrams.actuator``) starts at the
+        controller's voltage before its first update."""
         loop, config = self.loop, self.config
         sensor = config.sensor_state if sensor is None else sensor
         if any(std > 0.0 for std in sensor.noise_std) and loop.noise_source is None:
