@@ -149,10 +149,6 @@ class Dac(LeafSystem):
         bits = require_dac_bits("actuator.dac_bits", bits)
         context.get_mutable_numeric_parameter(self._bits).SetAtIndex(0, float(bits))
 
-    def step(self, context: Context) -> list[float]:
-        """``Delta`` (V) of each joint at the resolution in ``context``."""
-        return [dac_step(limit, self.bits(context)) for limit in self._limits]
-
     def _calc_output(self, context: Context, output: BasicVector) -> None:
         self.evaluations += 1
         voltage = self._u.Eval(context).tolist()
