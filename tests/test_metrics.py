@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 
 from posfb.analysis.metrics import RunMetrics, compute_metrics, rms, run_metrics
+from posfb.diagrams.resolve import load_scenario, run_scenario
 
 
 def _paper_rms(samples: list[float]) -> float:
@@ -56,16 +57,14 @@ def test_compute_metrics_counts_saturated_samples_and_uses_applied_voltage():
 
 
 def _run(*settings: str):
-    from posfb.diagrams.closed_loop import ClosedLoopRunner
-    from posfb.diagrams.resolve import load_scenario, resolve
-
-    loaded = load_scenario(None, ["timing.duration=1", "controller.kind=lin_lc", *settings])
-    runner = ClosedLoopRunner(resolve(loaded).config)
-    return runner, runner.run()
+    """A 1 s Lin+LC run of the default scenario with ``settings``."""
+    return run_scenario(
+        load_scenario(None, ["timing.duration=1", "controller.kind=lin_lc", *settings])
+    )
 
 
 def test_the_measured_error_of_an_ideal_encoder_is_the_true_error():
-    _, result = _run("sensor.encoder_counts=0")
+    result = _run("sensor.encoder_counts=0")
     metrics = run_metrics(result)
     assert metrics.rms_q_measured == metrics.rms_q
 
@@ -74,7 +73,7 @@ def test_the_measured_error_of_an_ideal_encoder_is_the_true_error():
 def test_a_quantised_encoder_moves_the_measured_rms_by_at_most_half_a_count(counts):
     """|RMS(a) - RMS(b)| <= RMS(a - b) <= max |a - b| <= Delta / 2 (Minkowski, and the
     encoder rounds to the nearest count): a bound, not a measured number."""
-    runner, result = _run(f"sensor.encoder_counts={counts}")
+    result = _run(f"sensor.encoder_counts={counts}")
     metrics = run_metrics(result)
     half_count = math.pi / counts
     for true, measured in zip(metrics.rms_q, metrics.rms_q_measured, strict=True):

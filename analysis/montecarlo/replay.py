@@ -228,7 +228,8 @@ def compare(
             continue
         stored_values, replayed_values = run_values(stored), replayed_run_values(run)
         for column in unrecorded:
-            stored_values.pop(column, None), replayed_values.pop(column, None)
+            stored_values.pop(column, None)
+            replayed_values.pop(column, None)
         found = _differences(stored_values, replayed_values)
         comparisons.append(Comparison(run.controller, tuple(found)))
     return comparisons

@@ -78,6 +78,7 @@ def load(store: ResultStore) -> StudyData:
     index = {row["sample"]: i for i, row in enumerate(samples)}
     n, joints = len(samples), study_joints(study)
     rms_columns = [f"rms_q{j + 1}" for j in range(joints)]
+    measured_names = measured_columns(joints)
     rms_q = {c: np.full((n, joints), np.nan) for c in study.controllers}
     measured = {c: np.full((n, joints), np.nan) for c in study.controllers}
     saturated = {c: np.full(n, np.nan) for c in study.controllers}
@@ -92,8 +93,7 @@ def load(store: ResultStore) -> StudyData:
         if run["status"] == "ok":
             rms_q[controller][i] = [run[column] for column in rms_columns]
             measured[controller][i] = [
-                math.nan if run[column] is None else run[column]
-                for column in measured_columns(joints)
+                math.nan if run[column] is None else run[column] for column in measured_names
             ]
             saturated[controller][i] = run["saturated_fraction"]
         elif run["message"]:
