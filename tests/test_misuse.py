@@ -71,6 +71,9 @@ FILES = {
     "realism_bad_combined.yaml": "study: {duration: 0.5, controllers: [lin_lc]}\neffects:\n"
     "  - {name: dac, label: DAC, source: a book, settings: [actuator.dac_bits=12]}\n"
     "combined: [dac, lag]\n",
+    "realism_extends_gone.yaml": "extends: gone.yaml\n",
+    "realism_cycle_a.yaml": "extends: realism_cycle_b.yaml\n",
+    "realism_cycle_b.yaml": "extends: realism_cycle_a.yaml\n",
     "gear_draw.yaml": STUDY + "settings: [plant.gear_stiffness=1000]\n"
     "draws:\n  plant.backlash: !Uniform {min: -0.001, max: 0.001}\n",
     "friction_draw.yaml": STUDY + 'settings: ["plant.friction=!Stribeck {}"]\n'
@@ -409,6 +412,14 @@ CASES = {
     "realism runs an unknown study": Case(
         ("realism", "--out", "{tmp}/r", "--only", "gear,nope"),
         "--only 'nope'; one of ideal, electrical_lag, dac, compute_delay",
+    ),
+    "realism extends a missing file": Case(
+        ("realism", "{tmp}/realism_extends_gone.yaml", "--out", "{tmp}/r"),
+        "realism_extends_gone.yaml: extends: realism study",
+    ),
+    "realism extends in a cycle": Case(
+        ("realism", "{tmp}/realism_cycle_a.yaml", "--out", "{tmp}/r"),
+        "extends: 'realism_cycle_a.yaml' extends this file again (a cycle)",
     ),
     "realism report of nothing run": Case(
         ("realism", "--out", "{tmp}/r", "--report-only"),
