@@ -28,7 +28,13 @@ import yaml
 
 from posfb.analysis import progress as progress_bars
 from posfb.analysis.cases import CASE_FILES, SCENARIO_DIR
-from posfb.analysis.metrics import RunMetrics, run_metrics
+from posfb.analysis.metrics import (
+    NOT_TRACKED_STATUSES,
+    RunMetrics,
+    Verdict,
+    run_metrics,
+    run_verdict,
+)
 from posfb.diagrams.closed_loop import (
     ClosedLoop,
     ClosedLoopResult,
@@ -69,7 +75,8 @@ Settings = Mapping[str, object] | Iterable[str]
 
 class ScenarioWarning(UserWarning):
     """Something about a scenario that does not stop a run but may spoil it: a
-    trajectory beyond the voltage limit, a design check the controller fails."""
+    trajectory beyond the voltage limit, a design check the controller fails, or a run
+    that finished ``saturated`` or ``lost`` (``analysis.metrics.run_verdict``)."""
 
 
 def shipped_scenarios() -> dict[str, Path]:
@@ -85,31 +92,61 @@ def shipped_scenarios() -> dict[str, Path]:
     return {path.stem: path for path in sorted(SCENARIO_DIR.glob("*.yaml"))}
 
 
-def yaml_value(value: object) -> str:
+def yaml_value(value: object, key: str = "value") -> str:
     """``value`` as the YAML text of a ``KEY=VALUE`` setting: a string is taken as it is
     (``lin_lc``, ``!Theta {theta6: 0}``); numbers, booleans and (nested) sequences,
-    numpy's included, are written as YAML flow text."""
+    numpy's included, are written as YAML flow text. Anything else is a ``TypeError``
+    naming ``key``."""
     if isinstance(value, str):
         return value
     plain = np.asarray(value).tolist() if isinstance(value, np.ndarray | np.generic) else value
     if isinstance(plain, tuple):
         plain = list(plain)
-    text = yaml.safe_dump(plain, default_flow_style=True, width=math.inf)
+    try:
+        text = yaml.safe_dump(plain, default_flow_style=True, width=math.inf)
+    except yaml.representer.RepresenterError:
+        raise TypeError(
+            f"{key} = {value!r}; a number, a boolean, a string or a (nested) list of them "
+            "is required"
+        ) from None
     return text.removesuffix("\n").removesuffix("\n...").strip()
 
 
+_SETTINGS_FORMS = "a mapping {key: value} or a list of 'KEY=VALUE' strings is required"
+
+
 def settings_list(settings: Settings | None) -> list[str]:
-    """``KEY=VALUE`` strings from a mapping ``{key: value}`` or an iterable of strings."""
+    """``KEY=VALUE`` strings from a mapping ``{key: value}`` or an iterable of strings;
+    anything else is a ``TypeError`` naming ``set``."""
     if settings is None:
         return []
     if isinstance(settings, Mapping):
-        return [f"{key}={yaml_value(value)}" for key, value in settings.items()]
-    if isinstance(settings, str):
-        raise ValueError(
-            f"set = {settings!r}; a mapping {{key: value}} or a list of 'KEY=VALUE' strings "
+        for key in settings:
+            if not isinstance(key, str):
+                raise TypeError(f"set key = {key!r}; {_SETTINGS_FORMS}")
+        return [f"{key}={yaml_value(value, key)}" for key, value in settings.items()]
+    if isinstance(settings, str) or not isinstance(settings, Iterable):
+        raise TypeError(f"set = {settings!r}; {_SETTINGS_FORMS}")
+    items = list(settings)
+    for item in items:
+        if not isinstance(item, str):
+            raise TypeError(f"set item = {item!r}; {_SETTINGS_FORMS}")
+    return items
+
+
+def _names(argument: str, value: object) -> list[str]:
+    """``value`` as a list of controller names; a single string (``"pid,lin_lc"``) or a
+    non-string item is a ``TypeError`` naming ``argument``."""
+    if isinstance(value, str) or not isinstance(value, Iterable):
+        raise TypeError(
+            f"{argument} = {value!r}; a list of controller names such as ['pid', 'lin_lc'] "
             "is required"
         )
-    return list(settings)
+    names = list(value)
+    for name in names:
+        if not isinstance(name, str):
+            raise TypeError(f"{argument} item = {name!r}; a controller name (a string) is required")
+    return names
 
 
 def load_scenario(source: ScenarioSource = None, set: Settings | None = None) -> LoadedScenario:  # noqa: A002
@@ -137,6 +174,8 @@ def load_scenario(source: ScenarioSource = None, set: Settings | None = None) ->
     ------
     ValueError
         One line naming the key, the value and what is allowed.
+    TypeError
+        ``source`` or ``set`` (or one of its items) of another type than those above.
 
     Examples
     --------
@@ -145,6 +184,11 @@ def load_scenario(source: ScenarioSource = None, set: Settings | None = None) ->
     >>> scenario.get("timing.duration")
     1.0
     """
+    if not isinstance(source, LoadedScenario | Mapping | str | Path | None):
+        raise TypeError(
+            f"source = {source!r}; a scenario file's path, a mapping, a LoadedScenario or "
+            "None is required"
+        )
     if isinstance(source, LoadedScenario):
         loaded = source.with_settings(settings_list(set))
     elif isinstance(source, Mapping):
@@ -157,6 +201,8 @@ def load_scenario(source: ScenarioSource = None, set: Settings | None = None) ->
 
 def _scenario(source: ScenarioSource, controller: str | None) -> LoadedScenario:
     """``source`` loaded (and validated once) with ``controller`` chosen, if given."""
+    if controller is not None and not isinstance(controller, str):
+        raise TypeError(f"controller = {controller!r}; a controller name (a string) is required")
     return load_scenario(source, None if controller is None else {"controller.kind": controller})
 
 
@@ -197,6 +243,11 @@ class Run:
     def metrics(self) -> RunMetrics:
         return run_metrics(self.result)
 
+    @cached_property
+    def verdict(self) -> Verdict:
+        """The run's status and why (``analysis.metrics.run_verdict``)."""
+        return run_verdict(self.result)
+
     @property
     def controller(self) -> str:
         """The controller's kind (``pid``, ``lin_lc``, ``proposed``)."""
@@ -204,8 +255,10 @@ class Run:
 
     @property
     def label(self) -> str:
-        """The controller's name for legends and tables."""
-        return self.result.config.spec.label
+        """The controller's name for legends and tables, for this run's settings
+        (``ControllerSpec.label_for``: "(paper)" only with the paper's)."""
+        config = self.result.config
+        return config.spec.label_for(config.design)
 
     @property
     def rms_q(self) -> tuple[float, ...]:
@@ -225,27 +278,35 @@ class Run:
 
     @property
     def status(self) -> str:
-        """``ok``, or ``diverged`` (``message`` says why)."""
-        return self.result.status
+        """``ok``; ``saturated`` or ``lost`` (it finished, but at the voltage limit or far
+        from its path most of its second half); or ``diverged`` (stopped early).
+        ``message`` says why (``analysis.metrics.run_verdict``)."""
+        return self.verdict.status
 
     @property
     def message(self) -> str:
-        return self.result.message
+        """Why the run is not ``ok`` (empty when it is)."""
+        return self.verdict.message
 
     def summary(self) -> dict[str, object]:
         """The keys ``posfb simulate --json`` prints: the controller, the scenario's
         source, duration, sample time and encoder counts, the metrics, ``status`` and
-        ``message`` (a metric that does not exist is ``None``)."""
+        ``message`` (a metric that does not exist is ``None``). The RMS measured error
+        per joint is ``rms_measured_q`` (the spelling of the store's and ``compare``'s
+        ``rms_measured_q1 .. n`` columns) and, under its earlier name, ``rms_q_measured``,
+        kept so that scripts that read it keep working."""
         from posfb.analysis.experiment import result_entry
 
         config = self.result.config
+        entry = result_entry(self.result)
         return {
             "controller": config.controller,
             "scenario": self.scenario.source,
             "duration": config.duration,
             "sample_time": config.sample_time,
             "encoder_counts": list(config.encoder_counts),
-            **result_entry(self.result),
+            **entry,
+            "rms_measured_q": entry["rms_q_measured"],
         }
 
     def frame(self) -> pd.DataFrame:
@@ -256,13 +317,14 @@ class Run:
         return run_table(self.result)
 
     def save(self, path: str | Path) -> Path:
-        """Write ``frame()`` to ``path`` (``.csv``, ``.parquet`` or ``.npz``); returns it."""
+        """Write ``frame()`` to ``path`` (``.csv``, ``.parquet`` or ``.npz``), atomically:
+        an existing file is replaced, a failed write leaves it as it was; returns it."""
         from posfb.analysis.export import export_run
 
         return export_run(self.result, path)
 
     def plot(self, figure: str = "errors", title: str | None = None) -> Figure:
-        """Fig. 5/7 (``"errors"``: ``q~`` per joint and a close-up) or Fig. 4/6
+        """Fig. 5/7 (``"errors"``: ``|q~|`` per joint on a log axis and a close-up) or Fig. 4/6
         (``"positions"``: positions and applied voltages) of this run."""
         return _figure({self.controller: self.result}, figure, title or self.label)
 
@@ -295,6 +357,8 @@ def simulate(
     Run
         ``.rms_q``, ``.rms_u``, ``.status``, ``.frame()``, ``.plot()``, ``.save(path)``.
         A run that diverges returns with ``status == "diverged"``; it does not raise.
+        One that finishes ``saturated`` or ``lost`` also issues a ``ScenarioWarning``
+        saying why.
 
     Raises
     ------
@@ -313,7 +377,10 @@ def simulate(
     config = resolved.config
     with progress_bars.run_progress(config.duration, config.spec.label, progress) as update:
         result = ClosedLoopRunner(config).run(progress=update)
-    return Run(result, loaded)
+    run = Run(result, loaded)
+    if run.status in NOT_TRACKED_STATUSES:
+        warnings.warn(ScenarioWarning(f"the {run.label} run {run.message}"), stacklevel=2)
+    return run
 
 
 @dataclass(eq=False)
@@ -438,22 +505,26 @@ class Comparison:
 
     def save(self, directory: str | Path) -> list[Path]:
         """Write ``comparison.csv``, ``comparison.md``, ``comparison.json`` (every run's
-        ``summary()``) and both figures (PNG, SVG) into ``directory``."""
+        ``summary()``) and both figures (PNG, SVG) into ``directory`` (created; its other
+        files are kept). The files are written into a temporary folder beside it and
+        moved in only once all are complete (``analysis.outputs.staged_folder``): a
+        failed save leaves ``directory`` as it was. Returns the paths written."""
         from posfb.analysis import plots
         from posfb.analysis.export import write_table
+        from posfb.analysis.outputs import staged_folder
 
-        folder = Path(directory)
-        folder.mkdir(parents=True, exist_ok=True)
-        written = [write_table(self.table(), folder / "comparison.csv")]
-        markdown = folder / "comparison.md"
-        markdown.write_text(self.markdown())
-        summary = folder / "comparison.json"
-        summaries = {kind: run.summary() for kind, run in self.runs.items()}
-        summary.write_text(json.dumps(summaries, indent=2) + "\n")
-        written += [markdown, summary]
-        for name in FIGURES:
-            written += plots.save(self.figure(name), folder, name)
-        return written
+        with staged_folder(directory) as staged:
+            folder = staged.path
+            written = [write_table(self.table(), folder / "comparison.csv")]
+            markdown = folder / "comparison.md"
+            markdown.write_text(self.markdown())
+            summary = folder / "comparison.json"
+            summaries = {kind: run.summary() for kind, run in self.runs.items()}
+            summary.write_text(json.dumps(summaries, indent=2) + "\n")
+            written += [markdown, summary]
+            for name in FIGURES:
+                written += plots.save(self.figure(name), folder, name)
+        return staged.final(written)
 
 
 def compare(
@@ -478,6 +549,14 @@ def compare(
     Comparison
         ``.runs``, ``.table()`` (pandas), ``.figure()``, ``.save(directory)``.
 
+    Raises
+    ------
+    ValueError
+        No controller, one named twice, or a bad setting.
+    TypeError
+        ``controllers`` as one string (``"pid,lin_lc"``) or with an item that is not a
+        name.
+
     Examples
     --------
     >>> import posfb
@@ -485,7 +564,7 @@ def compare(
     >>> posfb.compare(short, ["pid", "lin_lc"]).table()["controller"].tolist()
     ['pid', 'lin_lc']
     """
-    kinds = list(controllers)
+    kinds = _names("controllers", controllers)
     if not kinds:
         raise ValueError("controllers = []; at least one controller is required")
     duplicates = sorted({kind for kind in kinds if kinds.count(kind) > 1})
@@ -505,6 +584,7 @@ def tune(
     *,
     set: Settings | None = None,  # noqa: A002
     out: str | Path | None = None,
+    accept_worse: bool = False,
 ) -> TuneResult:
     """A robust design of the paper's controller and Lin+LC for the scenario's arm, with
     a stated probabilistic guarantee (``analysis.tuning``; what ``posfb tune`` runs).
@@ -523,27 +603,59 @@ def tune(
         Scenario settings applied before tuning, as in ``load_scenario``.
     out
         Where the tuned scenario will be written (its relative paths are kept when it is
-        the scenario's folder, made absolute otherwise); ``TuneResult.save`` writes it.
+        the scenario's folder, made absolute otherwise); ``TuneResult.save`` writes it,
+        replacing an existing file (the API overwrites, as ``open(path, "w")`` does;
+        ``posfb tune`` refuses an existing file without ``--force``).
+    accept_worse
+        Return a tuned design that is worse than the scenario's own (its predicted error
+        or its check run; ``TuneResult.worse`` says why) instead of raising ``WorseError``.
 
     Returns
     -------
     TuneResult
         ``.scenario`` (the tuned settings tree), ``.controllers`` (per controller: the
         settings before and after, the objective, the radii, the guarantee, the
-        cross-check runs), ``.dump()``, ``.save(path)``.
+        cross-check runs), ``.at_edge`` (the tuned values within 2 % of their search
+        box's edge), ``.worse``, ``.dump()``, ``.save(path)``.
 
     Raises
     ------
     TuneError
-        No design meets the constraints, or the search would overrun the budget.
+        No design meets the constraints, or the budget ran out (``BudgetError``: checked
+        inside the work, and up front from the first plants' cost), or
+        (``WorseError``, holding the result) the design is worse than the scenario's own.
     ValueError
-        Bad input: the scenario, the study (e.g. of another arm), a setting.
+        Bad input: the scenario, the study (e.g. of another arm: refused before the
+        study's own checks), a setting, an ``out`` that cannot be written (checked
+        before the search).
+    TypeError
+        ``study``, ``settings`` or ``out`` of another type than those above.
     """
-    from posfb.analysis.montecarlo.config import load_study
+    from posfb.analysis.montecarlo.config import Study, load_study
+    from posfb.analysis.tuning.settings import TuneSettings
     from posfb.analysis.tuning.tune import tune as tune_loaded
+    from posfb.diagrams.arm import arm_identity
 
+    if not isinstance(study, str | Path | Study | None):
+        raise TypeError(f"study = {study!r}; a study file's path, a Study or None is required")
+    if not isinstance(settings, TuneSettings | None):
+        raise TypeError(
+            f"settings = {settings!r}; a posfb.analysis.tuning.settings.TuneSettings or None "
+            "is required (the scenario's own keys go in set=)"
+        )
+    if out is not None:
+        if not isinstance(out, str | Path):
+            raise TypeError(f"out = {out!r}; a file path or None is required")
+        from posfb.analysis.errors import UsageError
+        from posfb.analysis.outputs import output_file
+
+        try:  # before the search, not after it
+            output_file("out", str(out), (".yaml", ".yml"), force=True)
+        except UsageError as error:
+            raise ValueError(str(error)) from None
     loaded = load_scenario(scenario, set)
     name = str(study) if isinstance(study, str | Path) else None
     if name is not None:
-        study = load_study(name)
-    return tune_loaded(loaded, study, settings, None if out is None else Path(out), name)
+        study = load_study(name, arm=arm_identity(loaded.scenario, loaded.base_dir))
+    target = None if out is None else Path(out)
+    return tune_loaded(loaded, study, settings, target, name, accept_worse=accept_worse)

@@ -13,7 +13,13 @@ import sys
 import traceback
 from collections.abc import Sequence
 
-from posfb.analysis.errors import InterruptedRunError, UsageError
+from posfb.analysis.errors import (
+    DISK_FULL_ERRNOS,
+    EXIT_DISK_FULL,
+    EnvironmentFaultError,
+    InterruptedRunError,
+    UsageError,
+)
 
 #: Subcommand (a module of ``posfb.analysis.commands`` with ``configure(parser)``) -> its
 #: one-line help, in the order ``posfb --help`` lists them.
@@ -52,7 +58,11 @@ examples:
 
 exit codes: 0 done; 1 a design check failed (scenario check, --strict) or a replayed
 sample differs from its stored rows; 2 bad input; 3 a bug in posfb; 4 a run diverged
-(simulate, compare); 130 interrupted.
+(simulate, compare); 5 a run finished saturated or lost its path (simulate, compare;
+a warning says which); 6 a results store is damaged; 7 the disk refused a write (no
+space left; what finished is kept, run again to resume); 8 a worker process died on a
+sample and its retry (montecarlo run, realism: recorded as that sample's error, the run
+went on); 130 interrupted.
 The same from Python: import posfb (posfb.simulate, posfb.compare, posfb.build).
 Run posfb COMMAND --help for the options of a command."""
 
@@ -148,6 +158,9 @@ def main(argv: Sequence[str] | None = None) -> int:
         message = str(error).strip().splitlines()[0] if str(error).strip() else repr(error)
         sys.stderr.write(f"posfb {args.command}: error: {plain_numbers(message)}\n")
         return EXIT_BAD_INPUT
+    except EnvironmentFaultError as fault:  # the disk, the store file, a killed process
+        sys.stderr.write(f"posfb {args.command}: error: {fault}\n")
+        return fault.exit_code
     except InterruptedRunError as interrupt:
         sys.stderr.write(f"posfb {args.command}: interrupted: {interrupt}\n")
         return EXIT_INTERRUPTED
@@ -161,7 +174,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     except OSError as error:  # the machine's answer to a path or resource the user gave
         where = f": {error.filename}" if error.filename else ""
         sys.stderr.write(f"posfb {args.command}: error: {error.strerror or error}{where}\n")
-        return EXIT_BAD_INPUT
+        return EXIT_DISK_FULL if error.errno in DISK_FULL_ERRNOS else EXIT_BAD_INPUT
     except Exception as error:  # a bug in posfb, not in the input: show everything
         frames = _user_frames(error)
         if frames:  # raised in the user's own controller: show the user's code only

@@ -21,7 +21,7 @@ from functools import cache, partial
 from pathlib import Path
 
 from posfb.analysis.cases import CASE_FILES, CASES
-from posfb.analysis.metrics import run_metrics
+from posfb.analysis.metrics import run_metrics, run_verdict
 from posfb.diagrams.closed_loop import ClosedLoopResult
 from posfb.diagrams.resolve import LoadedScenario, load_scenario, resolve, run_scenario
 from posfb.models.controllers import PAPER_CONTROLLERS
@@ -99,9 +99,11 @@ def _json_number(value: object) -> object:
 
 
 def result_entry(result: ClosedLoopResult) -> dict[str, object]:
-    """The ``results.json`` entry of a run: metrics, status and message."""
+    """The ``results.json`` entry of a run: metrics, its verdict's status and message
+    (``analysis.metrics.run_verdict``)."""
     metrics = {key: _json_number(value) for key, value in run_metrics(result).as_dict().items()}
-    return {**metrics, "status": result.status, "message": result.message}
+    verdict = run_verdict(result)
+    return {**metrics, "status": verdict.status, "message": verdict.message}
 
 
 class ResultsFile:

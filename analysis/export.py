@@ -48,14 +48,13 @@ written to a temporary name beside the target and moved over it with
 from __future__ import annotations
 
 import os
-import secrets
 from pathlib import Path
 from typing import TYPE_CHECKING
 
 import numpy as np
 import pandas as pd
 
-from posfb.analysis.outputs import EXPORT_FORMATS
+from posfb.analysis.outputs import EXPORT_FORMATS, atomic_file
 
 if TYPE_CHECKING:
     from posfb.diagrams.closed_loop import ClosedLoopResult
@@ -131,9 +130,7 @@ def write_table(table: pd.DataFrame, path: str | os.PathLike[str]) -> Path:
     """Write ``table`` in the format of ``path``'s suffix, atomically; returns the path."""
     target = Path(path)
     suffix = _format(target)
-    target.parent.mkdir(parents=True, exist_ok=True)
-    temporary = target.with_name(f".{target.name}.{os.getpid()}.{secrets.token_hex(4)}.tmp")
-    try:
+    with atomic_file(target) as temporary:
         if suffix == ".csv":
             table.to_csv(temporary, index=False, float_format=None)
         elif suffix == ".parquet":
@@ -142,10 +139,6 @@ def write_table(table: pd.DataFrame, path: str | os.PathLike[str]) -> Path:
             arrays = {str(name): table[name].to_numpy() for name in table.columns}
             with open(temporary, "wb") as stream:  # a file object: savez adds no suffix
                 np.savez(stream, **arrays)
-        os.replace(temporary, target)
-    except BaseException:
-        temporary.unlink(missing_ok=True)
-        raise
     return target
 
 

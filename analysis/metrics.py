@@ -16,6 +16,26 @@ encoder's reading at ``t_k`` (quantised, offset, noisy, on the motor shaft where
 the one the paper's Tables 3-4 report from its motor-shaft encoders (Sec. 4.1). It
 differs from the true error by the encoder's quantisation on a rigid arm, and by the
 gear's deflection where the encoder reads the motor (``models.gear``).
+
+The verdict on a run (``run_verdict``), from best to worst (``RUN_STATUSES``):
+
+* ``diverged``: the runner stopped it (``|q~|`` beyond ``timing.divergence_bound``, a
+  non-finite state, an integrator failure; ``diagrams.closed_loop``);
+* ``lost``: it reached its end, but some joint's RMS error over the run's second half
+  (the samples ``k > N0/2``) exceeds ``timing.lost_bound`` (default 0.25 rad): the arm
+  is far from its path on average once the start-up transient is over;
+* ``saturated``: it reached its end and stayed near its path, but on more than
+  ``timing.saturated_share`` (default 50 %) of the second half's samples some
+  commanded voltage is beyond its limit (``saturated_fraction``'s test): the loop
+  spends most of the time open, at the actuator's limit;
+* ``ok``: none of these.
+
+A run both lost and saturated is ``lost``; its message names both. The second half
+leaves out the start: a controller that starts far from the path (or at the limit) and
+then converges is ``ok``. The defaults are ``diagrams.sections``'s. The runner decides
+``diverged`` because it stops the run; ``lost`` and ``saturated`` are judgements on the
+whole logs, made here from the same samples as the metrics, and ``analysis.api.Run``,
+``results.json``, the tables and the Monte-Carlo store all report this verdict.
 """
 
 from __future__ import annotations
@@ -27,6 +47,18 @@ from dataclasses import asdict, dataclass
 import numpy as np
 
 from posfb.diagrams.closed_loop import ClosedLoopResult
+
+#: A run's statuses, best first (module docstring); a Monte-Carlo store adds
+#: ``error`` for a run that raised (``analysis.montecarlo.records``).
+RUN_STATUSES = ("ok", "saturated", "lost", "diverged")
+
+#: The statuses of a run that reached its end: its metrics cover the whole duration.
+FINISHED_STATUSES = ("ok", "saturated", "lost")
+
+#: The statuses of a run that reached its end without tracking its path: ``posfb.simulate``
+#: warns about them, ``posfb simulate`` and ``compare`` exit with
+#: ``analysis.errors.EXIT_NOT_TRACKED``.
+NOT_TRACKED_STATUSES = ("saturated", "lost")
 
 
 def rms(x: np.ndarray) -> np.ndarray | float:
@@ -65,6 +97,14 @@ class RunMetrics:
         return {key: list(v) if isinstance(v, tuple) else v for key, v in asdict(self).items()}
 
 
+def saturated_samples(
+    u_commanded: np.ndarray, voltage_limit: float | Sequence[float]
+) -> np.ndarray:
+    """Per sample (row of ``u_commanded``, V), whether some joint's commanded voltage is
+    beyond its ``voltage_limit`` (one for all joints or one per joint)."""
+    return np.any(np.abs(np.asarray(u_commanded, dtype=float)) > voltage_limit, axis=1)
+
+
 def compute_metrics(
     q_error: np.ndarray,
     u_applied: np.ndarray,
@@ -80,7 +120,7 @@ def compute_metrics(
         np.asarray(a, dtype=float) for a in (q_error, u_applied, u_commanded, measured_error)
     )
     rms_q, rms_u = rms(error), rms(applied)
-    saturated = np.any(np.abs(commanded) > voltage_limit, axis=1)
+    saturated = saturated_samples(commanded, voltage_limit)
     return RunMetrics(
         rms_q=tuple(float(v) for v in rms_q),
         rms_u=tuple(float(v) for v in rms_u),
@@ -104,4 +144,65 @@ def run_metrics(result: ClosedLoopResult) -> RunMetrics:
         result.config.voltage_limit,
         result.wall_time_s,
         result.q_measured[1:] - result.q_desired[1:],
+    )
+
+
+@dataclass(frozen=True)
+class Verdict:
+    """A run's ``status`` (one of ``RUN_STATUSES``) and the ``message`` that says why
+    it is not ``ok`` (empty when it is)."""
+
+    status: str
+    message: str
+
+
+def judge(
+    q_error: np.ndarray,
+    u_commanded: np.ndarray,
+    voltage_limit: float | Sequence[float],
+    lost_bound: float,
+    saturated_share: float,
+) -> Verdict:
+    """The verdict on a run that reached its end (module docstring), from its samples
+    ``k = 1..N0`` (rows; one column per joint): the true error ``q_error`` (rad) and
+    the commanded voltage (V). The second half is the rows ``k > N0/2``."""
+    error = np.asarray(q_error, dtype=float)
+    if error.ndim != 2 or error.shape[0] == 0:
+        raise ValueError(f"q_error has shape {error.shape}; at least one sample is required")
+    half = error.shape[0] // 2
+    late_rms = rms(error[half:])
+    share = float(np.mean(saturated_samples(np.asarray(u_commanded)[half:], voltage_limit)))
+    reasons = []
+    worst = int(np.argmax(late_rms))
+    lost = bool(late_rms[worst] > lost_bound)
+    if lost:
+        reasons.append(
+            f"lost its path: RMS(q~{worst + 1}) over the run's second half = "
+            f"{late_rms[worst]:.3g} rad > timing.lost_bound = {lost_bound:g} rad"
+        )
+    saturated = share > saturated_share
+    if saturated:
+        reasons.append(
+            f"saturated: a commanded voltage beyond its limit on {100 * share:.1f} % of the "
+            f"second half's samples > timing.saturated_share = {100 * saturated_share:g} %"
+        )
+    status = "lost" if lost else "saturated" if saturated else "ok"
+    return Verdict(status, "; ".join(reasons))
+
+
+def run_verdict(result: ClosedLoopResult) -> Verdict:
+    """The verdict on a closed-loop run (module docstring): the runner's ``diverged``
+    as it is, otherwise ``judge`` of its logged samples ``k = 1..K`` with the
+    scenario's ``timing.lost_bound`` and ``timing.saturated_share``."""
+    if result.status != "ok":
+        return Verdict(result.status, result.message)
+    if len(result.times) < 2:
+        return Verdict("ok", "")
+    timing = result.config.timing
+    return judge(
+        result.q_error[1:],
+        result.u_commanded[1:],
+        result.config.voltage_limit,
+        timing.lost_bound,
+        timing.saturated_share,
     )

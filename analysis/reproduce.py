@@ -1,7 +1,10 @@
 """``posfb reproduce``: Sec. 4 of the paper in simulation, with every artefact.
 
-Order of work (``results.json`` is rewritten after every run, so finished runs are
-never lost; figures are written as soon as their runs exist):
+Every file is written into a temporary folder beside ``--out`` and moved into
+``--out`` once the whole reproduction is done (``analysis.outputs.staged_folder``): an
+interrupted or failed run leaves ``--out`` as the previous run left it. Order of work
+(``results.json`` is rewritten after every run; figures are written as soon as their
+runs exist):
 
 1. **Paper settings** (the main result): 3 controllers x {nominal, payload},
    Figs. 4-7, Tables 3-4 side by side.
@@ -35,7 +38,8 @@ from posfb.analysis.experiment import (
     require_case,
     result_entry,
 )
-from posfb.analysis.metrics import run_metrics
+from posfb.analysis.metrics import run_metrics, run_verdict
+from posfb.analysis.outputs import staged_folder
 from posfb.analysis.progress import run_progress
 from posfb.analysis.report import write_report
 from posfb.analysis.tables import PAPER_TABLES, side_by_side, theta_table
@@ -154,7 +158,6 @@ class Reproduction:
         self._count = 0
 
     def run(self) -> list[Path]:
-        started = time.perf_counter()
         self._identification()
         paper = self._run_study(PAPER_STUDY, (), "paper settings")
         self._figures(paper, "", "paper settings")
@@ -177,7 +180,6 @@ class Reproduction:
         self._graph()
         self._write_tables()
         self.artefacts.append(write_report(self.results.data, self.out))
-        self.progress(f"done in {time.perf_counter() - started:.1f} s: {self.out / 'report.md'}")
         return self.artefacts
 
     def _identification(self) -> None:
@@ -214,7 +216,7 @@ class Reproduction:
             self.progress(
                 f"[{self._count:2d}] {label} | {case} | {kind}: rms_q = "
                 f"({m.rms_q[0]:.5f}, {m.rms_q[1]:.5f}) rad, rms_u = ({m.rms_u[0]:.3f}, "
-                f"{m.rms_u[1]:.3f}) V, {result.status}, {m.wall_time_s:.2f} s"
+                f"{m.rms_u[1]:.3f}) V, {run_verdict(result).status}, {m.wall_time_s:.2f} s"
             )
         return runs
 
@@ -253,7 +255,10 @@ class Reproduction:
                     f"fig{first}{suffix}",
                     plots.positions_and_voltages(runs[case], title, label_suffix),
                 ),
-                (f"fig{second}{suffix}", plots.tracking_errors(runs[case], title, label_suffix)),
+                (
+                    f"fig{second}{suffix}",
+                    plots.tracking_errors(runs[case], title, label_suffix, scale="linear"),
+                ),
             )
             for stem, figure in figures:
                 self.artefacts += plots.save(figure, self.out, stem)
@@ -338,8 +343,14 @@ def reproduce(
     bars: bool = False,
 ) -> list[Path]:
     """Run everything into ``out`` (``bars``: a progress bar per run on stderr); returns
-    the artefacts written."""
-    return Reproduction(out, duration, progress, bars).run()
+    the artefacts written. They are written into a temporary folder beside ``out`` and
+    moved into it once all are (``analysis.outputs.staged_folder``): an interrupted or
+    failed reproduction leaves ``out`` as it was, and ``out``'s other files are kept."""
+    started = time.perf_counter()
+    with staged_folder(out) as staged:
+        artefacts = staged.final(Reproduction(staged.path, duration, progress, bars).run())
+    progress(f"done in {time.perf_counter() - started:.1f} s: {Path(out) / 'report.md'}")
+    return artefacts
 
 
 def case_experiment(
@@ -348,22 +359,25 @@ def case_experiment(
     """One experiment of Sec. 4 with the paper's settings (``analysis/nominal_experiment.py``,
     ``analysis/payload_experiment.py``): the three controllers on ``case``'s shipped
     scenario, its two figures (Figs. 4-5 or 6-7, PNG and SVG) and its table beside the
-    paper's (``table3.md`` / ``table4.md``)."""
+    paper's (``table3.md`` / ``table4.md``), written into ``out`` as ``reproduce`` writes
+    (all of them, or on a failure none)."""
     out = Path(out)
-    out.mkdir(parents=True, exist_ok=True)
     study = replace(PAPER_STUDY, cases=(require_case(case),))
     runs: dict[str, ClosedLoopResult] = {}
     for _, kind, run in study.runs(duration):
         runs[kind] = run()
-        progress(f"{kind}: {runs[kind].status}, {runs[kind].wall_time_s:.2f} s")
+        progress(f"{kind}: {run_verdict(runs[kind]).status}, {runs[kind].wall_time_s:.2f} s")
     first, table = {"nominal": (4, "Table 3"), "payload": (6, "Table 4")}[case]
     title = f"{case_title(case)}, paper settings"
-    plots.save(plots.positions_and_voltages(runs, title), out, f"fig{first}")
-    plots.save(plots.tracking_errors(runs, title), out, f"fig{first + 1}")
     text = side_by_side({k: result_entry(r) for k, r in runs.items()}, PAPER_TABLES[case])
-    (out / f"table{3 if case == 'nominal' else 4}.md").write_text(
-        f"# {table}: {case_title(case)}\n\n{text}\n"
-    )
+    with staged_folder(out) as staged:
+        plots.save(plots.positions_and_voltages(runs, title), staged.path, f"fig{first}")
+        plots.save(
+            plots.tracking_errors(runs, title, scale="linear"), staged.path, f"fig{first + 1}"
+        )
+        (staged.path / f"table{3 if case == 'nominal' else 4}.md").write_text(
+            f"# {table}: {case_title(case)}\n\n{text}\n"
+        )
     progress(f"{table} (simulated | paper):\n{text}")
     progress(f"figures fig{first}, fig{first + 1} (.png, .svg) and the table are in {out}/")
     return runs

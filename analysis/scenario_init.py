@@ -23,6 +23,7 @@ from pathlib import Path
 import numpy as np
 
 from posfb.analysis.errors import UsageError
+from posfb.analysis.outputs import atomic_file, output_file
 
 #: Step (s) of the time grid on which the trajectory's scale is searched; the chosen
 #: trajectory is then checked at every sample instant, as ``scenario check`` does.
@@ -37,7 +38,7 @@ DESCENT_NUDGE = 1e-2
 class InitOptions:
     """What ``posfb scenario init`` was asked for (``None``: the section's default)."""
 
-    urdf: Path
+    urdf: Path | str
     out: Path
     sample_time: float | None = None
     encoder_counts: int | None = None
@@ -60,7 +61,13 @@ class Settings:
 
 def settings_of(options: InitOptions) -> Settings:
     """Validate ``options`` where they enter; defaults from ``diagrams.sections``."""
-    from posfb.diagrams.sections import Actuator, Sensor, Timing
+    from posfb.diagrams.sections import (
+        MIN_ENCODER_COUNTS,
+        Actuator,
+        Sensor,
+        Timing,
+        require_run_samples,
+    )
 
     timing, sensor, actuator = Timing(), Sensor(), Actuator()
     sample_time = _pick(options.sample_time, timing.sample_time)
@@ -69,8 +76,11 @@ def settings_of(options: InitOptions) -> Settings:
     voltage = _pick(options.voltage_limit, actuator.voltage_limit[0])
     if not (math.isfinite(sample_time) and sample_time > 0):
         raise UsageError(f"--sample-time {sample_time!r}; a time > 0 (s) is required")
-    if counts < 1:
-        raise UsageError(f"--encoder-counts {counts}; a count >= 1 per revolution is required")
+    if counts < MIN_ENCODER_COUNTS:
+        raise UsageError(
+            f"--encoder-counts {counts}; at least {MIN_ENCODER_COUNTS} counts per revolution "
+            "are required (one count must be at most a quarter turn)"
+        )
     if not (math.isfinite(voltage) and voltage > 0):
         raise UsageError(f"--voltage-limit {voltage!r}; a voltage > 0 (V) is required")
     periods = duration / sample_time
@@ -81,6 +91,10 @@ def settings_of(options: InitOptions) -> Settings:
             f"--duration {duration!r}; a time > 0 that is a whole number of periods of "
             f"T_s = {sample_time:g} s is required"
         )
+    try:
+        require_run_samples(periods, "--duration / --sample-time")
+    except ValueError as error:
+        raise UsageError(str(error)) from None
     out = options.out
     if out.is_dir():
         raise UsageError(f"--out {out} is a directory; a scenario file name is required")
@@ -88,13 +102,27 @@ def settings_of(options: InitOptions) -> Settings:
         raise UsageError(f"--out {out} exists; give --force to overwrite it")
     if not out.parent.is_dir():
         raise UsageError(f"--out {out}: folder {out.parent} does not exist")
+    output_file("--out", str(out), force=True)  # writable: refused before the work, not after
     from posfb.models.urdf_check import check_serial_urdf
 
+    urdf = urdf_file(options.urdf)
     try:
-        check_serial_urdf(options.urdf)
+        check_serial_urdf(urdf)
     except (ValueError, FileNotFoundError) as error:
         raise UsageError(f"--urdf: {error}") from None
-    return Settings(options.urdf, out, sample_time, counts, voltage, duration)
+    return Settings(urdf, out, sample_time, counts, voltage, duration)
+
+
+def urdf_file(urdf: Path | str) -> Path:
+    """The file ``--urdf`` names: a shipped arm as a scenario names it
+    (``package://posfb/NAME``, also once a ``Path`` has folded it to ``package:/posfb/``)
+    or a path."""
+    from posfb.diagrams.scenario import SHIPPED_PREFIX, resolve_path
+
+    text, folded = str(urdf), SHIPPED_PREFIX.replace("://", ":/")
+    if text.startswith(folded):
+        text = SHIPPED_PREFIX + text.removeprefix(folded)
+    return resolve_path(text, Path.cwd()) if text.startswith(SHIPPED_PREFIX) else Path(urdf)
 
 
 def _pick(value: float | None, default: float) -> float:
@@ -580,14 +608,9 @@ def write_scenario(options: InitOptions, log: Callable[[str], None] = lambda _: 
     text = header(settings) + annotate(
         dump_scenario(scenario), comments(settings, facts, fitted, designed)
     )
-    staging = settings.out.with_name(f".{settings.out.name}.init")
-    staging.write_text(text)
-    try:
+    with atomic_file(settings.out) as staging:  # nothing is left behind on a failure
+        staging.write_text(text)
         load_scenario(staging)  # posfb's loader accepts what it will read
-    except Exception:
-        staging.unlink(missing_ok=True)
-        raise
-    staging.replace(settings.out)
     return InitResult(
         path=settings.out,
         joints=len(facts.joints),

@@ -11,9 +11,20 @@ design inputs of each grid point are the controller entry's
 (its duration is not required to be a multiple of the grid's sample times: the map
 runs no simulation). The loop is the controller entry's (the proposed controller's at
 ``alpha = alpha*``, or Lin+LC's), designed on the nominal model and closed around each
-plant's linear part ``M0, B`` (``models.design.held_design_radius``). A grid point whose design
-the controller refuses (``a <= ln 2 / T_s``, a non-SPR ``H``, a failed LQR design) or
+plant's linear part ``M0, B`` with the scenario's linear effects (compute and sensor
+delay, lag, compliant gear: ``analysis.loop_effects``; the nominal ``rho`` too)
+(``models.design.held_design_radius``). A grid point whose design
+the controller refuses (``a <= ln 2 / T_s``, a non-SPR ``H``, a failed LQR design; a
+``T_s`` below the compute delay) or
 whose value the scenario refuses is *refused*: neither stable nor unstable.
+
+The grid (``make_axis``) is log-spaced and holds the scenario's own value of each key
+exactly (the middle point of an odd count on a range symmetric about it in log, as
+``T_s / 4 .. 4 T_s``; a range must hold the value). A marked design's
+values inside the range are added to the grid (``with_marks``), so every point the
+figure marks is a grid point: its cell is drawn (on log axes, cell edges at the
+geometric midpoints between grid points) from the same arrays its printed verdict is
+read from (``mark_verdicts``).
 
 The plants are i.i.d. draws of the arm (``analysis.tuning.plants``: a study's
 distributions, or the default spread). ``largest_robust_sample_time`` reads the map: the
@@ -24,7 +35,7 @@ model and every plant), refined by bisection up to the next grid ``T_s``.
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping, Sequence
+from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -32,7 +43,9 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from posfb.analysis.errors import UsageError
+from posfb.analysis.loop_effects import nominal_effects
 from posfb.analysis.tuning.plants import LinearPlant, linear_plants, plant_family
+from posfb.analysis.tuning.settings import TuneSettings
 from posfb.diagrams.resolve import (
     LoadedScenario,
     controller_inputs,
@@ -42,8 +55,8 @@ from posfb.diagrams.resolve import (
 )
 from posfb.diagrams.scenario import Scenario, apply_setting
 from posfb.models.controllers import require_design
-from posfb.models.design import Design, cached_design, held_design_radius
-from posfb.models.design.closed_loop import HeldPlant, held_plant
+from posfb.models.design import Design, cached_design, held_design_radius, with_effects
+from posfb.models.design.closed_loop import NO_EFFECTS, HeldPlant, LoopEffects, held_plant
 from posfb.models.nominal import NominalModel
 
 if TYPE_CHECKING:
@@ -66,12 +79,24 @@ POINTS_RANGE = (3, 201)
 
 #: Default range of an axis as fractions of the scenario's value: ``T_s / 4 .. 4 T_s``
 #: (the paper's arm keeps a robust design, at a small alpha*, up to about 3.5 T_s), any
-#: other key ``value / 16 .. 2 value`` (alpha* = 4: 0.25 .. 8).
+#: other key ``value / 16 .. 2 value`` (alpha* = 4: 0.25 .. 8). The scenario's value is
+#: a grid point either way (``make_axis``): at 25 points the T_s axis's middle one (one
+#: ratio ``16 ** (1 / 24)`` between neighbours), another key's 20th (19 intervals below,
+#: 5 above: ratios 1.157 and 1.149).
 SAMPLE_TIME_RANGE = (0.25, 4.0)
 OTHER_RANGE = (1.0 / 16.0, 2.0)
 
 #: Bisection steps refining the largest robust ``T_s`` between two grid points.
 BISECTION_STEPS = 7
+
+#: The most loops a map may judge, grid points times plants (every grid point's design
+#: around every plant), checked before the plants are drawn (``check_size``): the
+#: largest grid (``POINTS_RANGE``'s 201 points a side, one more with a ``--mark``'s
+#: value) at the default 50 plants. At 0.07 to 0.3 ms a loop (the shipped arms, measured
+#: on the 2-core development machine) that is 2.4 to 10 minutes; a smaller grid may have
+#: more plants (25 x 25 points: up to 3264), the plants' own ceiling aside
+#: (``analysis.tuning.settings.MAX_DESIGN_PLANTS``).
+MAX_MAP_LOOPS = (POINTS_RANGE[1] + 1) ** 2 * TuneSettings.plants
 
 #: The figure's labels of the usual keys.
 AXIS_LABELS = {
@@ -91,13 +116,31 @@ class MapAxis:
 
     @property
     def label(self) -> str:
+        """The figure's label of the key (the key itself when it has none)."""
         return AXIS_LABELS.get(self.key, self.key)
+
+    @property
+    def edges(self) -> np.ndarray:
+        """The cell edges of the figure: the geometric midpoints between neighbouring
+        grid values, the outer edges half a (log) step beyond the ends, so each grid
+        value lies inside its own cell on a log axis."""
+        values = self.values
+        middle = np.sqrt(values[:-1] * values[1:])
+        first = values[0] * np.sqrt(values[0] / values[1])
+        last = values[-1] * np.sqrt(values[-1] / values[-2])
+        return np.concatenate(([first], middle, [last]))
+
+    def index(self, value: float) -> int | None:
+        """The grid index of ``value`` (exactly equal), ``None`` when it is no grid point."""
+        found = np.flatnonzero(self.values == value)
+        return int(found[0]) if found.size else None
 
 
 @dataclass(frozen=True, eq=False)
 class MapSetup:
     """What every grid point shares: the scenario, its nominal model, the loop's
-    controller (``proposed`` or ``lin_lc``), the plants and the margin."""
+    controller (``proposed`` or ``lin_lc``), the plants (each with the scenario's linear
+    effects, ``analysis.loop_effects``), the margin and the nominal loop's effects."""
 
     loaded: LoadedScenario
     nominal: NominalModel
@@ -105,6 +148,7 @@ class MapSetup:
     plants: tuple[LinearPlant, ...]
     margin: float
     arm: str
+    effects: LoopEffects = NO_EFFECTS
     _held: dict[float, tuple[HeldPlant, ...]] = field(default_factory=dict, repr=False)
 
     @property
@@ -113,11 +157,11 @@ class MapSetup:
         return 1.0 - self.margin
 
     def held_plants(self, sample_time: float) -> tuple[HeldPlant, ...]:
-        """The plants' linear parts held over ``sample_time``, computed once per sample
-        time (every other key of a grid column shares them)."""
+        """The plants' linear parts held over ``sample_time`` with their effects, computed
+        once per sample time (every other key of a grid column shares them)."""
         if sample_time not in self._held:
             self._held[sample_time] = tuple(
-                held_plant(plant.M0, plant.B, sample_time) for plant in self.plants
+                held_plant(plant.M0, plant.B, sample_time, plant.effects) for plant in self.plants
             )
         return self._held[sample_time]
 
@@ -204,25 +248,92 @@ def key_value(loaded: LoadedScenario, key: str, option: str = "--map-axes") -> f
 
 
 def default_range(key: str, value: float) -> tuple[float, float]:
-    """``SAMPLE_TIME_RANGE`` or ``OTHER_RANGE`` times the scenario's ``value``."""
+    """``SAMPLE_TIME_RANGE`` or ``OTHER_RANGE`` times the scenario's ``value`` (> 0: the
+    grid is log-spaced)."""
     low, high = SAMPLE_TIME_RANGE if key == SAMPLE_TIME else OTHER_RANGE
-    if value == 0.0:
-        raise UsageError(f"{key} = 0 in the scenario; give its range with --map-range")
-    return tuple(sorted((low * value, high * value)))  # type: ignore[return-value]
+    if value <= 0.0:
+        raise UsageError(
+            f"{key} = {value:g} in the scenario; the map's log-spaced grid needs a value > 0"
+        )
+    return low * value, high * value
 
 
-def check_range(key: str, low: float, high: float) -> None:
-    """Finite, ``low < high``, and a positive sample time."""
+def check_range(key: str, low: float, high: float, value: float) -> None:
+    """Finite, ``0 < low < high`` (the grid is log-spaced), and holding the scenario's
+    ``value`` (a grid point, ``make_axis``)."""
     if not (math.isfinite(low) and math.isfinite(high) and low < high):
         raise UsageError(f"--map-range {low:g} {high:g} for {key}: finite LOW < HIGH is required")
-    if key == SAMPLE_TIME and low <= 0.0:
-        raise UsageError(f"--map-range {low:g} {high:g} for {key}: a sample time > 0 is required")
+    if low <= 0.0:
+        raise UsageError(
+            f"--map-range {low:g} {high:g} for {key}: the grid is log-spaced; "
+            "0 < LOW < HIGH is required"
+        )
+    if not low <= value <= high:
+        raise UsageError(
+            f"--map-range {low:g} {high:g} for {key}: the grid holds the scenario's value "
+            f"{value:g}; LOW <= {value:g} <= HIGH is required (or --set {key}=... inside it)"
+        )
 
 
 def check_points(points: int) -> None:
+    """A count in ``POINTS_RANGE``."""
     low, high = POINTS_RANGE
     if not low <= points <= high:
         raise UsageError(f"--map-points {points}; an integer from {low} to {high} is required")
+
+
+def check_size(x: MapAxis, y: MapAxis, plants: int) -> None:
+    """The grid of ``x`` and ``y`` times ``plants`` within ``MAX_MAP_LOOPS``, before any
+    plant is drawn (``UsageError`` naming the options and the count they imply)."""
+    loops = len(x.values) * len(y.values) * plants
+    if loops > MAX_MAP_LOOPS:
+        raise UsageError(
+            f"--map-points {len(x.values)} x {len(y.values)} grid points with --plants {plants}: "
+            f"{loops:,} loops to judge; at most {MAX_MAP_LOOPS:,} are allowed (MAX_MAP_LOOPS, "
+            "0.07-0.3 ms a loop): fewer --map-points or --plants are required"
+        )
+
+
+def make_axis(key: str, low: float, high: float, points: int, value: float) -> MapAxis:
+    """The log-spaced grid of ``points`` values from ``low`` to ``high`` holding the
+    scenario's ``value`` exactly: its ``points - 1`` intervals split between
+    ``low .. value`` and ``value .. high`` in proportion to their log lengths (rounded;
+    at least one each side when ``value`` is inside), each side log-spaced. On a range
+    symmetric about ``value`` in log (``T_s / 4 .. 4 T_s``) an odd count makes one ratio
+    between neighbours and ``value`` the middle point; otherwise the two sides' ratios
+    differ a little. A ``value`` at an end: one log-spaced run, ``value`` its end."""
+    check_points(points)
+    check_range(key, low, high, value)
+    if value in (low, high):
+        values = np.geomspace(low, high, points)
+    else:
+        share = math.log(value / low) / math.log(high / low)
+        below = min(max(round(share * (points - 1)), 1), points - 2)
+        values = np.concatenate(
+            (np.geomspace(low, value, below + 1), np.geomspace(value, high, points - below)[1:])
+        )
+        values[below] = value
+    values[0], values[-1] = low, high
+    return MapAxis(key, values, value)
+
+
+def _inside(axis: MapAxis, mark: Mapping[str, float]) -> bool:
+    return bool(axis.values[0] <= mark[axis.key] <= axis.values[-1])
+
+
+def with_marks(
+    x: MapAxis, y: MapAxis, marks: Iterable[Mapping[str, float]]
+) -> tuple[MapAxis, MapAxis]:
+    """``x`` and ``y`` with the values of each mark inside both ranges added to their
+    grids, so that the mark is a grid point (a mark outside the map is not drawn)."""
+    inside = [mark for mark in marks if _inside(x, mark) and _inside(y, mark)]
+
+    def extended(axis: MapAxis) -> MapAxis:
+        extra = np.asarray([mark[axis.key] for mark in inside], dtype=float)
+        return MapAxis(axis.key, np.unique(np.concatenate((axis.values, extra))),
+                       axis.scenario_value)  # fmt: skip
+
+    return extended(x), extended(y)
 
 
 def _setting(key: str, value: float) -> str:
@@ -275,6 +386,7 @@ def map_setup(
         plants=tuple(linear_plants(family, resolved, seed, plants)),
         margin=margin,
         arm=Path(resolved.config.plant.urdf).name,
+        effects=nominal_effects(resolved),
     )
 
 
@@ -298,8 +410,9 @@ def _design(setup: MapSetup, scenario: Scenario) -> Design | None:
 
 def _evaluate(setup: MapSetup, scenario: Scenario) -> PointResult:
     design = _design(setup, scenario)
-    if design is None:
-        return PointResult(refused=True)
+    if design is None or design.config.sample_time < setup.effects.compute_delay:
+        return PointResult(refused=True)  # a compute delay longer than T_s is refused too
+    design = with_effects(design, setup.effects)
     rho = (
         design.sampled_data_spectral_radius
         if setup.controller == "proposed"
@@ -404,26 +517,83 @@ def largest_robust_sample_time(setup: MapSetup, smap: StabilityMap) -> RobustSam
 # ---- output ------------------------------------------------------------------------------
 
 
-def mark_values(path: str, keys: Sequence[str]) -> dict[str, float]:
-    """The values of ``keys`` in the scenario file ``path`` (``--mark``)."""
+def mark_values(path: str, keys: Sequence[str], scenario: LoadedScenario) -> dict[str, float]:
+    """The values of ``keys`` in the scenario file ``path`` (``--mark``); a design of
+    another arm than ``scenario``'s (``diagrams.arm``) is refused, naming both arms."""
+    from posfb.diagrams.arm import arm_identity
+
     try:
         loaded = load_scenario(path)
+        marked = arm_identity(loaded.scenario, loaded.base_dir)
     except (ValueError, FileNotFoundError) as error:
         raise UsageError(f"--mark {path}: {error}") from None
+    own = arm_identity(scenario.scenario, scenario.base_dir)
+    if marked != own:
+        raise UsageError(
+            f"--mark {path}: a design of {marked}, and the map is of {own}; a design of "
+            "the scenario's arm is required"
+        )
     return {key: key_value(loaded, key, option=f"--mark {path}:") for key in keys}
+
+
+@dataclass(frozen=True)
+class MarkVerdict:
+    """A marked point's verdict. On the map (``index = (row, column)`` of the grid) it is
+    read from the map's arrays at that index, the cell the figure draws under its marker;
+    outside the map (``index`` ``None``, not drawn) it is evaluated on its own. ``share``
+    and ``rho`` are ``nan`` when ``refused``."""
+
+    values: Mapping[str, float]
+    index: tuple[int, int] | None
+    refused: bool
+    rho: float
+    share: float
+    robust: bool
+
+
+def mark_verdicts(
+    setup: MapSetup, smap: StabilityMap, marks: Mapping[str, Mapping[str, float]]
+) -> dict[str, MarkVerdict]:
+    """Each mark's verdict (name -> ``MarkVerdict``), from the map's cell where the mark is
+    a grid point (the scenario's always is, a marked design's inside the range is after
+    ``with_marks``)."""
+    verdicts = {}
+    for name, values in marks.items():
+        i, j = smap.x.index(values[smap.x.key]), smap.y.index(values[smap.y.key])
+        if i is not None and j is not None:
+            verdicts[name] = MarkVerdict(
+                values=dict(values),
+                index=(j, i),
+                refused=bool(smap.refused[j, i]),
+                rho=float(smap.rho[j, i]),
+                share=float(smap.share[j, i]),
+                robust=bool(smap.robust[j, i]),
+            )
+            continue
+        point = evaluate_point(setup, values)
+        verdicts[name] = MarkVerdict(
+            values=dict(values),
+            index=None,
+            refused=point.refused,
+            rho=point.rho,
+            share=point.share(setup.limit),
+            robust=point.robust(setup.limit),
+        )
+    return verdicts
 
 
 def _nullable(array: np.ndarray) -> list:
     return [[None if not np.isfinite(v) else float(v) for v in row] for row in array]
 
 
-def _point_dict(point: PointResult, values: Mapping[str, float], limit: float) -> dict:
+def _point_dict(verdict: MarkVerdict) -> dict:
     return {
-        "values": dict(values),
-        "refused": point.refused,
-        "rho_nominal": None if point.refused else point.rho,
-        "share_stable": None if point.refused else point.share(limit),
-        "robust": point.robust(limit),
+        "values": dict(verdict.values),
+        "grid_index": None if verdict.index is None else list(verdict.index),
+        "refused": verdict.refused,
+        "rho_nominal": None if verdict.refused else verdict.rho,
+        "share_stable": None if verdict.refused else verdict.share,
+        "robust": verdict.robust,
     }
 
 
@@ -431,12 +601,13 @@ def map_to_dict(
     setup: MapSetup,
     smap: StabilityMap,
     robust: RobustSampleTime | None,
-    points: Mapping[str, tuple[Mapping[str, float], PointResult]],
+    verdicts: Mapping[str, MarkVerdict],
     seed: int,
     study: str | None,
 ) -> dict:
     """The JSON object (``stability_map.json``, ``--json``): ``rho_nominal[j][i]`` and
-    ``share_stable[j][i]`` at ``x.values[i]``, ``y.values[j]``, ``null`` where refused."""
+    ``share_stable[j][i]`` at ``x.values[i]``, ``y.values[j]``, ``null`` where refused;
+    each point's ``grid_index`` ``[j, i]`` (``null`` outside the map)."""
     return {
         "arm": setup.arm,
         "controller": setup.controller,
@@ -453,8 +624,7 @@ def map_to_dict(
         "worst_plant_rho": _nullable(smap.worst),
         "refused": smap.refused.tolist(),
         "robust": smap.robust.tolist(),
-        "points": {name: _point_dict(point, values, setup.limit)
-                   for name, (values, point) in points.items()},
+        "points": {name: _point_dict(verdict) for name, verdict in verdicts.items()},
         "largest_robust_sample_time": None if robust is None else {
             "grid": robust.grid,
             "refined": robust.refined,
@@ -470,13 +640,15 @@ def _values_text(values: Mapping[str, float]) -> str:
     return ", ".join(f"{key} = {value:.6g}" for key, value in values.items())
 
 
-def _point_text(name: str, values: Mapping[str, float], point: PointResult, limit: float) -> str:
-    if point.refused:
-        return f"{name} ({_values_text(values)}): refused by the controller"
-    stable = int(round(point.share(limit) * len(point.plant_rho)))
+def _point_text(name: str, verdict: MarkVerdict, plants: int, limit: float) -> str:
+    where = "" if verdict.index is not None else ", outside the map"
+    head = f"{name} ({_values_text(verdict.values)}{where})"
+    if verdict.refused:
+        return f"{head}: refused by the controller"
+    stable = int(round(verdict.share * plants))
     return (
-        f"{name} ({_values_text(values)}): nominal rho = {point.rho:.4f}, "
-        f"rho <= {limit:g} on {stable} of {len(point.plant_rho)} plants"
+        f"{head}: nominal rho = {verdict.rho:.4f}, rho <= {limit:g} on {stable} of "
+        f"{plants} plants; {'robust' if verdict.robust else 'not robust'}"
     )
 
 
@@ -514,7 +686,7 @@ def format_map(
     setup: MapSetup,
     smap: StabilityMap,
     robust: RobustSampleTime | None,
-    points: Mapping[str, tuple[Mapping[str, float], PointResult]],
+    verdicts: Mapping[str, MarkVerdict],
 ) -> str:
     """The readable summary of the map."""
     refused = int(smap.refused.sum())
@@ -529,7 +701,8 @@ def format_map(
         f"  grid points: {smap.rho.size}; refused by the controller {refused}; nominal "
         f"rho >= 1 at {unstable}; robust at {int(smap.robust.sum())}",
     ]
-    lines += [f"  {_point_text(name, v, p, setup.limit)}" for name, (v, p) in points.items()]
+    plants = len(setup.plants)
+    lines += [f"  {_point_text(name, v, plants, setup.limit)}" for name, v in verdicts.items()]
     lines.append(robust_text(smap, robust, setup.limit))
     return "\n".join(lines)
 
@@ -537,22 +710,26 @@ def format_map(
 def plot_map(
     setup: MapSetup,
     smap: StabilityMap,
-    marks: Mapping[str, Mapping[str, float]],
+    verdicts: Mapping[str, MarkVerdict],
     robust: RobustSampleTime | None,
 ) -> Figure:
-    """One panel: the share of plants robustly stable (colour, refused points hatched
-    grey), the nominal ``rho = 1`` (solid) and ``rho = 1 - margin`` (dashed) contours,
-    the marked points and the largest robust ``T_s``."""
+    """One panel on log axes: the share of plants robustly stable (colour: one cell per
+    grid point, edges at the geometric midpoints; refused points hatched grey), the
+    nominal ``rho = 1`` (solid) and ``rho = 1 - margin`` (dashed) contours, the marked
+    points at their values (each a grid point, inside its cell) and the largest robust
+    ``T_s``. The colour mesh is the panel's first collection, its array ``smap.share``."""
     from matplotlib.figure import Figure
     from matplotlib.lines import Line2D
     from matplotlib.patches import Patch
 
-    figure = Figure(figsize=(7.5, 5.5))
+    figure = Figure(figsize=(7.5, 6.5))
     axis = figure.subplots()
+    axis.set_xscale("log")
+    axis.set_yscale("log")
     x, y = smap.x.values, smap.y.values
     colours = _colour_map()
-    mesh = axis.pcolormesh(x, y, np.ma.masked_invalid(smap.share), cmap=colours, vmin=0.0,
-                           vmax=1.0, shading="nearest")  # fmt: skip
+    mesh = axis.pcolormesh(smap.x.edges, smap.y.edges, np.ma.masked_invalid(smap.share),
+                           cmap=colours, vmin=0.0, vmax=1.0, shading="flat")  # fmt: skip
     bar = figure.colorbar(mesh, ax=axis)
     bar.set_label(f"share of the {len(setup.plants)} plants with rho <= {setup.limit:g}")
     handles = []
@@ -567,14 +744,15 @@ def plot_map(
             axis.contour(x, y, rho, levels=[level], colors="black", linestyles=style,
                          linewidths=1.4)  # fmt: skip
             handles.append(Line2D([], [], color="black", linestyle=style, label=text))
-    handles += _draw_marks(axis, smap, marks)
+    handles += _draw_marks(axis, smap, verdicts)
     if robust is not None and robust.refined is not None:
         draw = axis.axvline if smap.x.key == SAMPLE_TIME else axis.axhline
         draw(robust.refined, color="tab:blue", linestyle=":", linewidth=1.4)
         handles.append(Line2D([], [], color="tab:blue", linestyle=":",
                               label=f"largest robust T_s = {robust.refined:.4g} s"))  # fmt: skip
-    axis.set_xlim(x[0] - 0.5 * (x[1] - x[0]), x[-1] + 0.5 * (x[-1] - x[-2]))
-    axis.set_ylim(y[0] - 0.5 * (y[1] - y[0]), y[-1] + 0.5 * (y[-1] - y[-2]))
+    axis.set_xlim(smap.x.edges[0], smap.x.edges[-1])
+    axis.set_ylim(smap.y.edges[0], smap.y.edges[-1])
+    _log_ticks(axis)
     axis.set_xlabel(smap.x.label)
     axis.set_ylabel(smap.y.label)
     axis.set_title(
@@ -582,7 +760,9 @@ def plot_map(
         f"nominal model (contours) and {len(setup.plants)} sampled plants (colour)",
         fontsize="medium",
     )
-    axis.legend(handles=handles, loc="upper right", fontsize="small", framealpha=0.85)
+    # below the panel: inside it the legend would cover cells and marks
+    axis.legend(handles=handles, loc="upper center", bbox_to_anchor=(0.5, -0.13), ncol=2,
+                fontsize="small", frameon=False)  # fmt: skip
     return figure
 
 
@@ -591,8 +771,19 @@ def _draw_refused(axis: Axes, smap: StabilityMap) -> None:
     from matplotlib.colors import ListedColormap
 
     cells = np.ma.masked_where(~smap.refused, np.ones(smap.refused.shape))
-    axis.pcolor(smap.x.values, smap.y.values, cells, cmap=ListedColormap(["lightgrey"]),
-                shading="nearest", hatch="///", edgecolor="grey", linewidth=0.0)  # fmt: skip
+    axis.pcolor(smap.x.edges, smap.y.edges, cells, cmap=ListedColormap(["lightgrey"]),
+                shading="flat", hatch="///", edgecolor="grey", linewidth=0.0)  # fmt: skip
+
+
+def _log_ticks(axis: Axes) -> None:
+    """Plain-number labels at 1, 2, 3 and 5 times the powers of ten (a map spans about
+    one decade, where matplotlib's log axis would label one tick or none)."""
+    from matplotlib.ticker import FormatStrFormatter, LogLocator, NullFormatter
+
+    for which in (axis.xaxis, axis.yaxis):
+        which.set_major_locator(LogLocator(subs=(1.0, 2.0, 3.0, 5.0)))
+        which.set_major_formatter(FormatStrFormatter("%g"))
+        which.set_minor_formatter(NullFormatter())
 
 
 def _colour_map() -> Colormap:
@@ -609,17 +800,18 @@ _MARKERS = (
 
 
 def _draw_marks(
-    axis: Axes, smap: StabilityMap, marks: Mapping[str, Mapping[str, float]]
+    axis: Axes, smap: StabilityMap, verdicts: Mapping[str, MarkVerdict]
 ) -> list[Line2D]:
+    """Each mark on the map at its values (its grid point); one outside the map only in
+    the legend."""
     from matplotlib.lines import Line2D
 
     handles = []
-    for (name, values), style in zip(marks.items(), _MARKERS, strict=False):
-        x, y = values[smap.x.key], values[smap.y.key]
-        inside = (smap.x.values[0] <= x <= smap.x.values[-1]
-                  and smap.y.values[0] <= y <= smap.y.values[-1])  # fmt: skip
+    for (name, verdict), style in zip(verdicts.items(), _MARKERS, strict=False):
+        x, y = verdict.values[smap.x.key], verdict.values[smap.y.key]
+        inside = verdict.index is not None
         if inside:
-            axis.plot([x], [y], linestyle="none", **style)
+            axis.plot([x], [y], linestyle="none", label=name, **style)
         suffix = "" if inside else ", outside the map"
         label = f"{name} ({x:.4g}, {y:.4g}{suffix})"
         handles.append(Line2D([], [], linestyle="none", label=label, **style))

@@ -57,7 +57,7 @@ def side_by_side(
         cells = []
         for i, value in enumerate(values):
             cells += [_number(value, 5 if i < 2 else 3), f"{paper[kind][i]:.4f}"]
-        status = "" if entry.get("status", "ok") == "ok" else " (diverged)"
+        status = "" if entry.get("status", "ok") == "ok" else f" ({entry['status']})"
         lines.append(f"| {spec(kind).label}{status} | " + " | ".join(cells) + " |")
     return "\n".join(lines)
 

@@ -11,17 +11,26 @@ and an unknown ``--set`` key, which need the scenario loader) and a real 1 s run
 (``posfb simulate --duration 1 --json``: imports, design, diagram build and the
 simulation). The exit column is the code every repeat returned; ``!`` marks one that
 was not the expected code.
+
+A second table splits a 1 s run on the shipped three-link arm (issue 27) into the time
+outside the simulation (imports, scenario, design, diagram build: the process's wall
+time less the run's own ``wall_time_s``) and the simulation, per controller: Lin+LC
+never computes the Assumption-1 bounds, and the paper's controller reads them from the
+on-disk cache (``models.disk_cache``) after the first run, which the ``cold`` row pays
+(a fresh, empty cache folder).
 """
 
 from __future__ import annotations
 
 import argparse
+import json
 import os
 import platform
 import shlex
 import statistics
 import subprocess
 import sys
+import tempfile
 import time
 from pathlib import Path
 
@@ -47,11 +56,51 @@ CASES = [
 ]
 
 
-def timed(command: list[str]) -> tuple[float, int]:
+THREE_LINK = Path(__file__).resolve().parent.parent / "analysis/scenarios/three_link_nominal.yaml"
+
+#: (what, controller, whether each repeat starts with an empty cache) of the split rows.
+SPLIT_CASES = [
+    ("Lin+LC", "lin_lc", True),
+    ("proposed, cold cache", "proposed", True),
+    ("proposed, warm cache", "proposed", False),
+]
+
+
+def timed(command: list[str], env: dict[str, str] | None = None) -> tuple[float, int]:
     """Wall seconds of one fresh process running ``command``, and its exit code."""
     start = time.perf_counter()
-    result = subprocess.run(command, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    result = subprocess.run(command, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, env=env)
     return time.perf_counter() - start, result.returncode
+
+
+def split_run(controller: str, cache: str) -> tuple[float, float]:
+    """Wall seconds of a fresh ``posfb simulate`` of the three-link arm with
+    ``controller`` for 1 s, outside the simulation and in it (the run's ``wall_time_s``)."""
+    command = [
+        *POSFB, "simulate", "--scenario", str(THREE_LINK), "--controller", controller,
+        "--duration", "1", "--json",
+    ]  # fmt: skip
+    env = {**os.environ, "POSFB_CACHE_DIR": cache}
+    start = time.perf_counter()
+    result = subprocess.run(command, capture_output=True, text=True, env=env, check=True)
+    total = time.perf_counter() - start
+    simulation = float(json.loads(result.stdout)["wall_time_s"])
+    return total - simulation, simulation
+
+
+def print_split(repeat: int) -> None:
+    """The table of ``SPLIT_CASES`` (module docstring)."""
+    print("\n| three-link arm, 1 s run | outside the simulation, median s | simulation s |")
+    print("|---|---:|---:|")
+    with tempfile.TemporaryDirectory() as warm:
+        split_run("proposed", warm)  # fills the warm cache
+        for what, controller, cold in SPLIT_CASES:
+            rows = []
+            for _ in range(repeat):
+                with tempfile.TemporaryDirectory() as fresh:
+                    rows.append(split_run(controller, fresh if cold else warm))
+            outside, simulation = (statistics.median(column) for column in zip(*rows, strict=True))
+            print(f"| {what} | {outside:.3f} | {simulation:.3f} |", flush=True)
 
 
 def shown(command: list[str]) -> str:
@@ -86,6 +135,7 @@ def main() -> None:
             f"{min(times):.3f} |",
             flush=True,
         )
+    print_split(args.repeat)
 
 
 if __name__ == "__main__":

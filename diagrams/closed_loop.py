@@ -105,7 +105,7 @@ from posfb.diagrams.actuator import (
     require_time_constant,
 )
 from posfb.diagrams.encoder import Encoder, per_joint_counts
-from posfb.diagrams.sections import Actuator, Sensor, Timing
+from posfb.diagrams.sections import Actuator, Sensor, Timing, require_run_samples
 from posfb.models.controllers import (
     REGISTRY,
     ControllerConfig,
@@ -255,6 +255,7 @@ class ClosedLoopConfig:
                 f"timing.duration = {self.duration!r} is not a whole number (>= 1) of "
                 f"timing.sample_time = {self.sample_time!r} periods"
             )
+        require_run_samples(self.samples, "timing.duration / timing.sample_time")
         if not callable(getattr(self.trajectory, "evaluate", None)):
             raise ValueError(f"trajectory = {self.trajectory!r} has no evaluate(t)")
         n = self.joints
@@ -279,6 +280,10 @@ class ClosedLoopConfig:
             require_positive(f"actuator.voltage_limit[{j}]", limit)
         self._check_actuator_effects()
         require_positive("timing.divergence_bound", self.divergence_bound)
+        require_positive("timing.lost_bound", self.timing.lost_bound)
+        share = require_finite("timing.saturated_share", self.timing.saturated_share)
+        if not 0.0 <= share <= 1.0:
+            raise ValueError(f"timing.saturated_share = {share!r}; a share in [0, 1] is required")
         self._check_simulator()
         if not isinstance(self.plant, PlantConfig):
             raise ValueError(f"plant = {self.plant!r} is not a PlantConfig")
@@ -435,8 +440,11 @@ class ClosedLoopResult:
     Arrays have one row per sample: ``q_true``, ``q_measured``, ``q_desired`` (rad,
     n columns); ``u_commanded``, ``u_applied`` (V, the voltage computed at ``t_k``
     and applied on ``[t_k, t_k + T_s)``); ``internals`` (columns ``internals_names``;
-    ``internals_columns`` are the same names with their units). ``status`` is ``"ok"``
-    or ``"diverged"``; ``message`` says why a run stopped early (empty if it did not);
+    ``internals_columns`` are the same names with their units). ``status`` is the
+    runner's: ``"ok"`` (the run reached ``duration``) or ``"diverged"`` (stopped early);
+    ``message`` says why a run stopped early (empty if it did not). Whether a run that
+    reached its end tracked its path (``saturated``, ``lost``) is judged from these logs
+    by ``analysis.metrics.run_verdict``, which every report of a run uses;
     ``wall_time_s`` is the simulation's wall time (build excluded); ``derivative_evaluations`` and
     ``integrator_steps`` are the integrator's counts over the run. Metrics are
     computed from these logs in ``analysis.metrics``.

@@ -12,6 +12,7 @@ from __future__ import annotations
 import copy
 import dataclasses
 import json
+import re
 from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass, replace
 from pathlib import Path
@@ -25,6 +26,7 @@ from posfb.diagrams.closed_loop import (
     ClosedLoopRunner,
     TruePlant,
 )
+from posfb.diagrams.encoder import per_joint_counts
 from posfb.diagrams.scenario import (
     SHIPPED_PREFIX,
     CsvFile,
@@ -43,13 +45,16 @@ from posfb.diagrams.scenario import (
     controller_kind,
     dump_scenario,
     get_setting,
+    require_backlash,
     resolve_path,
     scenario_chain,
 )
+from posfb.diagrams.sections import require_dac_resolution, require_encoder_resolution
 from posfb.diagrams.yaml_schema import load_typed, read_text
 from posfb.models.controllers import PluginError, UserPlugin, make_controller
 from posfb.models.controllers.plugin import load_plugin, module_plugin
 from posfb.models.design import ControllerConfig
+from posfb.models.design.settings import ArmInputs
 from posfb.models.friction import law_spec, law_values, tag
 from posfb.models.gear import GearConfig, require_motor_inertia
 from posfb.models.identify import identify_urdf
@@ -85,17 +90,37 @@ class LoadedScenario:
         """A copy with the ``KEY=VALUE`` ``settings`` applied in order, validated."""
         loaded = LoadedScenario(self.scenario, self.base_dir, self.source)
         for setting in settings:
+            if _indexes_left_out_list(loaded.scenario, setting):
+                loaded.scenario = with_arm_defaults(loaded.scenario, resolve(loaded).arm)
             loaded.scenario = apply_setting(loaded.scenario, setting, loaded.base_dir)
-        resolve(loaded)
+        resolved = resolve(loaded)
+        loaded.scenario = with_arm_defaults(loaded.scenario, resolved.arm)
         return loaded
 
     def get(self, key: str) -> object:
         """The value of dotted ``key`` (``timing.duration``, ``sensor.encoder_counts[1]``)."""
+        if not isinstance(key, str):
+            raise TypeError(
+                f"key = {key!r}; a dotted key string such as 'timing.duration' is required"
+            )
         return get_setting(self.scenario, key)
 
     def dump(self) -> str:
         """The complete scenario as YAML, every default written out."""
         return dump_scenario(self.scenario)
+
+
+def _indexes_left_out_list(scenario: Scenario, setting: str) -> bool:
+    """Whether ``setting`` sets one joint (``controller.lambdas[1]=20``) of a per-joint
+    list that its entry left out: the arm's list is then taken first, and the setting
+    changes that joint of it."""
+    key = setting.partition("=")[0].strip()
+    if not key.endswith("]"):
+        return False
+    try:
+        return get_setting(scenario, key.rpartition("[")[0]) is None
+    except ValueError:
+        return False
 
 
 def scenario_from_file(path: str | Path, settings: Iterable[str] = ()) -> LoadedScenario:
@@ -185,8 +210,69 @@ def plugin_file_changed(scenario: Scenario) -> str:
     return ""
 
 
-def read_csv_trajectory(path: Path) -> SplineTrajectory:
-    """Columns time (s), q1 .. qn (rad) of a CSV file, header row optional."""
+#: The names a CSV trajectory's time column (s) may have.
+CSV_TIME_COLUMNS = ("time", "time_s")
+
+#: A CSV trajectory's position column of joint ``j`` (rad): ``qj`` or ``qj_rad``.
+_CSV_JOINT_COLUMN = re.compile(r"q([1-9][0-9]*)(_rad)?")
+
+
+def csv_columns_required(joints: int) -> str:
+    """The header a CSV trajectory of a ``joints``-joint arm needs (for messages)."""
+    names = ", ".join(f"q{j + 1}" for j in range(joints))
+    return (
+        f"a header row naming the columns time (or time_s), {names} (or q1_rad .. "
+        f"q{joints}_rad), in any order, is required"
+    )
+
+
+def _is_number(text: str) -> bool:
+    try:
+        float(text)
+    except ValueError:
+        return False
+    return True
+
+
+def _csv_column_order(header: list[str], joints: int, source: str) -> list[int]:
+    """The indices of the time column and of joints ``1..joints``' columns in ``header``,
+    by name; any other name, a name given twice or a joint count that is not the arm's
+    is refused naming the columns required."""
+    required = csv_columns_required(joints)
+    if all(_is_number(name) for name in header):
+        raise ValueError(f"{source} has no header row (its first row is numbers); {required}")
+    times, by_joint = [], {}
+    for index, name in enumerate(header):
+        match = _CSV_JOINT_COLUMN.fullmatch(name)
+        if name in CSV_TIME_COLUMNS:
+            times.append(index)
+        elif match:
+            by_joint.setdefault(int(match[1]), []).append(index)
+        else:
+            raise ValueError(f"{source}: column {name!r} is not a trajectory column; {required}")
+    if len(times) != 1:
+        listed = ", ".join(header[k] for k in times) or "none"
+        raise ValueError(f"{source} has {len(times)} time columns ({listed}); {required}")
+    for joint, indices in sorted(by_joint.items()):
+        if len(indices) > 1:
+            named = ", ".join(header[k] for k in indices)
+            raise ValueError(f"{source} names joint {joint} twice ({named}); {required}")
+    if sorted(by_joint) != list(range(1, joints + 1)):
+        count = len(by_joint)
+        named = ", ".join(header[by_joint[j][0]] for j in sorted(by_joint))
+        columns = "column" if count == 1 else "columns"
+        arm = "joint" if joints == 1 else "joints"
+        raise ValueError(
+            f"{source} has {count} joint {columns} ({named}); the arm has {joints} {arm}: "
+            f"{required}"
+        )
+    return [times[0], *(by_joint[j][0] for j in range(1, joints + 1))]
+
+
+def read_csv_trajectory(path: Path, joints: int) -> SplineTrajectory:
+    """The desired path of a ``joints``-joint arm in a CSV file, its columns read by the
+    names in its header row: time ``time`` or ``time_s`` (s), joint ``j``'s position
+    ``qj`` or ``qj_rad`` (rad), in any order; a not-a-knot cubic through the samples."""
     source = f"trajectory.path {path}"
     if path.is_dir():
         raise ValueError(f"{source} is a directory; a CSV file is required")
@@ -195,17 +281,14 @@ def read_csv_trajectory(path: Path) -> SplineTrajectory:
     import pandas as pd  # on use: the CLI's start-up does not pay for it
 
     try:
-        table = pd.read_csv(path, header=None, dtype=str, skip_blank_lines=True)
+        table = pd.read_csv(
+            path, header=None, dtype=str, skip_blank_lines=True, keep_default_na=False
+        )
     except (OSError, UnicodeDecodeError, pd.errors.ParserError, pd.errors.EmptyDataError) as err:
         raise ValueError(f"{source} cannot be read as CSV: {str(err).splitlines()[0]}") from None
-    numbers = table.apply(pd.to_numeric, errors="coerce")
-    if len(numbers) and numbers.iloc[0].isna().all():
-        numbers = numbers.iloc[1:]  # a header row
-    if numbers.shape[1] < 2:
-        raise ValueError(
-            f"{source} has {numbers.shape[1]} columns; time and one column per joint "
-            "(time, q1, .., qn) are required"
-        )
+    header = [name.strip() for name in table.iloc[0]]
+    order = _csv_column_order(header, joints, source)
+    numbers = table.iloc[1:, order].apply(pd.to_numeric, errors="coerce")
     if numbers.isna().to_numpy().any():
         row = int(np.argmax(numbers.isna().to_numpy().any(axis=1)))
         raise ValueError(f"{source}: data row {row + 1} has a non-numeric entry")
@@ -213,8 +296,8 @@ def read_csv_trajectory(path: Path) -> SplineTrajectory:
     return SplineTrajectory.from_samples(data[:, 0], data[:, 1:], source)
 
 
-def make_trajectory(settings: TrajectorySettings, base_dir: Path) -> Trajectory:
-    """The desired trajectory of a scenario."""
+def make_trajectory(settings: TrajectorySettings, base_dir: Path, joints: int) -> Trajectory:
+    """The desired trajectory of a scenario for a ``joints``-joint arm."""
     if isinstance(settings, Wave):
         try:
             waves = tuple(JointWave(**dataclasses.asdict(joint)) for joint in settings.joints)
@@ -225,21 +308,19 @@ def make_trajectory(settings: TrajectorySettings, base_dir: Path) -> Trajectory:
         return SplineTrajectory.from_waypoints(settings.times, settings.positions)
     if not settings.path:
         raise ValueError("trajectory.path is empty; the CSV file's path is required")
-    return read_csv_trajectory(resolve_path(settings.path, base_dir))
+    return read_csv_trajectory(resolve_path(settings.path, base_dir), joints)
 
 
-def _check_csv(
-    settings: TrajectorySettings, trajectory: Trajectory, duration: float, joints: int
-) -> None:
-    """A CSV trajectory has one position column per joint of the arm, and reaches
-    ``timing.duration`` unless it says to hold its end."""
+def _check_csv(settings: TrajectorySettings, trajectory: Trajectory, duration: float) -> None:
+    """A CSV trajectory covers the run, ``[0, timing.duration]``, unless it says to hold
+    its first position before its start or its last one after its end."""
     if not isinstance(settings, CsvFile):
         return
-    if trajectory.joints != joints:
+    if trajectory.start_time > 0.0 and not settings.hold_before_start:
         raise ValueError(
-            f"trajectory.path {settings.path} has {trajectory.joints + 1} columns; the arm has "
-            f"{joints} joints: the columns time, "
-            f"{', '.join(f'q{j + 1}' for j in range(joints))} are required"
+            f"trajectory.path {settings.path} starts at t = {trajectory.start_time:g} s, after "
+            "the run starts (t = 0); samples from t = 0 are required (or "
+            "trajectory.hold_before_start: true, to hold its first position at rest until then)"
         )
     if trajectory.end_time < duration and not settings.hold_after_end:
         raise ValueError(
@@ -262,21 +343,22 @@ def make_nominal(settings: NominalModel, base_dir: Path) -> NominalForm:
 
 def load_python_controller(section: Python, base_dir: Path) -> UserPlugin:
     """The user's controller class of a ``!Python`` entry (file relative to ``base_dir``,
-    or module), with its settings; every problem is one line naming the key."""
+    or module), with its settings; every problem is one line naming the key (a
+    ``PluginError``: ``resolve`` adds no prefix to it)."""
     if bool(section.file) == bool(section.module):
-        raise ValueError(
+        raise PluginError(
             f"controller: !Python has file = {section.file!r} and module = {section.module!r};"
             " exactly one of them is required"
         )
     if not section.class_name:
-        raise ValueError("controller.class is empty; the name of a posfb.Controller subclass "
+        raise PluginError("controller.class is empty; the name of a posfb.Controller subclass "
                          "is required")  # fmt: skip
     try:
         settings = json.loads(section.settings)
     except json.JSONDecodeError:
         settings = None
     if not isinstance(settings, dict):
-        raise ValueError(f"controller.settings = {section.settings!r}; a map of names to values "
+        raise PluginError(f"controller.settings = {section.settings!r}; a map of names to values "
                          "is required")  # fmt: skip
     label = section.label or section.class_name
     if section.source:  # stored by a study: the file need not exist here
@@ -284,13 +366,18 @@ def load_python_controller(section: Python, base_dir: Path) -> UserPlugin:
         return load_plugin(section.source, str(path), section.class_name, settings, label)
     if section.file:
         path = resolve_path(section.file, base_dir)
+        if path.is_dir():
+            raise PluginError(
+                f"controller.file = {section.file!r}: {path} is a directory; a Python file "
+                "defining the class is required"
+            )
         if not path.is_file():
-            raise ValueError(f"controller.file = {section.file!r}: {path} does not exist")
+            raise PluginError(f"controller.file = {section.file!r}: {path} does not exist")
         try:
             text = path.read_text()
         except (OSError, UnicodeDecodeError) as error:
             message = f"controller.file = {section.file!r} cannot be read: {error}"
-            raise ValueError(message) from None
+            raise PluginError(message) from None
         return load_plugin(text, str(path), section.class_name, settings, label)
     return module_plugin(section.module, section.class_name, settings, label)
 
@@ -314,12 +401,57 @@ def controller_inputs(
     return kind, design, settings
 
 
+def arm_inputs(scenario: Scenario, nominal: NominalForm) -> ArmInputs:
+    """What the scenario's controller entries derive the per-joint settings they leave
+    out from (``models.design.settings``): the nominal model, ``timing.sample_time``, the
+    wave trajectory's frequencies, ``sensor.encoder_counts`` and
+    ``actuator.voltage_limit`` (checked, per joint)."""
+    n = joint_count(nominal)
+    trajectory = scenario.trajectory
+    waves = trajectory.joints if isinstance(trajectory, Wave) else []
+    limits = per_joint("actuator.voltage_limit", scenario.actuator.voltage_limit, n)
+    for j, limit in enumerate(limits):
+        require_positive(f"actuator.voltage_limit[{j}]", limit)
+    return ArmInputs(
+        nominal=nominal,
+        sample_time=float(scenario.timing.sample_time),
+        frequencies=tuple(float(wave.frequency) for wave in waves),
+        encoder_counts=per_joint_counts("sensor.encoder_counts", scenario.sensor.encoder_counts, n),
+        voltage_limit=tuple(float(v) for v in limits),
+    )
+
+
+def _entry_with_arm_defaults(entry: object, arm: ArmInputs) -> object:
+    """``entry`` with its left-out per-joint settings from ``arm`` (a plug-in's as it is)."""
+    fill = getattr(entry, "with_arm_defaults", None)
+    return entry if fill is None else fill(arm)
+
+
+def with_arm_defaults(scenario: Scenario, arm: ArmInputs) -> Scenario:
+    """A copy of ``scenario`` whose controller entries (``controller`` and every named one)
+    hold the per-joint settings they left out, from ``arm`` (``models.design.settings``):
+    what ``scenario dump`` shows and tuning starts from; ``arm`` is kept as its
+    ``arm_defaults``, for the entries ``with_controller`` makes."""
+    filled = replace(
+        scenario,
+        controller=_entry_with_arm_defaults(scenario.controller, arm),
+        controllers={
+            name: _entry_with_arm_defaults(entry, arm)
+            for name, entry in scenario.controllers.items()
+        },
+    )
+    filled.arm_defaults = arm
+    return filled
+
+
 @dataclass(frozen=True, eq=False)
 class ResolvedScenario:
     """A validated scenario: the closed-loop config, which carries the true plant's
-    payload and overrides (``ClosedLoopConfig.true_plant``)."""
+    payload and overrides (``ClosedLoopConfig.true_plant``), and what the controller
+    entries' left-out settings came from (``arm``)."""
 
     config: ClosedLoopConfig
+    arm: ArmInputs
 
     @property
     def payload_mass(self) -> float:
@@ -361,6 +493,19 @@ def _check_law_coulomb(plant: PlantConfig, levels: tuple[float, ...]) -> None:
             )
 
 
+def nominal_mismatch(scenario: Scenario, nominal_joints: int, joints: int) -> str:
+    """The one line that refuses a nominal model of another joint count than the plant's,
+    saying how to describe the plant's own arm."""
+    form = type(scenario.nominal_model).__name__
+    urdf = scenario.plant.urdf
+    return (
+        f"nominal_model has {nominal_joints} joints (!{form}) and plant.urdf = {urdf!r} has "
+        f"{joints}; the same number is required: write nominal_model: !UrdfModel "
+        f"{{urdf: {urdf}}} (the plant's URDF, computed by Drake), or start from posfb "
+        f"scenario init --urdf {urdf}"
+    )
+
+
 def resolve(loaded: LoadedScenario) -> ResolvedScenario:
     """Validate ``loaded`` into a ``ResolvedScenario``; errors name the dotted key."""
     scenario, base = loaded.scenario, loaded.base_dir
@@ -374,20 +519,20 @@ def resolve(loaded: LoadedScenario) -> ResolvedScenario:
     except (ValueError, FileNotFoundError) as error:
         raise ValueError(f"nominal_model: {error}") from None
     if joint_count(nominal) != joints:
-        raise ValueError(
-            f"nominal_model has {joint_count(nominal)} joints and plant.urdf = "
-            f"{scenario.plant.urdf!r} has {joints}; the same number is required"
-        )
+        raise ValueError(nominal_mismatch(scenario, joint_count(nominal), joints))
+    arm = arm_inputs(scenario, nominal)
+    require_encoder_resolution(arm.encoder_counts)
+    require_dac_resolution(scenario.actuator.dac_bits)
     try:
         kind, design, controller_settings = controller_inputs(
-            section, nominal, scenario.timing.sample_time, base
+            _entry_with_arm_defaults(section, arm), nominal, scenario.timing.sample_time, base
         )
     except PluginError:
         raise  # a plug-in's own message names its key and class
     except ValueError as error:
         raise in_section("controller", error) from None
-    trajectory = make_trajectory(scenario.trajectory, base)
-    _check_csv(scenario.trajectory, trajectory, scenario.timing.duration, joints)
+    trajectory = make_trajectory(scenario.trajectory, base, joints)
+    _check_csv(scenario.trajectory, trajectory, scenario.timing.duration)
     plant = scenario.plant
     gear = _gear(plant, joints)
     try:
@@ -428,7 +573,7 @@ def resolve(loaded: LoadedScenario) -> ResolvedScenario:
         plant=plant_config,
         true_plant=TruePlant(float(plant.payload_mass), tuple(overrides.items())),
     )
-    return ResolvedScenario(config)
+    return ResolvedScenario(config, arm)
 
 
 def _gear(plant: object, joints: int) -> GearConfig:
@@ -439,7 +584,7 @@ def _gear(plant: object, joints: int) -> GearConfig:
         gear = GearConfig(**{name: tuple(getattr(plant, name)) for name in names})
     except ValueError as error:
         raise in_section("plant", error) from None
-    gear.values(joints, prefix="plant.")
+    require_backlash(gear.values(joints, prefix="plant.")[2])
     return gear
 
 

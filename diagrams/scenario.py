@@ -25,9 +25,11 @@ the code defines it (``ControllerConfig``, ``PlantConfig``, ``diagrams.sections`
     controllers:    named entries that --controller NAME, compare and studies pick
 
 The number of joints ``n`` is the plant URDF's; per-joint lists take one value
-(all joints) or ``n``. The paper's two-joint defaults that have no one-value form
-(the LQR weights, ``H``, the PID gains, the trajectory) must be given for any
-other arm, for the controllers it runs. This module holds the tree
+(all joints) or ``n``. A controller entry's per-joint settings that it leaves out
+(the LQR weights, ``H``, the PID gains) come from the arm: the paper's on two joints,
+``scenario init``'s rules on any other (``models.design.settings``; the loaded
+scenario holds the values taken, ``diagrams.resolve.with_arm_defaults``); the paper's
+two-joint trajectory must be given for any other arm. This module holds the tree
 and its text forms (``dump_scenario``, ``apply_setting`` for ``--set``,
 ``get_setting``); ``diagrams.resolve`` loads a file, validates a scenario into
 the frozen ``ClosedLoopConfig`` the runner builds from, and runs it.
@@ -37,6 +39,7 @@ the frozen ``ClosedLoopConfig`` the runner builds from, and runs it.
 
 import copy
 import dataclasses
+import math
 import re
 import typing
 from dataclasses import dataclass, field, fields
@@ -50,7 +53,7 @@ from posfb.diagrams.sections import Actuator, Sensor, Timing
 from posfb.diagrams.yaml_schema import check_shape, parse, prepare
 from posfb.models.controllers import REGISTRY
 from posfb.models.controllers.registry import settings_kind
-from posfb.models.design.settings import default_of
+from posfb.models.design.settings import ArmInputs, default_of
 from posfb.models.friction import DEFAULT_LAW, LAW_SETTINGS
 from posfb.models.gear import GearConfig
 from posfb.models.lumped import TABLE1
@@ -97,6 +100,25 @@ ParameterOverrides = dataclasses.make_dataclass(
     [(name, list[float] | None, field(default=None)) for name in JOINT_PARAMETERS],
     namespace={"__doc__": "Absolute per-joint values that replace the URDF's (SI units)."},
 )
+
+
+#: Widest gear backlash (half-width, rad) a scenario may set: 1/64 of a turn (0.098 rad,
+#: 5.6 deg). Gear backlash is arc-minutes (1 arcmin = 0.29 mrad; the realism study draws
+#: up to 1 mrad), so this is a hundred times any working gear's; a wider dead band leaves
+#: the link free over a large part of its motion (``scenario init``'s largest wave
+#: amplitude, 2/9 of a quarter turn, is 0.35 rad) and the arm is unactuated there.
+MAX_BACKLASH = 2.0 * math.pi / 64.0
+
+
+def require_backlash(values: object) -> None:
+    """Refuse a per-joint ``plant.backlash`` wider than ``MAX_BACKLASH``."""
+    for j, value in enumerate(values):
+        if value > MAX_BACKLASH:
+            raise ValueError(
+                f"plant.backlash[{j}] = {value:g} rad; at most {MAX_BACKLASH:.3g} rad (1/64 of "
+                "a turn, 100x a working gear's) is allowed: a wider dead band leaves the link "
+                "unactuated over its motion"
+            )
 
 
 #: The scenario's friction law: one tagged entry of a registered law
@@ -208,12 +230,16 @@ class Waypoints:
 
 @dataclass
 class CsvFile:
-    """Sampled positions: a CSV file whose columns are time (s), q1 .. qn (rad), with
-    or without a header row; a not-a-knot cubic spline interpolates them. A file that
-    ends before ``timing.duration`` is refused unless ``hold_after_end`` says to hold its
-    last position at rest from its end on."""
+    """Sampled positions: a CSV file whose header row names its columns, time ``time``
+    or ``time_s`` (s) and ``q1 .. qn`` or ``q1_rad .. qn_rad`` (rad), in any order
+    (``diagrams.resolve.read_csv_trajectory``); a not-a-knot cubic spline interpolates
+    them. A file that starts after t = 0 is refused unless ``hold_before_start`` says to
+    hold its first position at rest until then, and one that ends before
+    ``timing.duration`` unless ``hold_after_end`` says to hold its last position at rest
+    from its end on."""
 
     path: str = ""
+    hold_before_start: bool = False
     hold_after_end: bool = False
 
 
@@ -232,7 +258,8 @@ class Python:
     ``class`` (``class_name``) defined in ``file`` (relative to the scenario's folder) or
     in the importable ``module``, built with ``settings`` (a map of numbers, lists and
     strings, passed as keyword arguments); ``label`` names it in legends and tables
-    (default: the class name, which is also its kind). ``source`` is the file's text, which
+    (default: the class name, which is also its kind; an entry of ``controllers``: its
+    name there, so that two entries of one class stay apart). ``source`` is the file's text, which
     a Monte-Carlo study stores when it is loaded (``diagrams.resolve.self_contained``), so
     that its workers need no shared folder; when set, it is run instead of the file."""
 
@@ -278,6 +305,11 @@ class Scenario:
     controller: ControllerSection = field(default_factory=REGISTRY[DEFAULT_KIND].settings)
     controllers: dict[str, ControllerSection] = field(default_factory=dict)
 
+    #: What the controller entries' left-out per-joint settings were taken from, set on
+    #: a loaded scenario (``diagrams.resolve.with_arm_defaults``; not a key of the file):
+    #: ``with_controller`` gives a new entry the same.
+    arm_defaults: typing.ClassVar[ArmInputs | None] = None
+
 
 def controller_kind(section: object) -> str:
     """The kind of a scenario's ``controller`` entry (a ``!Python`` entry's: its class)."""
@@ -288,28 +320,44 @@ def controller_kind(section: object) -> str:
 
 def with_controller(scenario: Scenario, kind: str) -> Scenario:
     """A copy of ``scenario`` whose controller is ``kind``: the entry of that name in
-    ``controllers``; the scenario's own entry if it is one of that kind; otherwise the
+    ``controllers`` (a ``!Python`` one without a ``label`` is labelled by that name); the
+    scenario's own entry if it is one of that kind; otherwise the
     kind's default entry with every setting the two entries share carried over (Lin+LC
     keeps the paper's controller's LQR weights, ``lambdas`` and ``discretisation``; the
-    baselines their ``bandwidth``)."""
+    baselines their ``bandwidth``), the rest from the loaded scenario's arm
+    (``Scenario.arm_defaults``)."""
     section = scenario.controller
     result = copy.deepcopy(scenario)
     if kind in scenario.controllers:
-        result.controller = copy.deepcopy(scenario.controllers[kind])
+        entry = copy.deepcopy(scenario.controllers[kind])
+        if isinstance(entry, Python) and not entry.label:
+            entry.label = kind  # two entries of one class: each its own name in tables
+        result.controller = entry
         return result
     if kind == controller_kind(section):
         return result
     if kind not in REGISTRY:
         own = [controller_kind(section)] if isinstance(section, Python) else []
-        names = [*REGISTRY, *own, *scenario.controllers]
-        raise ValueError(
-            f"controller.kind = {kind!r}; one of {', '.join(names)} is required "
-            "(or a !Python {file, class} entry for your own controller)"
+        names = list(dict.fromkeys([*REGISTRY, *own, *scenario.controllers]))
+        classes = {
+            name: entry.class_name
+            for name, entry in scenario.controllers.items()
+            if isinstance(entry, Python) and entry.class_name == kind
+        }
+        hint = (
+            f"; {kind} is the class of the named entr{'y' if len(classes) == 1 else 'ies'} "
+            f"{', '.join(classes)}: choose one by its name"
+            if classes
+            else " (or a !Python {file, class} entry for your own controller)"
         )
+        raise ValueError(f"controller.kind = {kind!r}; one of {', '.join(names)} is required{hint}")
     entry = REGISTRY[kind].settings()
     shared = {f.name for f in fields(entry)} & {f.name for f in fields(section)}
     for name in shared:
         setattr(entry, name, copy.deepcopy(getattr(section, name)))
+    fill = getattr(entry, "with_arm_defaults", None)
+    if scenario.arm_defaults is not None and fill is not None:
+        entry = fill(scenario.arm_defaults)
     result.controller = entry
     return result
 

@@ -22,8 +22,81 @@ VOLTAGE_LIMIT = 24.0
 #: tracks gets near it, and a runaway is stopped before it costs much time.
 DIVERGENCE_BOUND = 1.0
 
+#: Default bound (rad) on a joint's RMS tracking error over the second half of a run
+#: above which a run that finished counts as ``lost`` (``analysis.metrics.run_verdict``):
+#: about 14 deg, a quarter of ``DIVERGENCE_BOUND`` and twice the largest such error of
+#: any registered controller on a shipped scenario (PD + gravity's 0.117 rad, joint 2
+#: of the paper's payload case, a baseline that trails its path): an arm that far from
+#: its path on average, once the start-up transient is over, does not track it.
+LOST_BOUND = 0.25
+
+#: Default share of the second half's control samples with a commanded voltage beyond
+#: the limit above which a run that finished counts as ``saturated``
+#: (``analysis.metrics.run_verdict``): saturated most of the time, the loop no longer
+#: acts on the error it sees. No designed shipped scenario's run saturates at all; the
+#: untuned, labelled ``three_link_nominal.yaml``'s paper controller does, 65 % of the time.
+SATURATED_SHARE = 0.5
+
 #: The paper's run: 20 s (Sec. 4.2).
 DURATION = 20.0
+
+#: Most control samples one run may take (``timing.duration / timing.sample_time``),
+#: refused before any work beyond it: a run costs about 0.14 ms of wall time per
+#: sample (the paper's controller at 1 kHz on the project's 2-core machine: 20 s,
+#: 20000 samples, 2.8 s), so a million samples is minutes per run and a study
+#: multiplies that; the paper's run is 2000 samples, 20 s at 50 kHz is a million.
+MAX_RUN_SAMPLES = 1_000_000
+
+
+def require_run_samples(samples: float, where: str) -> None:
+    """Refuse ``samples`` (a run's ``duration / sample_time``) above ``MAX_RUN_SAMPLES``;
+    ``where`` names the settings (``timing.duration / timing.sample_time``)."""
+    if samples > MAX_RUN_SAMPLES:
+        raise ValueError(
+            f"{where} = {samples:.4g} control samples; at most {MAX_RUN_SAMPLES:,} per run "
+            "are allowed (a shorter duration or a longer sample time)"
+        )
+
+
+#: Fewest counts per revolution a quantising encoder may have (0, the ideal encoder,
+#: aside): one count ``2 pi / N`` must be at most a quarter turn
+#: (``models.design.initial.QUARTER_TURN``, the largest excursion ``scenario init`` gives
+#: a joint), or a joint's whole motion fits inside one count and the encoder reads none
+#: of it (``tests/test_arm_defaults.py`` pins the arithmetic; written out here so that
+#: loading a scenario does not import the rules' optimiser).
+MIN_ENCODER_COUNTS = 4
+
+#: Fewest bits a DAC may have (0, the ideal DAC, aside): one step ``2 / 2^b`` of the
+#: voltage limit must be at most ``models.design.initial.QUANTISATION_FRACTION`` (5 %),
+#: the share of the limit that ``scenario init``'s PID rule lets one encoder count move
+#: the voltage by: 3.1 % at 6 bits, 6.3 % at 5. A coarser DAC commands steps as large as
+#: the corrections themselves (at 1 bit its levels are -limit and 0: the arm is pushed
+#: one way only).
+MIN_DAC_BITS = 6
+
+
+def require_encoder_resolution(counts: list[int]) -> None:
+    """Refuse ``sensor.encoder_counts`` entries from 1 to ``MIN_ENCODER_COUNTS - 1`` (0 is
+    the ideal encoder, documented as such)."""
+    for j, value in enumerate(counts):
+        if 0 < value < MIN_ENCODER_COUNTS:
+            raise ValueError(
+                f"sensor.encoder_counts[{j}] = {value}; 0 (ideal) or at least "
+                f"{MIN_ENCODER_COUNTS} counts per revolution is required (one count must be "
+                "at most a quarter turn, or the encoder reads none of the motion)"
+            )
+
+
+def require_dac_resolution(bits: int) -> None:
+    """Refuse ``actuator.dac_bits`` from 1 to ``MIN_DAC_BITS - 1`` (0 is the ideal DAC)."""
+    if 0 < bits < MIN_DAC_BITS:
+        from posfb.models.design.initial import QUANTISATION_FRACTION  # its optimiser on use
+
+        raise ValueError(
+            f"actuator.dac_bits = {bits}; 0 (ideal) or at least {MIN_DAC_BITS} bits is required "
+            f"(one step must be at most {QUANTISATION_FRACTION:.0%} of the voltage limit, or "
+            "the DAC commands steps as large as the corrections)"
+        )
 
 
 def default_simulator() -> SimulatorConfig:
@@ -37,11 +110,16 @@ def default_simulator() -> SimulatorConfig:
 class Timing:
     """Sample time ``T_s`` (s) of the controller and the sensor, simulated ``duration``
     (s, a whole number of periods), the ``|q~|`` (rad) beyond which a run is stopped
-    as diverged, and Drake's integrator settings."""
+    as diverged, the verdict's bounds on a run that finished (``lost_bound``: a
+    joint's RMS ``|q~|`` (rad) over the run's second half; ``saturated_share``: the
+    share of the second half's samples with a commanded voltage beyond the limit;
+    ``analysis.metrics.run_verdict``), and Drake's integrator settings."""
 
     sample_time: float = field(default_factory=default_of(ControllerConfig, "sample_time"))
     duration: float = DURATION
     divergence_bound: float = DIVERGENCE_BOUND
+    lost_bound: float = LOST_BOUND
+    saturated_share: float = SATURATED_SHARE
     simulator: SimulatorConfig = field(default_factory=default_simulator)
 
     def __eq__(self, other: object) -> bool:
@@ -51,14 +129,16 @@ class Timing:
 
         def values(timing: Timing) -> tuple:
             simulator = tuple(getattr(timing.simulator, f.name) for f in SimulatorConfig.__fields__)
-            return timing.sample_time, timing.duration, timing.divergence_bound, simulator
+            bounds = timing.divergence_bound, timing.lost_bound, timing.saturated_share
+            return timing.sample_time, timing.duration, bounds, simulator
 
         return values(self) == values(other)
 
 
 @dataclass
 class Sensor:
-    """Joint encoders: counts per revolution (0: ideal), zero offset (rad), additive
+    """Joint encoders: counts per revolution (0: ideal, otherwise at least
+    ``MIN_ENCODER_COUNTS``), zero offset (rad), additive
     Gaussian noise (rad, from ``noise_seed``), a delay of whole samples, and where each
     encoder sits: ``link`` (reads the joint angle ``q``) or ``motor`` (reads the motor
     shaft ``theta_m`` at the link side, as the paper's arm, Sec. 4.1; needs a compliant
@@ -78,7 +158,8 @@ class Actuator:
     gives the models, their order and sources): armature-voltage saturation (V) per
     joint; the DSP's ``compute_delay`` (s, ``0 <= d <= T_s``: the voltage computed from
     the sample at ``t_k`` applies from ``t_k + d``); the DAC's resolution ``dac_bits``
-    (``2^bits`` levels over ``[-voltage_limit, +voltage_limit]``); the armature's
+    (``2^bits`` levels over ``[-voltage_limit, +voltage_limit]``, at least
+    ``MIN_DAC_BITS``); the armature's
     ``electrical_time_constant`` L/R (s) per joint. A 0 switches an effect off (the
     defaults: no block is added)."""
 

@@ -124,6 +124,10 @@ class LumpedModel:
             ]
         )
 
+    def coriolis(self, q: np.ndarray, qdot: np.ndarray) -> np.ndarray:
+        """The Coriolis/centrifugal voltage ``C*(q, q') q'`` (as ``SerialArmModel``'s)."""
+        return self.C(q, qdot) @ qdot
+
     def G(self, q: np.ndarray) -> np.ndarray:
         """The gravity vector ``G*(q)``."""
         p = self.parameters

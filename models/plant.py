@@ -70,7 +70,7 @@ from posfb.models.drive import (
 from posfb.models.friction import DEFAULT_LAW, check_law
 from posfb.models.gear import GearBlock, GearConfig, add_gear
 from posfb.models.serial_model import SerialArmModel
-from posfb.models.urdf_check import SerialChain, check_serial_urdf
+from posfb.models.urdf_check import SerialChain, add_urdf_models, check_serial_urdf
 from posfb.models.validation import require_finite, require_nonnegative, require_positive
 
 #: The arm shipped with posfb.
@@ -279,7 +279,7 @@ class Arm:
 
 def _load_urdf(plant: MultibodyPlant, urdf: Path, chain: SerialChain) -> None:
     try:
-        Parser(plant).AddModels(str(urdf))
+        add_urdf_models(Parser(plant), urdf)
     except RuntimeError as error:
         first_line = str(error).strip().splitlines()[0]
         raise ValueError(f"URDF {urdf} could not be parsed: {first_line}") from None

@@ -126,7 +126,14 @@ def _sobol_angles(joints: int, samples: int, seed: int) -> np.ndarray:
     return 2.0 * np.pi * sobol.random(samples)
 
 
-def model_norms(model: SerialArmModel, samples: int = 64, seed: int = 0) -> dict[str, float]:
+#: Workspace points and seed of the nominal norms' search (``model_norms``).
+MODEL_NORM_SAMPLES = 64
+MODEL_NORM_SEED = 0
+
+
+def model_norms(
+    model: SerialArmModel, samples: int = MODEL_NORM_SAMPLES, seed: int = MODEL_NORM_SEED
+) -> dict[str, float]:
     """The nominal norms the design's bounds scale (``models.design.bounds``):
     ``max_q ||M1*(q)||``, ``k_C1 = max_q max_{|x| = 1} ||C*(q, x)||`` and
     ``max_q ||G*(q)||`` (named ``delta_M1``, ``delta_C``, ``delta_G``), by the same

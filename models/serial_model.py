@@ -42,7 +42,7 @@ from pydrake.multibody.parsing import Parser
 from pydrake.multibody.plant import MultibodyPlant
 from pydrake.systems.framework import Context
 
-from posfb.models.urdf_check import check_serial_urdf
+from posfb.models.urdf_check import add_urdf_models, check_serial_urdf
 
 #: Angles per joint of the grid that averages ``M*(q)`` into ``M0*`` (module docstring).
 MEAN_GRID = 4
@@ -59,7 +59,7 @@ class SerialArmModel:
     def __init__(self, urdf: str | Path) -> None:
         chain = check_serial_urdf(Path(urdf))
         plant = MultibodyPlant(time_step=0.0)
-        Parser(plant).AddModels(str(urdf))
+        add_urdf_models(Parser(plant), Path(urdf))
         plant.WeldFrames(plant.world_frame(), plant.GetFrameByName(chain.base), RigidTransform())
         plant.Finalize()
         self._setup(

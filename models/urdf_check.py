@@ -40,6 +40,13 @@ What is checked is what the planar two-link model of Sec. 4.1
   lie on their link's line (no in-plane offset, ``z = 0`` in the link frame);
   link 2 has a moment of inertia about joint 2 (theta7 > 0).
 
+A serial arm of any joint count (``check_serial_urdf``) gets every check above that
+is not about the planar two-link model: the file, the tree, the motor stages, the
+masses and inertias, nonzero axes and some inertia about each joint's axis.
+
+Drake then parses the file (``add_urdf_models``): each warning its parser logs is
+shown once per process, as one line.
+
 Allowed on purpose, because the model represents them: an arm in any
 vertical plane (a yaw of joint 1's origin), either sign of ``(+-l1, 0, 0)``
 and of the axes as long as positive q1 raises link 1, offsets along the joint
@@ -51,15 +58,28 @@ needs after Drake parses the file).
 
 from __future__ import annotations
 
+import logging
 import math
 import xml.etree.ElementTree as ET
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
-#: XML namespace of posfb's own URDF elements (motor constants, Coulomb levels).
-POSFB_NS = "https://posfb.example/urdf"
+if TYPE_CHECKING:
+    from pydrake.multibody.parsing import Parser
+
+#: XML namespace of posfb's own URDF elements (motor constants, Coulomb levels): a URN,
+#: a fixed identifier that nothing resolves (XML compares it character by character).
+POSFB_NS = "urn:posfb:urdf"
+
+#: The namespace of posfb's URDF elements before ``POSFB_NS``, a placeholder web address;
+#: still read, so that files written with it keep loading.
+EARLIER_POSFB_NS = "https://posfb.example/urdf"
+
+#: Every namespace posfb reads its elements in, the documented one first.
+POSFB_NAMESPACES = (POSFB_NS, EARLIER_POSFB_NS)
 
 #: XML namespace of Drake's URDF extensions.
 DRAKE_NS = "http://drake.mit.edu"
@@ -132,13 +152,52 @@ def check_arm_urdf(path: str | Path, payload_link: str | None = None) -> None:
         arm = _parse_arm(robot)
         for joint in (arm.shoulder, arm.elbow):
             _check_drive(robot, joint)
-        bodies = _bodies(arm)
+        bodies = _bodies(
+            arm.links, arm.parent_joint, arm.poses, (arm.shoulder.child, arm.elbow.child)
+        )
         _check_axes(arm)
         _check_geometry(arm, bodies)
         if payload_link in arm.links:
             _check_payload(arm, payload_link)
     except ValueError as error:
         raise ValueError(f"URDF {path}: {error}") from None
+
+
+#: Drake's parser warnings already shown in this process (``add_urdf_models``).
+_SHOWN_WARNINGS: set[str] = set()
+
+
+class _HeldWarnings(logging.Filter):
+    """Holds back the warnings logged on Drake's logger while it is attached (all but
+    those ``add_urdf_models`` shows)."""
+
+    def __init__(self) -> None:
+        super().__init__()
+        self.records: list[logging.LogRecord] = []
+
+    def filter(self, record: logging.LogRecord) -> bool:
+        if record.levelno != logging.WARNING or getattr(record, "posfb_shown", False):
+            return True
+        self.records.append(record)
+        return False
+
+
+def add_urdf_models(parser: Parser, path: Path) -> None:
+    """``parser.AddModels(path)``, each warning Drake's parser logs shown once per process
+    and as one line on Drake's logger: Drake writes some on several lines, and posfb
+    parses one file several times (the plant, the nominal model, each sample)."""
+    logger = logging.getLogger("drake")
+    held = _HeldWarnings()
+    logger.addFilter(held)
+    try:
+        parser.AddModels(str(path))
+    finally:
+        logger.removeFilter(held)
+        for record in held.records:
+            line = " ".join(record.getMessage().split())
+            if line not in _SHOWN_WARNINGS:
+                _SHOWN_WARNINGS.add(line)
+                logger.warning("%s", line, extra={"posfb_shown": True})
 
 
 def _read_robot(path: Path) -> ET.Element:
@@ -389,12 +448,32 @@ def _actuator(robot: ET.Element, joint: str) -> ET.Element | None:
     return None
 
 
+def _posfb_element(parent: ET.Element, tag: str, label: str) -> ET.Element | None:
+    """``parent``'s ``<posfb:tag>`` in one of ``POSFB_NAMESPACES`` (``None`` if it has
+    none); a ``<tag>`` child in another XML namespace, or in none, is refused naming the
+    namespace posfb reads."""
+    for namespace in POSFB_NAMESPACES:
+        element = parent.find(f"{{{namespace}}}{tag}")
+        if element is not None:
+            return element
+    for child in parent:
+        namespace, _, local = child.tag.rpartition("}")
+        if local == tag:
+            where = f"namespace {namespace[1:]}" if namespace else "no namespace"
+            raise ValueError(
+                f"{label} posfb:{tag} = (missing): its <{tag}> is in {where}; posfb reads "
+                f'it in the namespace {POSFB_NS} (declare xmlns:posfb="{POSFB_NS}" on '
+                f"<robot> and write <posfb:{tag}>)"
+            )
+    return None
+
+
 def _check_drive(robot: ET.Element, joint: _Joint) -> tuple[float, float]:
     """Coulomb level, damping and the actuator's motor constant, rotor inertia
     and gear ratio of one arm joint; returns its Coulomb level (N m) and motor
     constant (N m/V)."""
     label = f"joint {joint.name!r}"
-    element = joint.element.find(f"{{{POSFB_NS}}}coulomb_friction")
+    element = _posfb_element(joint.element, "coulomb_friction", label)
     coulomb = _scalar(_value(element), f"{label} posfb:coulomb_friction value", False, "N m")
     dynamics = joint.element.find("dynamics")
     if dynamics is not None and "damping" in dynamics.attrib:
@@ -406,7 +485,7 @@ def _check_drive(robot: ET.Element, joint: _Joint) -> tuple[float, float]:
             "<actuator> carries posfb:motor_constant is required"
         )
     name = f"actuator {actuator.get('name')!r}"
-    motor = actuator.find(f"{{{POSFB_NS}}}motor_constant")
+    motor = _posfb_element(actuator, "motor_constant", name)
     motor_constant = _scalar(_value(motor), f"{name} posfb:motor_constant value", True, "N m/V")
     for tag, positive, unit in (
         ("rotor_inertia", False, "kg m^2"),
@@ -421,12 +500,17 @@ def _check_drive(robot: ET.Element, joint: _Joint) -> tuple[float, float]:
 # --- masses and inertias ------------------------------------------------------
 
 
-def _bodies(arm: _Arm) -> list[_Body]:
-    """Every link with an ``<inertial>``, in the frame of the link that moves it;
-    the two arm links must have one with mass > 0."""
-    moving = (arm.shoulder.child, arm.elbow.child)
+def _bodies(
+    links: dict[str, ET.Element],
+    parent_joint: dict[str, _Joint],
+    poses: dict[str, tuple[np.ndarray, np.ndarray]],
+    moving: tuple[str, ...] = (),
+) -> list[_Body]:
+    """Every link with an ``<inertial>`` (finite mass >= 0, a physically valid inertia),
+    in the frame of the link that moves it; each of the ``moving`` links must have one
+    with mass > 0."""
     bodies = []
-    for name, element in arm.links.items():
+    for name, element in links.items():
         inertial = element.find("inertial")
         if inertial is None:
             if name in moving:
@@ -441,8 +525,8 @@ def _bodies(arm: _Arm) -> list[_Body]:
         com = _triple(origin, "xyz", "0 0 0", f"{label} inertial origin xyz")
         rotation = _rotation(_triple(origin, "rpy", "0 0 0", f"{label} inertial origin rpy"))
         inertia = rotation @ _inertia(label, inertial.find("inertia")) @ rotation.T
-        carrier = _carrier(name, arm.parent_joint)
-        to_carrier, offset = _relative_pose(arm, carrier, name)
+        carrier = _carrier(name, parent_joint)
+        to_carrier, offset = _relative_pose(poses, carrier, name)
         bodies.append(
             _Body(
                 link=name,
@@ -477,10 +561,12 @@ def _inertia(label: str, element: ET.Element | None) -> np.ndarray:
     return matrix
 
 
-def _relative_pose(arm: _Arm, frame: str, link: str) -> tuple[np.ndarray, np.ndarray]:
+def _relative_pose(
+    poses: dict[str, tuple[np.ndarray, np.ndarray]], frame: str, link: str
+) -> tuple[np.ndarray, np.ndarray]:
     """Rotation and origin of ``link``'s frame expressed in ``frame``'s, at ``q = 0``."""
-    frame_rotation, frame_position = arm.poses[frame]
-    rotation, position = arm.poses[link]
+    frame_rotation, frame_position = poses[frame]
+    rotation, position = poses[link]
     return frame_rotation.T @ rotation, frame_rotation.T @ (position - frame_position)
 
 
@@ -585,7 +671,7 @@ def _check_payload(arm: _Arm, payload: str) -> None:
             f"link {payload!r} moves with {carrier!r}; welded to {link2!r} is required: the "
             "tip payload rides on link 2"
         )
-    _, origin = _relative_pose(arm, link2, payload)
+    _, origin = _relative_pose(arm.poses, link2, payload)
     _check_on_line(f"link {payload!r} origin", origin, link2, float(np.linalg.norm(arm.elbow.xyz)))
 
 
@@ -632,15 +718,22 @@ def check_serial_urdf(path: str | Path) -> SerialChain:
     with ``posfb:motor_constant``; ``drake:rotor_inertia``, ``drake:gear_ratio`` and
     ``<dynamics damping>`` where given are checked as for the two-link arm) and the
     link it moves must have mass (a massless link makes the mass matrix singular).
+    What the two-link check makes of any arm is made here too: every ``<inertial>``'s
+    mass finite and >= 0 and its rotational inertia physically valid (principal moments
+    >= 0, each at most the sum of the other two: the triangle inequality), every arm
+    joint's axis nonzero, and each arm joint moving some inertia about its axis (the
+    two-link arm's theta7 > 0: the diagonal of the mass matrix without rotor inertia).
     Raises as ``check_arm_urdf``: one line naming the element."""
     path = Path(path)
     robot = _read_robot(path)
     try:
         links, joints, root, parent_joint = _read_tree(robot, SERIAL_JOINTS)
-        _world_poses(root, links, parent_joint)  # refuses loops
+        poses = _world_poses(root, links, parent_joint)  # refuses loops
         chain = _serial_chain(root, joints, parent_joint)
         drives = [_check_drive(robot, joint) for joint in chain]
+        bodies = _bodies(links, parent_joint, poses)
         _check_moving_masses(links, chain, parent_joint)
+        _check_joint_inertias(robot, chain, bodies, parent_joint, poses)
     except ValueError as error:
         raise ValueError(f"URDF {path}: {error}") from None
     coulomb, motor_constant = zip(*drives, strict=True)
@@ -698,4 +791,53 @@ def _check_moving_masses(
             raise ValueError(
                 f"link {joint.child!r} mass = {total:g} (with what is welded to it); a total "
                 f"> 0 (kg) is required for the link joint {joint.name!r} moves"
+            )
+
+
+def _outboard(link: str, joint: _Joint, parent_joint: dict[str, _Joint]) -> bool:
+    """Whether ``link`` moves with ``joint``: it is the joint's child or hangs from it."""
+    while link in parent_joint:
+        if parent_joint[link] is joint:
+            return True
+        link = parent_joint[link].parent
+    return False
+
+
+def _reflected_rotor_inertia(robot: ET.Element, joint: _Joint) -> float:
+    """``drake:rotor_inertia * drake:gear_ratio^2`` of the joint's actuator (kg m^2; 0
+    without a rotor inertia), as Drake adds it to the mass matrix; both checked already."""
+    actuator = _actuator(robot, joint.name)
+    rotor = _value(actuator.find(f"{{{DRAKE_NS}}}rotor_inertia"))
+    ratio = _value(actuator.find(f"{{{DRAKE_NS}}}gear_ratio"))
+    return (0.0 if rotor is None else float(rotor)) * (1.0 if ratio is None else float(ratio)) ** 2
+
+
+def _check_joint_inertias(
+    robot: ET.Element,
+    chain: list[_Joint],
+    bodies: list[_Body],
+    parent_joint: dict[str, _Joint],
+    poses: dict[str, tuple[np.ndarray, np.ndarray]],
+) -> None:
+    """Each arm joint moves a moment of inertia > 0 about its own axis at ``q = 0``: the
+    bodies outboard of it and its reflected rotor inertia, as ``_check_link2_inertia``
+    asks of the two-link arm's joint 2. That moment is the joint's diagonal entry of
+    ``M(q)``: at 0 the mass matrix is singular."""
+    for joint in chain:
+        rotation, origin = poses[joint.child]
+        axis = rotation @ _unit_axis(joint)
+        moment = _reflected_rotor_inertia(robot, joint)
+        for body in bodies:
+            if not _outboard(body.link, joint, parent_joint):
+                continue
+            carrier_rotation, carrier_origin = poses[_carrier(body.link, parent_joint)]
+            offset = carrier_origin + carrier_rotation @ body.com - origin
+            radial = offset - (offset @ axis) * axis
+            inertia = carrier_rotation @ body.inertia @ carrier_rotation.T
+            moment += float(axis @ inertia @ axis) + body.mass * float(radial @ radial)
+        if moment <= 0.0:
+            raise ValueError(
+                f"joint {joint.name!r} moment of inertia about its axis at q = 0 (the links it "
+                f"moves and its reflected rotor inertia) = {moment:g} kg m^2; > 0 is required: "
+                "the mass matrix is singular when a joint moves only point masses on its axis"
             )

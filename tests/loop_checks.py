@@ -2,7 +2,9 @@
 
 from __future__ import annotations
 
-from posfb.diagrams.closed_loop import ClosedLoop
+import numpy as np
+
+from posfb.diagrams.closed_loop import ClosedLoop, ClosedLoopResult
 from posfb.diagrams.graph import edges, reachable
 
 
@@ -38,3 +40,11 @@ def assert_position_only(loop: ClosedLoop, location: str = "link") -> None:
     assert controller in reachable(graph, plant)
     assert controller not in reachable(graph, plant, blocked=frozenset({encoder}))
     assert not [e for e in graph if e.target == "desired_trajectory"]
+
+
+def residual_oscillation(result: ClosedLoopResult, window: float = 0.5) -> float:
+    """The largest peak-to-peak swing of ``q~`` (rad, over the joints) in the run's last
+    ``window`` seconds: about 0 where a stable loop has settled after its excitation, the
+    amplitude of the growing (then saturated) oscillation where the loop is unstable."""
+    last = result.times >= result.times[-1] - window
+    return float(np.max(np.ptp(result.q_error[last], axis=0)))

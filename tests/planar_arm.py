@@ -52,7 +52,7 @@ def planar_arm_text(links: int, limits: Limits | Sequence[Limits] = None,
         '<?xml version="1.0"?>',
         f"<!-- A generated {links}-link planar arm (tests/planar_arm.py). -->",
         f'<robot name="{name}" xmlns:drake="http://drake.mit.edu" '
-        'xmlns:posfb="https://posfb.example/urdf">',
+        'xmlns:posfb="urn:posfb:urdf">',
         '  <link name="base"/>',
     ]
     for i in range(links):

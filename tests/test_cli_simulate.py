@@ -10,7 +10,8 @@ import xml.etree.ElementTree as ET
 
 import pytest
 
-from posfb.analysis.cli import main
+from posfb.analysis.cli import EXIT_BAD_INPUT, EXIT_INTERNAL_ERROR, main
+from posfb.analysis.errors import EXIT_DIVERGED, EXIT_NOT_TRACKED, run_exit_code
 from posfb.diagrams import graph
 
 CLI = [sys.executable, "-m", "posfb.analysis.cli"]
@@ -29,6 +30,8 @@ def test_simulate_json_has_the_documented_keys():
     assert {"rms_q", "rms_u", "max_abs_q_err", "saturated_fraction", "wall_time_s"} <= set(data)
     assert len(data["rms_q"]) == len(data["rms_u"]) == 2
     assert data["status"] == "ok" and data["scenario"] == "payload"
+    # The measured error under the store's and compare's spelling, and its earlier name.
+    assert len(data["rms_measured_q"]) == 2 and data["rms_q_measured"] == data["rms_measured_q"]
 
 
 def test_simulate_prints_a_summary(capsys):
@@ -105,6 +108,46 @@ def test_a_diverged_run_exits_4_and_still_prints_its_metrics(capsys):
                  "--set", "timing.divergence_bound=1e-9"])  # fmt: skip
     assert code == 4
     assert json.loads(capsys.readouterr().out)["status"] == "diverged"
+
+
+def _run_warnings(stderr: str) -> list[str]:
+    """The warning lines about a run's verdict (``saturated``, ``lost``) on stderr."""
+    return [line for line in stderr.splitlines() if ": warning: the " in line and " run " in line]
+
+
+def test_a_collapsed_arm_is_lost_with_one_warning_line_and_exit_5(weak_shoulder):
+    # Issue 27, item 5: under the divergence bound all along, yet far from its path.
+    result = _run("simulate", "--duration", "4", "--json", "--set", weak_shoulder)
+    assert result.returncode == EXIT_NOT_TRACKED, result.stderr
+    data = json.loads(result.stdout)
+    assert data["status"] == "lost" and data["max_abs_q_err"] < 1.0  # the divergence bound
+    assert "timing.lost_bound" in data["message"]
+    (warning,) = _run_warnings(result.stderr)
+    assert warning.startswith("posfb simulate: warning: ") and "lost its path" in warning
+
+
+def test_a_nominal_run_stays_ok_with_no_verdict_warning():
+    result = _run("simulate", "--controller", "lin_lc", "--duration", "4", "--json")
+    assert result.returncode == 0, result.stderr
+    assert json.loads(result.stdout)["status"] == "ok"
+    assert _run_warnings(result.stderr) == []
+
+
+def test_compare_warns_about_the_lost_run_and_exits_with_the_worst_runs_code(weak_shoulder):
+    result = _run("compare", "--controllers", "lin_lc,pid", "--duration", "4", "--json",
+                  "--set", weak_shoulder)  # fmt: skip
+    statuses = {kind: run["status"] for kind, run in json.loads(result.stdout).items()}
+    assert statuses == {"lin_lc": "lost", "pid": "diverged"}
+    assert result.returncode == EXIT_DIVERGED  # the worse of the two
+    (warning,) = _run_warnings(result.stderr)
+    assert warning.startswith("posfb compare: warning: the Lin + LC run lost its path")
+
+
+def test_the_exit_code_of_runs_is_the_worst_runs():
+    assert run_exit_code(["ok", "ok"]) == 0
+    assert run_exit_code(["ok", "saturated"]) == run_exit_code(["lost"]) == EXIT_NOT_TRACKED
+    assert run_exit_code(["saturated", "diverged", "ok"]) == EXIT_DIVERGED
+    assert len({0, EXIT_DIVERGED, EXIT_NOT_TRACKED, EXIT_BAD_INPUT, EXIT_INTERNAL_ERROR}) == 5
 
 
 def test_the_filter_a_that_a_refusal_suggests_runs(capsys):

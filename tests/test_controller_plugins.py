@@ -5,54 +5,24 @@ gravity, ``models.controllers.pd_gravity``; linear ADRC, ``models.controllers.ad
 from __future__ import annotations
 
 import math
-import textwrap
+from collections.abc import Callable
+from pathlib import Path
 
 import numpy as np
 import pytest
 from loop_checks import assert_position_only
+from plugin_helpers import P_GRAVITY, write_plugin
+from pydrake.multibody.tree import MultibodyForces
 
 import posfb
 from posfb.analysis.cli import main
 from posfb.models.controllers import ControllerSetup, PluginError
 from posfb.models.controllers.adrc import AdrcController
 from posfb.models.controllers.plugin import NominalDynamics
+from posfb.models.identify import identify_urdf
 from posfb.models.lumped import TABLE1, LumpedModel
-
-#: A user's controller, written against the public contract only.
-P_GRAVITY = '''
-import numpy as np
-import posfb
-
-class PGravity(posfb.Controller):
-    memory_size = 1
-
-    def __init__(self, setup, Kp=20.0):
-        super().__init__(setup)
-        self.Kp = np.broadcast_to(np.asarray(Kp, dtype=float), (setup.joints,))
-        self.internals = tuple(f"gravity_{j + 1}_V" for j in range(setup.joints)) + ("k_count",)
-
-    def start(self, q, desired):
-        return np.zeros(1)
-
-    def step(self, q, desired, memory):
-        memory[0] += 1.0
-        gravity = self.setup.nominal.gravity(q)
-        return self.Kp * (desired[: self.setup.joints] - q) + gravity, [*gravity, memory[0]]
-'''
-
-
-def write_plugin(
-    folder, body: str = P_GRAVITY, name: str = "my_controller.py",
-    class_name: str = "PGravity", settings: str = "{Kp: [300, 200]}",
-) -> str:  # fmt: skip
-    """A plug-in file and a scenario that names it; returns the scenario's path."""
-    (folder / name).write_text(textwrap.dedent(body))
-    scenario = folder / "scenario.yaml"
-    scenario.write_text(
-        f"controller: !Python\n  file: {name}\n  class: {class_name}\n  settings: {settings}\n"
-        "timing: {duration: 1.0}\n"
-    )
-    return str(scenario)
+from posfb.models.nominal import UrdfNominal, nominal_model
+from posfb.models.plant import DEFAULT_URDF, PlantConfig, build_arm_diagram
 
 
 def test_a_user_controller_file_runs_in_simulate_and_compare(tmp_path, capsys):
@@ -135,6 +105,60 @@ def test_switching_kinds_keeps_or_replaces_the_controller_entry(tmp_path):
     assert flat.get("controller.filter_ratio") == 5.0
     with pytest.raises(ValueError, match="controller.kind: the controller section is now one"):
         posfb.load_scenario({"controller": {"kind": "adrc"}})
+
+
+# --- the nominal model a plug-in sees -------------------------------------------------
+
+
+def _plant_terms(urdf: Path) -> tuple[int, Callable[..., tuple[np.ndarray, ...]]]:
+    """The joint count and Eq. 2's terms (V) at ``(q, v, a)`` of the plant ``models.plant``
+    builds from ``urdf``, from Drake's own dynamics and the plant's parameters:
+    ``(M a + C v + G, B v, F(v))``, each joint's row divided by its motor constant."""
+    _, arm, root = build_arm_diagram(PlantConfig(urdf=str(urdf)))
+    plant = arm.plant
+    context = plant.GetMyContextFromRoot(root)
+    parameters = arm.default_parameters
+    kappa = np.asarray(parameters.motor_constant)
+
+    def terms(q: np.ndarray, v: np.ndarray, a: np.ndarray) -> tuple[np.ndarray, ...]:
+        plant.SetPositions(context, q)
+        plant.SetVelocities(context, v)
+        rigid = plant.CalcInverseDynamics(context, a, MultibodyForces(plant))
+        rigid = rigid - plant.CalcGravityGeneralizedForces(context)
+        viscous = np.asarray(parameters.damping) * v
+        coulomb = np.asarray(parameters.coulomb) * np.sign(v)
+        return rigid / kappa, viscous / kappa, coulomb / kappa
+
+    return plant.num_positions(), terms
+
+
+@pytest.mark.parametrize(
+    ("urdf", "form"),
+    [("two_link_arm.urdf", "table1"), ("two_link_arm.urdf", "urdf"),
+     ("three_link_arm.urdf", "urdf")],
+)  # fmt: skip
+def test_each_term_of_the_nominal_model_is_the_plants_own(urdf, form):
+    path = DEFAULT_URDF.parent / urdf
+    # Table 1's closed form with the plant's identified theta, or Drake's URDF model.
+    if form == "table1":
+        nominal = NominalDynamics(LumpedModel(identify_urdf(str(path))))
+    else:
+        nominal = NominalDynamics(nominal_model(UrdfNominal(str(path))))
+    n, plant_terms = _plant_terms(path)
+    rng = np.random.default_rng(4)
+    for _ in range(5):
+        q, v, a = rng.uniform(-np.pi, np.pi, n), rng.uniform(-3, 3, n), rng.uniform(-9, 9, n)
+        rigid, viscous, coulomb = plant_terms(q, v, a)
+        scale = np.abs(rigid).max()
+        np.testing.assert_allclose(nominal.rigid_body(q, v, a), rigid, atol=1e-9 * scale)
+        np.testing.assert_allclose(nominal.viscous_friction(v), viscous, rtol=1e-12)
+        np.testing.assert_allclose(nominal.coulomb_friction(v), coulomb, rtol=1e-12)
+        # The documented sum: Coulomb friction included.
+        np.testing.assert_allclose(
+            nominal.inverse_dynamics(q, v, a), rigid + viscous + coulomb, atol=1e-9 * scale
+        )
+    # Coulomb friction is 0 for a joint at rest (sgn 0 = 0).
+    np.testing.assert_array_equal(nominal.coulomb_friction(np.zeros(n)), 0.0)
 
 
 # --- the baselines -----------------------------------------------------------------

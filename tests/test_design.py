@@ -6,6 +6,7 @@ import math
 
 import numpy as np
 import pytest
+import scipy.linalg
 import scipy.signal
 from pydrake.systems.controllers import LinearQuadraticRegulator
 
@@ -239,3 +240,44 @@ def test_paper_settings_at_100_and_200_hz(paper):
     assert at_200hz.sampled_data_spectral_radius < 1.0
     assert [c.name for c in at_200hz.checks if not c.passed] == ["bound_filter"]
     assert "filter_a = 100" in at_200hz.warnings[0]
+
+
+def _care_residual(A: np.ndarray, B: np.ndarray, Q: np.ndarray, R: np.ndarray, P: np.ndarray):
+    """``||A'P + PA - P B R^-1 B' P + Q|| / ||Q||`` (Eq. 15) and the closed loop's slowest
+    pole real part."""
+    K = np.linalg.solve(R, B.T @ P)
+    residual = A.T @ P + P @ A - P @ B @ K + Q
+    return np.abs(residual).max() / np.abs(Q).max(), np.linalg.eigvals(A - B @ K).real.max()
+
+
+def test_fast_weights_are_solved_in_scaled_units() -> None:
+    """``scenario init``'s LQR rule at 5 kHz on the three-link arm (Q from 1e-3 to 1e11)
+    defeats scipy's Schur method as written; ``solve_lqr`` solves the same equation in
+    scaled units: Eq. 15's residual at round-off and a Hurwitz closed loop (issue 27)."""
+    from posfb.models.design.augmented import augmented_system, solve_lqr
+    from posfb.models.design.initial import lqr_weights
+    from posfb.models.plant import DEFAULT_URDF
+    from posfb.models.serial_model import SerialArmModel
+
+    model = SerialArmModel(DEFAULT_URDF.with_name("three_link_arm.urdf"))
+    weights = lqr_weights(model.M0(), 2e-4).lqr()
+    system = augmented_system(model.M0(), model.B(), np.asarray(weights.lambdas))
+    Q, R = weights.Q, np.asarray(weights.R)
+    with pytest.raises((np.linalg.LinAlgError, ValueError)):
+        scipy.linalg.solve_continuous_are(system.A_a, system.B_a1, Q, R)
+    solution = solve_lqr(system, Q, R)
+    residual, slowest = _care_residual(system.A_a, system.B_a1, Q, R, solution.P)
+    assert residual < 1e-10
+    assert slowest < 0.0
+
+
+def test_scaled_units_give_scipys_solution_where_both_solve() -> None:
+    """On the paper's weights the scaled solve equals scipy's own to 1e-9."""
+    from posfb.models.design.augmented import _scaled_care, augmented_system
+
+    config = ControllerConfig()
+    model = LumpedModel(TABLE1)
+    system = augmented_system(model.M0(), model.B(), np.asarray(config.lqr.lambdas))
+    Q, R = config.lqr.Q, np.asarray(config.lqr.R)
+    direct = scipy.linalg.solve_continuous_are(system.A_a, system.B_a1, Q, R)
+    np.testing.assert_allclose(_scaled_care(system.A_a, system.B_a1, Q, R), direct, rtol=1e-9)

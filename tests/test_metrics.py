@@ -7,7 +7,15 @@ import math
 import numpy as np
 import pytest
 
-from posfb.analysis.metrics import RunMetrics, compute_metrics, rms, run_metrics
+from posfb.analysis.metrics import (
+    RunMetrics,
+    Verdict,
+    compute_metrics,
+    judge,
+    rms,
+    run_metrics,
+    run_verdict,
+)
 from posfb.diagrams.resolve import load_scenario, run_scenario
 
 
@@ -79,3 +87,82 @@ def test_a_quantised_encoder_moves_the_measured_rms_by_at_most_half_a_count(coun
     for true, measured in zip(metrics.rms_q, metrics.rms_q_measured, strict=True):
         assert abs(measured - true) <= half_count * (1 + 1e-9)
     assert metrics.rms_q_measured != metrics.rms_q  # the quantisation does show
+
+
+#: The verdict's bounds in the tests below, on a run of ``N0`` samples at a +-24 V limit.
+N0, LIMIT, LOST, SHARE = 100, 24.0, 0.1, 0.5
+
+
+def _logs(joints: int = 2, samples: int = N0) -> tuple[np.ndarray, np.ndarray]:
+    """A run that tracks perfectly and never saturates: (q_error, u_commanded)."""
+    return np.zeros((samples, joints)), np.zeros((samples, joints))
+
+
+def test_a_run_whose_second_half_is_far_from_its_path_is_lost():
+    error, commanded = _logs()
+    error[N0 // 2 :, 1] = 1.01 * LOST  # joint 2, every sample k > N0/2
+    verdict = judge(error, commanded, LIMIT, LOST, SHARE)
+    assert verdict.status == "lost"
+    assert "q~2" in verdict.message and "timing.lost_bound" in verdict.message
+    error[N0 // 2 :, 1] = 0.99 * LOST
+    assert judge(error, commanded, LIMIT, LOST, SHARE).status == "ok"
+
+
+def test_a_start_up_transient_is_not_judged():
+    # Far from the path and at the limit on the whole first half, then on it: ok.
+    error, commanded = _logs()
+    error[: N0 // 2] = 0.9
+    commanded[: N0 // 2] = 2 * LIMIT
+    assert judge(error, commanded, LIMIT, LOST, SHARE) == judge(*_logs(), LIMIT, LOST, SHARE)
+    assert judge(error, commanded, LIMIT, LOST, SHARE).status == "ok"
+
+
+def test_the_second_half_of_an_odd_run_is_its_samples_after_the_middle():
+    # N0 = 5: the second half is k = 3..5 (t > duration / 2); k = 1, 2 are not judged.
+    error, commanded = _logs(samples=5)
+    error[:2] = 0.5
+    assert judge(error, commanded, LIMIT, LOST, SHARE).status == "ok"
+    error[2] = 0.5
+    assert judge(error, commanded, LIMIT, LOST, SHARE).status == "lost"
+
+
+def test_a_run_at_the_limit_most_of_its_second_half_is_saturated():
+    error, commanded = _logs()
+    half = N0 - N0 // 2
+    commanded[N0 // 2 : N0 // 2 + half // 2, 0] = -1.5 * LIMIT  # exactly half: not more
+    assert judge(error, commanded, LIMIT, LOST, SHARE).status == "ok"
+    commanded[N0 // 2 + half // 2, 0] = 1.5 * LIMIT  # one sample more
+    verdict = judge(error, commanded, LIMIT, LOST, SHARE)
+    assert verdict.status == "saturated" and "timing.saturated_share" in verdict.message
+
+
+def test_saturation_is_judged_against_each_joints_own_limit():
+    error, commanded = _logs()
+    commanded[:, 1] = 10.0
+    assert judge(error, commanded, (LIMIT, 5.0), LOST, SHARE).status == "saturated"
+    assert judge(error, commanded, (5.0, LIMIT), LOST, SHARE).status == "ok"
+
+
+def test_a_run_both_lost_and_saturated_is_lost_and_its_message_says_both():
+    error, commanded = _logs()
+    error[:, 0], commanded[:, 0] = 0.5, 2 * LIMIT
+    verdict = judge(error, commanded, LIMIT, LOST, SHARE)
+    assert verdict.status == "lost"
+    assert "timing.lost_bound" in verdict.message and "timing.saturated_share" in verdict.message
+
+
+def test_the_verdict_keeps_the_runners_divergence():
+    result = _run("timing.divergence_bound=1e-9")
+    assert result.status == "diverged"
+    assert run_verdict(result) == Verdict(result.status, result.message)
+
+
+def test_a_weak_shoulder_motor_under_the_divergence_bound_is_lost(weak_shoulder):
+    # Issue 27, item 5: the runner finishes (its error stays under the divergence bound),
+    # the shoulder hangs far from its path; a nominal run stays ok.
+    weak = _run(weak_shoulder, "timing.duration=4")
+    assert weak.status == "ok" and np.abs(weak.q_error).max() < weak.config.divergence_bound
+    second_half = weak.q_error[1:][weak.config.samples // 2 :, 0]
+    assert rms(second_half) > weak.config.timing.lost_bound
+    assert run_verdict(weak).status == "lost"
+    assert run_verdict(_run("timing.duration=4")) == Verdict("ok", "")

@@ -15,7 +15,9 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import pytest
+from planar_arm import planar_arm_text
 
+from posfb.analysis.montecarlo.store import APPLICATION_ID
 from posfb.models.plant import DEFAULT_URDF
 
 CLI = [sys.executable, "-m", "posfb.analysis.cli"]
@@ -36,7 +38,10 @@ STUDY = "seed: 1\nsamples: 2\nduration: 0.5\ncontrollers: [lin_lc]\n"
 PRISMATIC = DEFAULT_URDF.read_text().replace(
     '<joint name="joint2" type="continuous">', '<joint name="joint2" type="prismatic">'
 )
+THREE_LINK_URDF = (DEFAULT_URDF.parent / "three_link_arm.urdf").read_text()
 FILES = {
+    "study.yaml.svg": "<svg/>\n",
+    "study.yaml.html": "<html></html>\n",
     "study.yaml": STUDY,
     "empty.yaml": "",
     "comment.yaml": "# nothing here\n",
@@ -47,23 +52,40 @@ FILES = {
     "bad_draw.yaml": STUDY + "draws:\n  timing.sampel_time: !Deterministic {value: 0.01}\n",
     "old_name.yaml": STUDY + "parameters:\n  payload_mass: !Uniform {low: 0.0, high: 0.5}\n",
     "bad_design.yaml": STUDY + "sampling: lhs\n",
+    "lhs_study.yaml": STUDY + "sampling: latin_hypercube\n",
     "bad_saltelli.yaml": STUDY.replace("samples: 2", "samples: 5")
     + "sampling: saltelli\nparameters:\n  payload_mass: !Uniform {min: 0.0, max: 0.5}\n",
     "bad_csv.csv": "time,q1,q2\n0,0,0\n1,x,0\n2,0,0\n3,0,0\n",
-    "two_columns.csv": "0,0\n1,0\n2,0\n3,0\n",
-    "backwards.csv": "0,0,0\n2,0,0\n1,0,0\n3,0,0\n",
+    "two_columns.csv": "time,q1\n0,0\n1,0\n2,0\n3,0\n",
+    "backwards.csv": "time,q1,q2\n0,0,0\n2,0,0\n1,0,0\n3,0,0\n",
+    "headerless.csv": "0,0,0\n1,0.1,0\n2,0.2,0\n3,0.3,0\n",
+    "renamed.csv": "t,joint1,joint2\n0,0,0\n1,0.1,0\n2,0.2,0\n3,0.3,0\n",
+    "late.csv": "time,q1,q2\n1,0,0\n2,0,0\n3,0,0\n20,0,0\n",
+    "csv5.yaml": "trajectory: !CsvFile {path: headerless.csv}\n",
+    "csv6.yaml": "trajectory: !CsvFile {path: renamed.csv}\n",
+    "csv7.yaml": "trajectory: !CsvFile {path: late.csv}\n",
     "csv.yaml": "trajectory: !CsvFile {path: bad_csv.csv}\n",
     "csv2.yaml": "trajectory: !CsvFile {path: two_columns.csv}\n",
     "csv3.yaml": "trajectory: !CsvFile {path: backwards.csv}\n",
     "csv4.yaml": "trajectory: !CsvFile {path: nowhere.csv}\n",
-    "short.csv": "0,0,0\n1,0.1,0\n2,0.2,0\n3,0.3,0\n",
+    "short.csv": "time,q1,q2\n0,0,0\n1,0.1,0\n2,0.2,0\n3,0.3,0\n",
     "short_csv.yaml": "trajectory: !CsvFile {path: short.csv}\n",
     "flat_adrc.yaml": "controller: {kind: adrc}\n",
     "plugin_missing.yaml": "controller: !Python {file: gone.py, class: Mine}\n",
     "not_a_controller.py": "class Mine:\n    pass\n",
     "plugin_wrong.yaml": "controller: !Python {file: not_a_controller.py, class: Mine}\n",
+    "broadcast.py": "import numpy as np\nimport posfb\n\n\nclass Mine(posfb.Controller):\n"
+    "    def step(self, q, desired, memory):\n        return np.ones(3) + q, ()\n",
+    "plugin_broadcast.yaml": "controller: !Python {file: broadcast.py, class: Mine}\n",
     "one_waypoint.yaml": "trajectory: !Waypoints {times: [0], positions: [[0, 0]]}\n",
     "prismatic.urdf": PRISMATIC,
+    "planar3.urdf": planar_arm_text(3),
+    "triangle3.urdf": THREE_LINK_URDF.replace(
+        'iyy="0.01125" iyz="0" izz="0.01125"', 'iyy="0.01125" iyz="0" izz="0.03"'
+    ),
+    "other_ns3.urdf": THREE_LINK_URDF.replace(
+        'xmlns:posfb="urn:posfb:urdf"', 'xmlns:posfb="https://posfb.org/urdf"'
+    ),
     "a_file": "I am a file, not a folder\n",
     "text.sqlite": "not a database\n",
     "realism_no_source.yaml": "study: {duration: 0.5, controllers: [lin_lc]}\neffects:\n"
@@ -103,10 +125,27 @@ CASES = {
         "plant.motor_friction_blocks = 'fast'; one of symbolic, perceptron",
     ),
     "zero voltage": Case(("simulate", "--set", "actuator.voltage_limit=0"), "voltage_limit"),
+    "zero lost bound": Case(("simulate", "--set", "timing.lost_bound=0"), "timing.lost_bound = 0"),
+    "saturated share above 1": Case(
+        ("simulate", "--set", "timing.saturated_share=1.5"),
+        "timing.saturated_share = 1.5; a share in [0, 1] is required",
+    ),
     "unknown controller": Case(("simulate", "--set", "controller.kind=lqr"), "controller.kind"),
     "negative delay": Case(("simulate", "--set", "sensor.delay_samples=-1"), "delay_samples"),
     "fractional counts": Case(("simulate", "--set", "sensor.encoder_counts=2.5"), "encoder_cou"),
     "negative noise": Case(("simulate", "--set", "sensor.noise_std=-1"), "noise_std"),
+    "run past the sample ceiling": Case(
+        ("simulate", "--sample-time", "1e-6"), "2e+07 control samples; at most 1,000,000"
+    ),
+    "lag below the integrator's reach": Case(
+        ("simulate", "--set", "actuator.electrical_time_constant=1e-12"),
+        "0 (no lag) or at least 1e-05 s",
+    ),
+    "init past the sample ceiling": Case(
+        ("scenario", "init", "--urdf", str(DEFAULT_URDF), "--out", "{tmp}/fast.yaml",
+         "--sample-time", "1e-7"),
+        "2e+08 control samples",
+    ),  # fmt: skip
     "indefinite Q2": Case(("simulate", "--set", "controller.Q2=[[1,0],[0,-1]]"), "controller.Q2"),
     "unknown integrator": Case(
         ("simulate", "--set", "timing.simulator.integration_scheme=magic"), "integration_scheme"
@@ -117,6 +156,10 @@ CASES = {
     ),
     "bad discretisation": Case(("design", "--set", "controller.discretisation=euler"), "foh"),
     "non-positive alpha*": Case(("design", "--alpha-star", "0"), "controller.alpha_star"),
+    "gear lighter than its motor": Case(
+        ("design", "--set", "plant.gear_stiffness=3000",
+         "--set", "plant.parameters.rotor_inertia=[20.0, 0.001]"), "plant.gear_stiffness"
+    ),  # fmt: skip
     # the stability map (posfb design --map)
     "map unknown key": Case(
         ("design", "--map", "--map-axes", "timing.sample_time", "controller.alpha_sta"),
@@ -136,13 +179,39 @@ CASES = {
     "map range of a refused value": Case(
         ("design", "--map", "--map-range", "0.005", "0.02", "-1", "4"), "alpha_star"
     ),
+    "map range from zero (log grid)": Case(
+        ("design", "--map", "--map-range", "0", "0.02", "1", "4"), "0 < LOW < HIGH"
+    ),
+    "map range without the scenario's value": Case(
+        ("design", "--map", "--map-range", "0.02", "0.04", "1", "4"),
+        "LOW <= 0.01 <= HIGH is required",
+    ),
     "map one point": Case(("design", "--map", "--map-points", "1"), "--map-points 1"),
     "map negative margin": Case(("design", "--map", "--margin", "-0.1"), "--margin"),
     "map study of another arm": Case(
         ("design", "--map", "--study", str(STUDIES / "three_link_uncertainty.yaml")),
         "3-joint arm",
     ),
+    "map study of another arm with the same joints": Case(
+        ("design", "--map", "--scenario", THREE_LINK, "--set", "plant.urdf={tmp}/planar3.urdf",
+         "--study", str(STUDIES / "three_link_uncertainty.yaml")),
+        "planar3.urdf (joint1, joint2, joint3",
+    ),  # fmt: skip
+    "map marks another arm's design": Case(
+        ("design", "--map", "--mark", str(SCENARIOS / "six_joint_tuned.yaml")),
+        "a design of the scenario's arm is required",
+    ),
+    "map zero plants": Case(
+        ("design", "--map", "--plants", "0"), "--plants = 0; an integer >= 1 is required"
+    ),
     "map option without --map": Case(("design", "--plants", "3"), "add --map"),
+    "map grid times plants over its ceiling": Case(
+        ("design", "--map", "--map-points", "201", "--plants", "60"),
+        "2,424,060 loops to judge; at most 2,040,200 are allowed",
+    ),
+    "map plants over their ceiling": Case(
+        ("design", "--map", "--plants", "20000"), "--plants = 20000; at most 10,000 plants"
+    ),
     "scenario and case": Case(
         ("simulate", "--scenario", "{tmp}/comment.yaml", "--case", "payload"), "choose one"
     ),
@@ -156,7 +225,23 @@ CASES = {
     "CSV not numeric": Case(("simulate", "--scenario", "{tmp}/csv.yaml"), "non-numeric"),
     "CSV two columns": Case(
         ("simulate", "--scenario", "{tmp}/csv2.yaml"),
-        "two_columns.csv has 2 columns; the arm has 2 joints: the columns time, q1, q2",
+        "two_columns.csv has 1 joint column (q1); the arm has 2 joints",
+    ),
+    "CSV two joints on a three-joint arm": Case(
+        ("simulate", "--scenario", THREE_LINK, "--set", "trajectory=!CsvFile {path: "
+         "{tmp}/short.csv}"),
+        "short.csv has 2 joint columns (q1, q2); the arm has 3 joints",
+    ),  # fmt: skip
+    "CSV without a header row": Case(
+        ("simulate", "--scenario", "{tmp}/csv5.yaml"), "headerless.csv has no header row"
+    ),
+    "CSV column of another name": Case(
+        ("simulate", "--scenario", "{tmp}/csv6.yaml"),
+        "column 't' is not a trajectory column; a header row naming the columns time",
+    ),
+    "CSV starting after t = 0": Case(
+        ("simulate", "--scenario", "{tmp}/csv7.yaml"),
+        "starts at t = 1 s, after the run starts (t = 0)",
     ),
     "CSV shorter than the run": Case(
         ("simulate", "--scenario", "{tmp}/short_csv.yaml"),
@@ -169,7 +254,8 @@ CASES = {
         "controller.kind: the controller section is now one tagged entry",
     ),
     "plug-in file missing": Case(
-        ("simulate", "--scenario", "{tmp}/plugin_missing.yaml"), "controller.file = 'gone.py'"
+        ("simulate", "--scenario", "{tmp}/plugin_missing.yaml"),
+        "error: controller.file = 'gone.py'",
     ),
     "plug-in class not a Controller": Case(
         ("simulate", "--scenario", "{tmp}/plugin_wrong.yaml"), "Mine is not a posfb.Controller"
@@ -186,7 +272,28 @@ CASES = {
     ),
     "nominal and plant joints differ": Case(
         ("simulate", "--set", "plant.urdf=package://posfb/six_joint_arm.urdf"),
-        "nominal_model has 2 joints",
+        "nominal_model has 2 joints (!Table1) and plant.urdf = 'package://posfb/six_joint_arm."
+        "urdf' has 6; the same number is required: write nominal_model: !UrdfModel",
+    ),
+    "plug-in file is a folder": Case(
+        ("simulate", "--set", "controller=!Python {file: ., class: Mine}"),
+        "is a directory; a Python file defining the class is required",
+    ),
+    "plug-in's own ValueError": Case(
+        ("simulate", "--scenario", "{tmp}/plugin_broadcast.yaml", "--duration", "0.1"),
+        "broadcast.py, line 7): ValueError: operands could not be broadcast",
+    ),
+    "too few DAC bits": Case(
+        ("simulate", "--set", "actuator.dac_bits=1"),
+        "actuator.dac_bits = 1; 0 (ideal) or at least 6 bits is required",
+    ),
+    "too few encoder counts": Case(
+        ("simulate", "--encoder-counts", "1"),
+        "sensor.encoder_counts[0] = 1; 0 (ideal) or at least 4 counts per revolution",
+    ),
+    "backlash far past a gear's": Case(
+        ("simulate", "--set", "plant.gear_stiffness=1000", "--set", "plant.backlash=100"),
+        "plant.backlash[0] = 100 rad; at most 0.0982 rad",
     ),
     "two-joint list on three joints": Case(
         ("simulate", "--scenario", THREE_LINK, "--set", "controller.lambdas=[10, 10]"),
@@ -209,6 +316,10 @@ CASES = {
         ("scenario", "init", "--urdf", str(DEFAULT_URDF), "--out", "{tmp}/s.yaml",
          "--encoder-counts", "0"), "--encoder-counts",
     ),  # fmt: skip
+    "init too few encoder counts": Case(
+        ("scenario", "init", "--urdf", str(DEFAULT_URDF), "--out", "{tmp}/s.yaml",
+         "--encoder-counts", "3"), "--encoder-counts 3; at least 4 counts",
+    ),  # fmt: skip
     "init negative voltage limit": Case(
         ("scenario", "init", "--urdf", str(DEFAULT_URDF), "--out", "{tmp}/s.yaml",
          "--voltage-limit", "-1"), "--voltage-limit",
@@ -219,6 +330,15 @@ CASES = {
     "init invalid URDF": Case(
         ("scenario", "init", "--urdf", "{tmp}/prismatic.urdf", "--out", "{tmp}/s.yaml"),
         "prismatic",
+    ),
+    "init n-joint URDF inertia breaks the triangle inequality": Case(
+        ("scenario", "init", "--urdf", "{tmp}/triangle3.urdf", "--out", "{tmp}/s.yaml"),
+        "link 'link2' inertia ixx iyy izz ixy ixz iyz = 0.0002 0.01125 0.03 0 0 0",
+    ),
+    "init URDF with posfb elements in another namespace": Case(
+        ("scenario", "init", "--urdf", "{tmp}/other_ns3.urdf", "--out", "{tmp}/s.yaml"),
+        "<coulomb_friction> is in namespace https://posfb.org/urdf; posfb reads it in the "
+        "namespace urn:posfb:urdf",
     ),
     "init over an existing file": Case(
         ("scenario", "init", "--urdf", str(DEFAULT_URDF), "--out", "{tmp}/a_file"), "--force",
@@ -249,6 +369,32 @@ CASES = {
         ("tune", str(SCENARIOS / "paper_nominal.yaml"), "--budget", "0.01", "--plants", "2",
          "--out", "{tmp}/t.yaml"), "no design within the budget", code=1,
     ),  # fmt: skip
+    "tune study of another arm with the same joints": Case(
+        ("tune", THREE_LINK, "--set", "plant.urdf={tmp}/planar3.urdf", "--study",
+         str(STUDIES / "three_link_uncertainty.yaml"), "--out", "{tmp}/t.yaml"),
+        "planar3.urdf (joint1, joint2, joint3",
+    ),  # fmt: skip
+    "tune zero plants": Case(
+        ("tune", str(SCENARIOS / "paper_nominal.yaml"), "--plants", "0", "--out",
+         "{tmp}/t.yaml"), "--plants = 0; an integer >= 1 is required",
+    ),  # fmt: skip
+    "tune worse than the start": Case(
+        ("tune", str(SCENARIOS / "three_link_tuned.yaml"), "--set", "actuator.voltage_limit=12",
+         "--plants", "2", "--generations", "2", "--epsilon", "0.5", "--beta", "0.5", "--rounds",
+         "1", "--out", "{tmp}/t.yaml"), "worse than the scenario's own", code=1,
+    ),  # fmt: skip
+    "tune verification plants over their ceiling": Case(
+        ("tune", str(SCENARIOS / "paper_nominal.yaml"), "--epsilon", "1e-12", "--out",
+         "{tmp}/t.yaml"), "--epsilon = 1e-12 with --beta = 0.001 and --rounds = 2 asks for N",
+    ),  # fmt: skip
+    "tune design plants over their ceiling": Case(
+        ("tune", str(SCENARIOS / "paper_nominal.yaml"), "--plants", "100000", "--out",
+         "{tmp}/t.yaml"), "--plants = 100000 with --rounds = 2: 200,000 design plants",
+    ),  # fmt: skip
+    "tune plants that cannot fit the budget": Case(
+        ("tune", str(SCENARIOS / "paper_nominal.yaml"), "--plants", "5000", "--budget", "5",
+         "--out", "{tmp}/t.yaml"), "drawing 5000 proposed design plants (round 1) at", code=1,
+    ),  # fmt: skip
     # URDFs
     "plant URDF missing": Case(("simulate", "--set", "plant.urdf={tmp}/no.urdf"), "plant.urdf"),
     "plant URDF folder": Case(("simulate", "--set", "plant.urdf={tmp}"), "is a directory"),
@@ -260,6 +406,32 @@ CASES = {
     "export under a file": Case(("simulate", "--out", "{tmp}/a_file/run.csv"), "is a file"),
     "graph suffix": Case(("graph", "--out", "{tmp}/g.txt"), ".svg"),
     "animate suffix": Case(("animate", "--out", "{tmp}/arm.txt"), ".html"),
+    "simulate over an existing file": Case(
+        ("simulate", "--out", "{tmp}/short.csv"), "exists; another file name", ("short.csv",)
+    ),
+    "tune over an existing file": Case(
+        ("tune", str(SCENARIOS / "paper_nominal.yaml"), "--out", "{tmp}/study.yaml"),
+        "--force to overwrite it", ("study.yaml",),
+    ),
+    "tune over its own input": Case(
+        ("tune", "{tmp}/flat_adrc.yaml", "--out", "{tmp}/./flat_adrc.yaml"),
+        "is this command's own input", ("flat_adrc.yaml",),
+    ),
+    "graph over an existing file": Case(
+        ("graph", "--out", "{tmp}/study.yaml.svg"), "exists", ("study.yaml.svg",)
+    ),
+    "animate over an existing file": Case(
+        ("animate", "--out", "{tmp}/study.yaml.html"), "exists", ("study.yaml.html",)
+    ),
+    "export over an existing file": Case(
+        ("montecarlo", "export", "--db", "{tmp}/none.sqlite", "--out", "{tmp}/short.csv"),
+        "--force", ("short.csv",),
+    ),
+    "empty --out": Case(("simulate", "--out", ""), "--out ''; a file name is required"),
+    "empty compare --out": Case(("compare", "--out", ""), "--out ''; a folder name is required"),
+    "compare with no controllers": Case(
+        ("compare", "--controllers", ""), "--controllers ''; comma-separated controller kinds"
+    ),
     "reproduce into a file": Case(("reproduce", "--out", "{tmp}/a_file"), "is a file"),
     "report into a file": Case(
         ("montecarlo", "report", "--db", "{tmp}/text.sqlite", "--out", "{tmp}/a_file"),
@@ -333,6 +505,18 @@ CASES = {
     "replay of a negative sample": Case(
         ("montecarlo", "replay", "--db", "{tmp}/none.sqlite", "--sample", "-1", "--out", "{tmp}/r"),
         "--sample",
+    ),
+    "samples beyond the ceiling": Case(
+        ("montecarlo", "run", "{tmp}/lhs_study.yaml", "--db", "{tmp}/s", "--samples", "1e12"),
+        "samples = 1000000000000 with sampling: latin_hypercube; at most 1,000,000 samples",
+    ),
+    "store without its meta": Case(
+        ("montecarlo", "run", "{tmp}/study.yaml", "--db", "{tmp}/no_meta.sqlite"),
+        "no_meta.sqlite: a damaged posfb store (missing the meta table)", ("no_meta.sqlite",), 6,
+    ),
+    "report on a store without its meta": Case(
+        ("montecarlo", "report", "--db", "{tmp}/no_meta.sqlite", "--out", "{tmp}/r"),
+        "no_meta.sqlite: a damaged posfb store (missing the meta table)", ("no_meta.sqlite",), 6,
     ),
     "zero workers": Case(
         ("montecarlo", "run", "{tmp}/study.yaml", "--db", "{tmp}/s", "--workers", "0"), "workers"
@@ -482,6 +666,11 @@ def outcomes(tmp_path_factory):
         (folder / "binary.yaml").write_bytes(BINARY)
         with sqlite3.connect(folder / "foreign.sqlite") as connection:
             connection.execute("CREATE TABLE customers (name TEXT)")
+        with sqlite3.connect(folder / "no_meta.sqlite") as connection:  # a store, meta dropped
+            connection.execute(f"PRAGMA application_id = {APPLICATION_ID}")
+            connection.execute("CREATE TABLE samples (sample INTEGER PRIMARY KEY)")
+            connection.execute("CREATE TABLE runs (sample INTEGER, controller TEXT)")
+            connection.execute("INSERT INTO samples VALUES (0)")
         return folder
 
     folders = {name: prepare(name) for name in CASES}

@@ -4,13 +4,13 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from montecarlo_helpers import TINY_STUDY
+from montecarlo_helpers import TINY_STUDY, make_result, run_into_store
 
 from posfb.analysis.cli import main
 from posfb.analysis.montecarlo.config import study_from_text
 from posfb.analysis.montecarlo.coverage import BOUND_NAMES
-from posfb.analysis.montecarlo.records import ControllerRun, SampleResult, metric_columns
-from posfb.analysis.montecarlo.report import FIGURES
+from posfb.analysis.montecarlo.records import STATUSES, ControllerRun, SampleResult, metric_columns
+from posfb.analysis.montecarlo.report import FIGURES, markdown
 from posfb.analysis.montecarlo.results import beats, joint_stats, load, status_counts
 from posfb.analysis.montecarlo.store import ResultStore
 
@@ -67,11 +67,63 @@ def test_statistics_match_numpy(store):
 
 def test_failures_share_and_coverage(store):
     data = load(store)
-    assert status_counts(data)["pid"] == {"ok": 4, "diverged": 1, "error": 0}
+    assert status_counts(data)["pid"] == {"ok": 4, "saturated": 0, "lost": 0, "diverged": 1,
+                                          "error": 0}  # fmt: skip
     # proposed wins on samples 0 (smaller norm), 2 (PID diverged) and 4; not 1 or 3.
     assert beats(data) == (3, 5)
     assert data.inside.tolist() == [True, True, False, False, False]
     assert data.exceeded["delta_M1"] == 3 and data.exceeded["delta_M0"] == 0
+
+
+#: The statuses of ``_judged``'s samples, one per sample for both controllers.
+JUDGED = ("ok", "saturated", "lost", "diverged", "saturated")
+
+
+@pytest.fixture()
+def judged(tmp_path):
+    """A store whose samples end ``JUDGED`` (made-up numbers, ``make_result``)."""
+    study = study_from_text(TINY_STUDY)
+    with ResultStore.create_or_resume(tmp_path / "judged.sqlite", study, "test") as store:
+        for index, status in enumerate(JUDGED):
+            store.write(make_result(index, status=status), "test")
+        yield store
+
+
+def test_saturated_and_lost_runs_are_counted_and_keep_their_rms(judged):
+    data = load(judged)
+    expected = {status: JUDGED.count(status) for status in STATUSES}
+    assert status_counts(data) == {"proposed": expected, "pid": expected}
+    # A saturated or lost run finished: its RMS covers the whole run and enters the
+    # statistics (dropping it would flatter the controller); a diverged one does not.
+    finished = [i for i, status in enumerate(JUDGED) if status != "diverged"]
+    stats = {(s.controller, s.joint): s for s in joint_stats(data)}
+    assert stats[("proposed", 1)].count == len(finished)
+    stored = [row["rms_q1"] for row in judged.run_rows() if row["controller"] == "proposed"]
+    assert stats[("proposed", 1)].max == max(stored[i] for i in finished)
+
+
+def test_the_report_has_a_column_per_status_and_fails_only_unfinished_runs(judged):
+    lines = markdown(load(judged)).splitlines()
+    at = next(i for i, line in enumerate(lines) if line.startswith("| controller | ok |"))
+    assert lines[at].split(" | ")[1 : 1 + len(STATUSES)] == list(STATUSES)
+    row = next(line for line in lines[at:] if line.startswith("| pid | "))
+    cells = [cell.strip() for cell in row.strip("|").split("|")]
+    assert cells[1 : 1 + len(STATUSES)] == [str(JUDGED.count(s)) for s in STATUSES]
+    failed_percent = float(cells[1 + len(STATUSES)].split(" %")[0])
+    assert failed_percent == pytest.approx(100 * JUDGED.count("diverged") / len(JUDGED))
+
+
+def test_a_study_of_a_collapsed_arm_stores_its_runs_as_lost(tmp_path, weak_shoulder):
+    # The real loop through the worker: the weak shoulder's run finishes under the
+    # divergence bound, and the store says it lost its path.
+    study = "seed: 0\nsamples: 1\nduration: 4.0\ncontrollers: [lin_lc]\n"
+    study += f"settings: ['{weak_shoulder}']\n"
+    with ResultStore.open_existing(run_into_store(tmp_path / "weak.sqlite", study)) as store:
+        (run,) = store.run_rows()
+        counts = status_counts(load(store))
+    assert run["status"] == "lost" and "timing.lost_bound" in run["message"]
+    assert run["max_abs_q_err"] < 1.0  # under the divergence bound
+    assert counts["lin_lc"]["lost"] == 1
 
 
 def test_report_command_writes_markdown_and_figures(store, tmp_path, capsys):
@@ -183,8 +235,6 @@ def test_the_report_has_the_answer_sections_and_every_figure(store, tmp_path):
 
 @pytest.mark.parametrize("samples", [1, 3])
 def test_a_study_where_no_run_finished_still_reports(tmp_path, samples):
-    from montecarlo_helpers import make_result
-
     from posfb.analysis.montecarlo.report import write_report
 
     study = study_from_text(TINY_STUDY)
@@ -193,7 +243,8 @@ def test_a_study_where_no_run_finished_still_reports(tmp_path, samples):
             store.write(make_result(i, status="diverged"), "test")
     with ResultStore.open_existing(tmp_path / "d.sqlite") as store:
         path = write_report(store, tmp_path / "report")
-    assert f"| proposed | 0 | {samples} | 0 |" in path.read_text()  # ok, diverged, error
+    counts = {**dict.fromkeys(STATUSES, 0), "diverged": samples}
+    assert f"| proposed | {' | '.join(str(counts[s]) for s in STATUSES)} |" in path.read_text()
     for name in FIGURES:
         assert (tmp_path / "report" / f"{name}.png").is_file(), name
 

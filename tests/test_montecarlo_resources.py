@@ -134,3 +134,20 @@ def test_cost_model_arithmetic():
     assert estimate.wall_time_s(1) == 201.0
     assert estimate.wall_time_s(4) == 1.0 + 200.0 / (4 * PARALLEL_EFFICIENCY)
     assert estimate.memory_total_mib(4) == 800.0
+
+
+def test_the_calibration_pays_a_fresh_workers_first_sample():
+    """The dry run's calibration runs in a fresh worker process, as ``montecarlo run``'s
+    workers start (issue 27: measured in the command's own process, whose validation had
+    already built the diagrams and designs, the warm-up read 0.00 s). Here this process
+    has evaluated the study's first sample before, so an in-process calibration would
+    find nothing left to build; the worker's first sample still pays its build."""
+    from posfb.analysis.montecarlo import worker
+    from posfb.analysis.montecarlo.config import canonical_text, study_from_text
+    from posfb.analysis.montecarlo.cost import calibrate
+
+    study = study_from_text(RANDOM_STUDY)
+    worker.evaluate(canonical_text(study), 0)  # this process: diagrams and designs built
+    estimate = calibrate(study, study.samples)
+    assert estimate.warm_up_s > 0.0
+    assert estimate.seconds_per_sample > 0.0

@@ -6,11 +6,12 @@ import sqlite3
 from dataclasses import replace
 
 import pytest
-from montecarlo_helpers import TINY_STUDY, make_result
+from montecarlo_helpers import EARLIER_STORE, TINY_STUDY, make_result
 
 from posfb.analysis.errors import UsageError
 from posfb.analysis.montecarlo.config import study_from_text
-from posfb.analysis.montecarlo.records import ControllerRun
+from posfb.analysis.montecarlo.records import STATUSES, ControllerRun
+from posfb.analysis.montecarlo.results import load, status_counts
 from posfb.analysis.montecarlo.store import ResultStore
 
 
@@ -132,3 +133,30 @@ def test_a_version_2_store_reads_and_resumes_with_its_samples_marked_unmeasured(
         assert store.unrecorded(1) == ()
     with ResultStore.create_or_resume(path, study, "v3") as store:  # migrated once only
         assert store.unrecorded(1) == ()
+
+
+def test_every_status_is_stored_and_read_back(tmp_path, study):
+    with ResultStore.create_or_resume(tmp_path / "r.sqlite", study, "v1") as store:
+        for index, status in enumerate(STATUSES):
+            store.write(make_result(index, status=status), "v1")
+        stored = {row["sample"]: row["status"] for row in store.run_rows()}
+    assert {"saturated", "lost"} <= set(STATUSES)
+    assert stored == dict(enumerate(STATUSES))
+
+
+def test_a_store_written_before_the_new_statuses_reads_and_is_not_resumed(tmp_path):
+    # Its CHECK constraint knows ok/diverged/error only; the new posfb reads it as it is
+    # and never writes a new status into it: the study's base now holds the verdict's
+    # bounds, so its identity differs and a resume is refused in one line.
+    path = tmp_path / "earlier.sqlite"
+    path.write_bytes(EARLIER_STORE.read_bytes())
+    with sqlite3.connect(path) as connection:
+        query = "SELECT sql FROM sqlite_master WHERE name = 'runs'"
+        (schema,) = connection.execute(query).fetchone()
+    assert "'saturated'" not in schema
+    with ResultStore.open_existing(path) as store:
+        study, samples = store.study(), len(store.finished())
+        counts = status_counts(load(store))
+    assert all(c == {**dict.fromkeys(STATUSES, 0), "ok": samples} for c in counts.values())
+    with pytest.raises(UsageError, match="as an earlier posfb wrote it"):
+        ResultStore.create_or_resume(path, study, "v2")

@@ -93,7 +93,9 @@ def test_a_csv_trajectory_is_tracked_and_follows_the_samples(tmp_path, kind):
 
 
 def test_a_short_csv_trajectory_is_held_only_when_the_scenario_says_so(tmp_path):
-    (tmp_path / "short.csv").write_text("0,-1.5,0\n0.5,-1.4,0.1\n1,-1.3,0.2\n1.5,-1.3,0.2\n")
+    (tmp_path / "short.csv").write_text(
+        "time,q1,q2\n0,-1.5,0\n0.5,-1.4,0.1\n1,-1.3,0.2\n1.5,-1.3,0.2\n"
+    )
     text = "trajectory: !CsvFile {path: short.csv}\ntiming: {duration: 2.0}\n"
     with pytest.raises(ValueError, match="ends at t = 1.5 s, before timing.duration = 2 s"):
         load_scenario(_write(tmp_path, text))
@@ -103,6 +105,65 @@ def test_a_short_csv_trajectory_is_held_only_when_the_scenario_says_so(tmp_path)
     position, velocity, _ = trajectory.evaluate(1.9)
     np.testing.assert_allclose(position, [-1.3, 0.2], atol=1e-12)
     np.testing.assert_array_equal(velocity, 0.0)
+
+
+def test_a_late_csv_trajectory_is_held_before_its_start_only_when_the_scenario_says_so(
+    tmp_path,
+):
+    (tmp_path / "late.csv").write_text(
+        "time,q1,q2\n1,-1.5,0\n1.5,-1.4,0.1\n2,-1.3,0.2\n2.5,-1.3,0.2\n"
+    )
+    text = "trajectory: !CsvFile {path: late.csv}\ntiming: {duration: 2.5}\n"
+    with pytest.raises(ValueError, match=r"starts at t = 1 s, after the run starts \(t = 0\)"):
+        load_scenario(_write(tmp_path, text))
+    held = load_scenario(_write(tmp_path, text.replace("late.csv}", "late.csv, "
+                                                       "hold_before_start: true}")))  # fmt: skip
+    position, velocity, acceleration = resolve(held).config.trajectory.evaluate(0.5)
+    np.testing.assert_array_equal(position, [-1.5, 0.0])  # the first row, at rest
+    np.testing.assert_array_equal(velocity, 0.0)
+    np.testing.assert_array_equal(acceleration, 0.0)
+
+
+@pytest.mark.parametrize(
+    "header", [("time", "q2", "q1"), ("q2_rad", "time_s", "q1_rad"), ("q1", "time", "q2_rad")]
+)
+def test_csv_columns_are_read_by_their_header_names_in_any_order(tmp_path, header):
+    times = np.linspace(0.0, 3.0, 31)
+    samples = {"time": times, "q1": -1.5 + 0.3 * np.sin(times), "q2": 0.4 * np.cos(2 * times)}
+    table = pd.DataFrame({name: samples[name.removesuffix("_rad").removesuffix("_s")]
+                          for name in header})  # fmt: skip
+    table.to_csv(tmp_path / "path.csv", index=False)
+    path = _write(tmp_path, "trajectory: !CsvFile {path: path.csv}\ntiming: {duration: 3.0}\n")
+    trajectory = resolve(load_scenario(path)).config.trajectory
+    # The spline passes through every sample, each joint's from the column of its name.
+    for k in range(len(times)):
+        np.testing.assert_allclose(
+            trajectory.evaluate(times[k])[0], [samples["q1"][k], samples["q2"][k]], atol=1e-12
+        )
+
+
+@pytest.mark.parametrize(
+    ("text", "needle"),
+    [
+        ("t,joint1,joint2\n", "column 't' is not a trajectory column; a header row naming the "
+         "columns time (or time_s), q1, q2 (or q1_rad .. q2_rad), in any order, is required"),
+        ("time,q1,q1_rad,q2\n", "names joint 1 twice (q1, q1_rad)"),
+        ("time,time_s,q1,q2\n", "has 2 time columns (time, time_s)"),
+        ("q1,q2\n", "has 0 time columns (none)"),
+        ("time,q1\n", "has 1 joint column (q1); the arm has 2 joints"),
+        ("time,q1,q3\n", "has 2 joint columns (q1, q3); the arm has 2 joints"),
+        ("time,q1,q2,q3\n", "has 3 joint columns (q1, q2, q3); the arm has 2 joints"),
+        ("", "has no header row (its first row is numbers)"),
+    ],
+)  # fmt: skip
+def test_a_csv_header_without_the_arms_columns_is_refused_naming_them(tmp_path, text, needle):
+    columns = text.count(",") + 1 if text else 3  # data rows as wide as the header
+    rows = "".join(f"{t}{',0' * (columns - 1)}\n" for t in range(4))
+    (tmp_path / "path.csv").write_text(text + rows)
+    path = _write(tmp_path, "trajectory: !CsvFile {path: path.csv}\ntiming: {duration: 3.0}\n")
+    with pytest.raises(ValueError) as error:
+        load_scenario(path)
+    assert needle in str(error.value) and "\n" not in str(error.value), error.value
 
 
 def test_a_yaml_scalar_for_a_per_joint_key_means_every_joint(tmp_path):
@@ -254,7 +315,7 @@ def test_scenario_dump_and_check_on_the_command_line(tmp_path, capsys):
 def test_an_empty_or_comment_only_scenario_is_the_paper(tmp_path):
     for text in ("", "# nothing but a comment\n"):
         loaded = load_scenario(_write(tmp_path, text))
-        assert dump_scenario(loaded.scenario) == dump_scenario(Scenario())
+        assert dump_scenario(loaded.scenario) == dump_scenario(load_scenario().scenario)
 
 
 def test_nominal_model_forms():

@@ -250,3 +250,31 @@ def test_too_low_voltage_limit_names_the_option_and_the_voltage(written, tmp_pat
     line = result.stderr.strip().splitlines()
     assert len(line) == 1 and "--voltage-limit" in line[0] and "or more is needed" in line[0]
     assert not (tmp_path / "x.yaml").exists()
+
+
+def test_the_rules_work_at_5_khz(tmp_path: Path) -> None:
+    """At ``T_s = 0.2 ms`` the LQR rule's weights span 14 decades, which scipy's Schur
+    method failed on ("Q1, Q2, R: the Riccati equation has no stabilising solution", on
+    keys the user never set); now the scenario is written and its design checks pass
+    (issue 27). A 1 s duration keeps the voltage check's 5000 samples cheap."""
+    arm = Path(posfb.__file__).resolve().parent.parent / "urdf" / "three_link_arm.urdf"
+    out = tmp_path / "fast.yaml"
+    result = _cli(
+        "scenario", "init", "--urdf", str(arm), "--out", out.name, "--sample-time", "2e-4",
+        "--duration", "1", cwd=tmp_path,
+    )  # fmt: skip
+    assert result.returncode == 0, result.stderr
+    check = _cli("scenario", "check", out.name, cwd=tmp_path)
+    assert check.returncode == 0, check.stdout + check.stderr
+    assert "verdict: every check of the proposed controller passed" in check.stdout
+
+
+def test_a_shipped_arm_is_named_as_a_scenario_names_it(tmp_path):
+    # argparse's type=Path folds package://posfb/ to package:/posfb/; both name the file
+    from posfb.analysis.scenario_init import InitOptions, settings_of
+    from posfb.models.plant import DEFAULT_URDF
+
+    shipped = DEFAULT_URDF.parent / "three_link_arm.urdf"
+    for urdf in ("package://posfb/three_link_arm.urdf", Path("package://posfb/three_link_arm.urdf")):
+        settings = settings_of(InitOptions(urdf=urdf, out=tmp_path / "three.yaml"))
+        assert settings.urdf == shipped

@@ -17,6 +17,15 @@ def test_side_by_side_lists_simulated_and_paper_values():
     assert "Lin + LC + NC (paper)" in text and "Lin + LC |" not in text
 
 
+def test_side_by_side_names_a_run_that_is_not_ok_by_its_status():
+    runs = {"pid": _entry(0.001, 0.002, 4.5, 3.0), "proposed": _entry(0.4, 0.1, 23.0, 4.0)}
+    for status in ("saturated", "lost", "diverged"):
+        runs["proposed"]["status"] = status
+        rows = side_by_side(runs, PAPER_TABLE3).splitlines()[2:]
+        assert rows[1].startswith(f"| Lin + LC + NC (paper) ({status}) |")
+        assert f"({status})" not in rows[0]
+
+
 def test_ratios_and_ranking():
     runs = {"pid": _entry(0.002, 0.004, 1, 1), "lin_lc": _entry(0.001, 0.008, 1, 1)}
     text = ratios(runs, PAPER_TABLE3)

@@ -5,6 +5,7 @@ mass is bounded where it enters."""
 from __future__ import annotations
 
 import dataclasses
+import logging
 import re
 
 import numpy as np
@@ -19,7 +20,8 @@ from posfb.models.plant import (
     PlantConfig,
     build_arm_diagram,
 )
-from posfb.models.urdf_check import check_arm_urdf
+from posfb.models.serial_model import SerialArmModel
+from posfb.models.urdf_check import POSFB_NS, check_arm_urdf, check_serial_urdf
 
 SHIPPED = DEFAULT_URDF.read_text()
 
@@ -46,9 +48,8 @@ LINK3 = """
 </robot>"""
 
 
-def _edit(*replacements: tuple[str, str]) -> str:
-    """The shipped URDF with each ``(old, new)`` replaced; ``old`` must occur."""
-    text = SHIPPED
+def _edit(*replacements: tuple[str, str], text: str = SHIPPED) -> str:
+    """The shipped URDF (or ``text``) with each ``(old, new)`` replaced; ``old`` must occur."""
     for old, new in replacements:
         assert old in text, old
         text = text.replace(old, new)
@@ -290,3 +291,115 @@ def test_the_heaviest_payload_is_accepted(arm_diagram):
     _, arm, _ = arm_diagram
     heavy = dataclasses.replace(arm.default_parameters, payload_mass=MAX_PAYLOAD_MASS)
     assert heavy.payload_mass == MAX_PAYLOAD_MASS
+
+
+# --- any serial arm: the shipped three-link arm, edited -------------------------------
+
+THREE_LINK = (DEFAULT_URDF.parent / "three_link_arm.urdf").read_text()
+LINK2_INERTIA = 'ixx="0.0002" ixy="0" ixz="0" iyy="0.01125" iyz="0" izz="0.01125"'
+LINK3_INERTIAL = """<origin xyz="0.1 0 0" rpy="0 0 0"/>
+      <mass value="0.5"/>
+      <inertia ixx="0.00005" ixy="0" ixz="0" iyy="0.0016667" iyz="0" izz="0.0016667"/>"""
+#: Link 3 as a point mass on joint 3's axis.
+LINK3_ON_AXIS = """<origin xyz="0 0 0"/>
+      <mass value="0.5"/>
+      <inertia ixx="0" ixy="0" ixz="0" iyy="0" iyz="0" izz="0"/>"""
+JOINT2_SERIAL_AXIS = '<origin xyz="0.40 0 0" rpy="0 0 0"/>\n    <axis xyz="0 -1 0"/>'
+OTHER_NS = "https://posfb.org/urdf"
+
+
+def _three_link(*replacements: tuple[str, str]) -> str:
+    return _edit(*replacements, text=THREE_LINK)
+
+
+SERIAL_BAD = {
+    "triangle inequality": (
+        _three_link((LINK2_INERTIA, LINK2_INERTIA.replace('izz="0.01125"', 'izz="0.03"'))),
+        ["link 'link2' inertia", "principal moments (0.0002, 0.01125, 0.03)",
+         "each at most the sum of the other two"],
+    ),
+    "negative principal moment": (
+        _three_link((LINK2_INERTIA, LINK2_INERTIA.replace('ixx="0.0002"', 'ixx="-0.0002"'))),
+        ["link 'link2' inertia", "principal moments >= 0"],
+    ),
+    "indefinite products of inertia": (
+        _three_link((LINK2_INERTIA, LINK2_INERTIA.replace('ixy="0"', 'ixy="0.05"'))),
+        ["link 'link2' inertia", "a physically valid inertia is required"],
+    ),
+    "inertia not a number": (
+        _three_link((LINK2_INERTIA, LINK2_INERTIA.replace('ixx="0.0002"', 'ixx="big"'))),
+        ["link 'link2' inertia ixx iyy izz ixy ixz iyz = big", "finite numbers are required"],
+    ),
+    "inertial origin not three numbers": (
+        _three_link(('<origin xyz="0.2 0 0" rpy="0 0 0"/>\n      <mass value="3.0"/>',
+                     '<origin xyz="0.2 0" rpy="0 0 0"/>\n      <mass value="3.0"/>')),
+        ["link 'link1' inertial origin xyz = 0.2 0", "three finite numbers"],
+    ),
+    "negative base mass": (
+        _three_link(('<link name="base"/>',
+                     '<link name="base"><inertial><mass value="-2"/></inertial></link>')),
+        ["link 'base' mass = -2", "a finite value >= 0 (kg)"],
+    ),
+    "zero axis": (
+        _three_link((JOINT2_SERIAL_AXIS, JOINT2_SERIAL_AXIS.replace("0 -1 0", "0 0 0"))),
+        ["joint 'joint2' axis xyz = (0, 0, 0)", "a nonzero direction is required"],
+    ),
+    "last joint moves only a point on its axis": (
+        _three_link(
+            (LINK3_INERTIAL, LINK3_ON_AXIS),
+            ('<drake:rotor_inertia value="0.00002"/>', ""),
+        ),
+        ["joint 'joint3' moment of inertia about its axis at q = 0", "= 0 kg m^2; > 0"],
+    ),
+    "posfb elements in another namespace": (
+        _three_link((f'xmlns:posfb="{POSFB_NS}"', f'xmlns:posfb="{OTHER_NS}"')),
+        ["joint 'joint1' posfb:coulomb_friction = (missing)", f"in namespace {OTHER_NS}",
+         f'xmlns:posfb="{POSFB_NS}"'],
+    ),
+    "posfb element in no namespace": (
+        _three_link(('<posfb:motor_constant value="6.0"/>', '<motor_constant value="6.0"/>')),
+        ["actuator 'motor1' posfb:motor_constant = (missing)", "in no namespace", POSFB_NS],
+    ),
+}  # fmt: skip
+
+
+@pytest.mark.parametrize("case", list(SERIAL_BAD))
+def test_a_bad_serial_urdf_is_refused_as_the_two_link_one_is(tmp_path, case):
+    text, needles = SERIAL_BAD[case]
+    path = _write(tmp_path, text)
+    with pytest.raises(ValueError) as error:
+        check_serial_urdf(path)
+    message = str(error.value)
+    assert "\n" not in message and message.startswith(f"URDF {path}: "), message
+    for needle in needles:
+        assert needle in message, message
+
+
+def test_the_two_link_check_names_another_namespace_too(tmp_path):
+    path = _write(tmp_path, _edit((f'xmlns:posfb="{POSFB_NS}"', f'xmlns:posfb="{OTHER_NS}"')))
+    needle = f"coulomb_friction = (missing): its <coulomb_friction> is in namespace {OTHER_NS}"
+    with pytest.raises(ValueError, match=re.escape(needle)):
+        check_arm_urdf(path)
+
+
+def test_a_valid_edge_of_the_serial_checks_passes(tmp_path):
+    # A point-mass last link on its axis still moves its rotor (Drake's reflected inertia
+    # keeps the mass matrix regular), and a massless welded body is allowed.
+    text = _three_link((LINK3_INERTIAL, LINK3_ON_AXIS))
+    assert check_serial_urdf(_write(tmp_path, text)).joints == ("joint1", "joint2", "joint3")
+
+
+def test_drakes_parser_warnings_are_shown_once_as_one_line(tmp_path, caplog):
+    # A triangle inequality broken by round-off only: inside posfb's tolerance, but Drake
+    # warns, on several lines, each time it parses the file.
+    path = _write(tmp_path, _three_link(
+        (LINK2_INERTIA, LINK2_INERTIA.replace('izz="0.01125"', 'izz="0.01145000000001"'))
+    ))  # fmt: skip
+    with caplog.at_level(logging.WARNING, logger="drake"):
+        for _ in range(2):
+            build_arm_diagram(PlantConfig(urdf=str(path)))
+        SerialArmModel(path)
+    shown = [record.getMessage() for record in caplog.records if record.name == "drake"]
+    assert len(shown) == 1, shown
+    assert "\n" not in shown[0] and str(path) in shown[0], shown[0]
+    assert "do not satisfy the triangle inequality" in shown[0], shown[0]

@@ -9,7 +9,11 @@ from posfb.analysis.errors import UsageError
 
 
 def configure(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("--out", required=True, help="HTML file to write, e.g. arm.html")
+    parser.add_argument(
+        "--out", required=True, help="HTML file to write, e.g. arm.html (an existing file "
+        "only with --force)",
+    )  # fmt: skip
+    parser.add_argument("--force", action="store_true", help="overwrite an existing --out")
     add_scenario_arguments(parser, ("controller", "duration", "payload", "alpha_star"))
     parser.add_argument("--no-progress", action="store_true", help="no progress bar on stderr")
     parser.set_defaults(handler=run)
@@ -17,16 +21,21 @@ def configure(parser: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     from posfb.analysis import progress
-    from posfb.analysis.outputs import output_file
+    from posfb.analysis.outputs import atomic_file, output_file
     from posfb.diagrams.animate import record_animation
 
-    out = output_file("--out", args.out, (".html", ".htm"))
+    out = output_file("--out", args.out, (".html", ".htm"), args.force)
     loaded = scenario_from_args(args)
     try:
         duration = loaded.scenario.timing.duration
-        with progress.run_progress(duration, "animate", progress.wanted(args.no_progress)) as bar:
-            path, result = record_animation(loaded, out, bar)
+        with (
+            progress.run_progress(duration, "animate", progress.wanted(args.no_progress)) as bar,
+            atomic_file(out) as temporary,
+        ):
+            _, result = record_animation(loaded, temporary, bar)
     except RuntimeError as error:
         raise UsageError(str(error)) from None
-    print(f"{path} ({result.status}, {result.times[-1]:g} s)")
+    from posfb.analysis.metrics import run_verdict
+
+    print(f"{out} ({run_verdict(result).status}, {result.times[-1]:g} s)")
     return 0

@@ -1,6 +1,8 @@
 """``posfb compare``: several controllers on one scenario, side by side: a table (CSV,
 Markdown), every run's summary (JSON) and the overlaid Figs. 4/6 and 5/7. It is
-``posfb.compare`` (``analysis.api``) with the scenario from the command line."""
+``posfb.compare`` (``analysis.api``) with the scenario from the command line. Exit
+code: the worst run's (``analysis.errors.run_exit_code``: 4 if one diverged, 5 if one
+finished ``saturated`` or ``lost``, with a warning line each)."""
 
 from __future__ import annotations
 
@@ -9,7 +11,7 @@ import json
 
 from posfb.analysis.commands.scenario_args import add_scenario_arguments, scenario_from_args
 from posfb.analysis.commands.warnings_io import printed_warnings
-from posfb.analysis.errors import EXIT_DIVERGED, UsageError
+from posfb.analysis.errors import UsageError, run_exit_code
 from posfb.analysis.outputs import output_folder
 
 
@@ -21,8 +23,9 @@ def configure(parser: argparse.ArgumentParser) -> None:
         "or the scenario's named entries (default: the paper's three)",
     )  # fmt: skip
     parser.add_argument(
-        "--out", metavar="DIR", help="write comparison.csv/.md/.json and the figures into DIR"
-    )
+        "--out", metavar="DIR", help="write comparison.csv/.md/.json and the figures into DIR "
+        "(created; files of those names are replaced, once all are written)",
+    )  # fmt: skip
     parser.add_argument("--json", action="store_true", help="print one JSON object per run")
     parser.add_argument("--no-progress", action="store_true", help="no progress bars on stderr")
     parser.set_defaults(handler=run)
@@ -43,8 +46,9 @@ def run(args: argparse.Namespace) -> int:
     from posfb.analysis import progress
     from posfb.analysis.api import DEFAULT_COMPARISON, compare
 
-    kinds = controller_list(args.controllers) if args.controllers else list(DEFAULT_COMPARISON)
-    folder = output_folder("--out", args.out) if args.out else None
+    given = args.controllers is not None  # "" is refused, not the default
+    kinds = controller_list(args.controllers) if given else list(DEFAULT_COMPARISON)
+    folder = None if args.out is None else output_folder("--out", args.out)
     loaded = scenario_from_args(args)
     with printed_warnings("compare"):
         comparison = compare(loaded, kinds, progress=progress.wanted(args.no_progress))
@@ -56,5 +60,4 @@ def run(args: argparse.Namespace) -> int:
         print(comparison.markdown(), end="")
         if written:
             print(f"written: {', '.join(sorted({str(path.parent) for path in written}))}")
-    diverged = any(run.status == "diverged" for run in comparison.runs.values())
-    return EXIT_DIVERGED if diverged else 0
+    return run_exit_code(run.status for run in comparison.runs.values())

@@ -3,9 +3,11 @@ settings (``K``, ``P``, ``E``, ``Gamma``, poles, bounds) and its checks.
 
 The sampled-data spectral radius is that of the nominal linear plant
 ``M0* q'' + B* q' = u`` held over ``T_s`` with the discretised ``tau_LC + tau_NC``
-filters at ``alpha = alpha*``. A failed check is reported (``warnings`` in JSON,
-``FAILED`` in the text) and the command exits 0 (the report is the result), or 1
-with ``--strict``.
+filters at ``alpha = alpha*``, with the scenario's linear effects (compute and sensor
+delay, lag, compliant gear: ``analysis.loop_effects``; the nonlinear settings it leaves
+out are named in one note on stderr and under ``left_out`` in JSON). A failed check is
+reported (``warnings`` in JSON, ``FAILED`` in the text) and the command exits 0 (the
+report is the result), or 1 with ``--strict``.
 
 ``--map`` draws the stability map instead (``analysis.stability_map``): the nominal
 loop's spectral radius and the share of sampled plants robustly stable over a grid of
@@ -16,6 +18,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import sys
 from dataclasses import asdict
 from typing import TYPE_CHECKING
 
@@ -28,8 +31,8 @@ if TYPE_CHECKING:
 
     from posfb.analysis.stability_map import MapAxis
     from posfb.diagrams.closed_loop import ClosedLoopConfig
-    from posfb.diagrams.resolve import LoadedScenario
-    from posfb.models.design import ControllerConfig, Design
+    from posfb.diagrams.resolve import LoadedScenario, ResolvedScenario
+    from posfb.models.design import Design
 
 #: Exit code of ``--strict`` when a check fails.
 EXIT_FAILED_CHECK = 1
@@ -70,11 +73,13 @@ def add_map_arguments(parser: argparse.ArgumentParser) -> None:
     )  # fmt: skip
     group.add_argument(
         "--map-range", nargs=4, type=float, metavar=("XLOW", "XHIGH", "YLOW", "YHIGH"),
-        help="grid ranges (default: T_s/4 .. 4 T_s for the sample time, value/16 .. 2 value "
-        "for another key, e.g. alpha* 0.25 .. 8 for alpha* = 4)",
+        help="grid ranges, each holding the scenario's value (default: T_s/4 .. 4 T_s for the "
+        "sample time, value/16 .. 2 value for another key, e.g. alpha* 0.25 .. 8 for "
+        "alpha* = 4)",
     )  # fmt: skip
     group.add_argument("--map-points", type=int, metavar="N",
-                       help="grid points per axis (default 25, 3 .. 201)")  # fmt: skip
+                       help="grid points per axis, log-spaced, the scenario's value one of "
+                       "them (default 25, 3 .. 201)")  # fmt: skip
     group.add_argument("--study", metavar="STUDY.yaml",
                        help="draw the plants from a study's distributions (default: +-20 %% on "
                        "every link and drive parameter, motor constants 5 %%)")  # fmt: skip
@@ -111,13 +116,27 @@ def relevant_checks(config: ClosedLoopConfig) -> tuple[str, ...]:
     return relevant
 
 
-def design_config(args: argparse.Namespace) -> tuple[ControllerConfig, tuple[str, ...]]:
-    """The design inputs of the scenario the command line describes and the design checks
-    its controller entry determines (``relevant_checks``)."""
+def design_config(args: argparse.Namespace) -> tuple[ResolvedScenario, tuple[str, ...]]:
+    """The scenario the command line describes, resolved, and the design checks its
+    controller entry determines (``relevant_checks``)."""
     from posfb.diagrams.resolve import resolve
 
-    config = resolve(scenario_from_args(args)).config
-    return config.design, relevant_checks(config)
+    resolved = resolve(scenario_from_args(args))
+    return resolved, relevant_checks(resolved.config)
+
+
+def scenario_design(resolved: ResolvedScenario, command: str = "design") -> Design:
+    """The design of the scenario's entry, its sampled-data checks on the nominal loop with
+    the scenario's linear effects (``analysis.loop_effects``; a compliant gear the nominal
+    model cannot carry is refused); the settings it leaves out are noted on stderr
+    (``posfb COMMAND: note: ...``)."""
+    from posfb.analysis.loop_effects import left_out, left_out_note, nominal_effects
+    from posfb.models.design import cached_design, with_effects
+
+    note = left_out_note(left_out(resolved.config))
+    if note:
+        sys.stderr.write(f"posfb {command}: {note}\n")
+    return with_effects(cached_design(resolved.config.design), nominal_effects(resolved))
 
 
 def _poles(poles: np.ndarray) -> list[list[float]]:
@@ -234,43 +253,43 @@ def format_report(design: Design, relevant: tuple[str, ...] | None = None) -> st
 
 
 def run(args: argparse.Namespace) -> int:
-    from posfb.models.design import compute_design
-
     if args.map:
         return run_map(args)
     given = [flag for dest, flag in MAP_OPTIONS.items() if getattr(args, dest) is not None]
     if given:
         raise UsageError(f"{given[0]} applies to the stability map; add --map")
-    config, relevant = design_config(args)
-    design = compute_design(config)
+    resolved, relevant = design_config(args)
+    design = scenario_design(resolved)
     failed = [c for c in design.checks if c.name in relevant and not c.passed]
     if args.json:
-        print(json.dumps(design_to_dict(design, relevant)))
+        from posfb.analysis.loop_effects import left_out
+
+        found = {"left_out": left_out(resolved.config)}
+        print(json.dumps(design_to_dict(design, relevant) | found))
     else:
         print(format_report(design, relevant))
     return EXIT_FAILED_CHECK if args.strict and failed else 0
 
 
 def _map_settings(args: argparse.Namespace) -> TuneSettings:
-    """``--plants``, ``--seed``, ``--margin`` over ``TuneSettings``' defaults, validated."""
+    """``--plants``, ``--seed``, ``--margin`` over ``TuneSettings``' defaults, validated
+    (the map draws its plants once: one round, for the plants' ceiling)."""
     defaults = TuneSettings()
     try:
         settings = TuneSettings(
             margin=defaults.margin if args.margin is None else args.margin,
             plants=defaults.plants if args.plants is None else args.plants,
             seed=defaults.seed if args.seed is None else args.seed,
+            rounds=1,
         )
     except ValueError as error:
         raise UsageError(f"--{error}") from None
-    if settings.plants < 1:
-        raise UsageError(f"--plants {settings.plants}; an integer >= 1 is required")
     return settings
 
 
 def _map_axes(args: argparse.Namespace, loaded: LoadedScenario) -> list[MapAxis]:
-    """The two ``MapAxis`` of the command line, keys, ranges and ends validated."""
-    import numpy as np
-
+    """The two ``MapAxis`` of the command line (``stability_map.make_axis``: log-spaced,
+    the scenario's value a grid point), keys, ranges and ends validated."""
     from posfb.analysis import stability_map as sm
 
     keys = tuple(args.map_axes or sm.DEFAULT_AXES)
@@ -284,10 +303,8 @@ def _map_axes(args: argparse.Namespace, loaded: LoadedScenario) -> list[MapAxis]
         if args.map_range is None
         else [tuple(args.map_range[:2]), tuple(args.map_range[2:])]
     )
-    for key, (low, high) in zip(keys, ranges, strict=True):
-        sm.check_range(key, low, high)
     axes = [
-        sm.MapAxis(key, np.linspace(low, high, points), value)
+        sm.make_axis(key, low, high, points, value)
         for key, value, (low, high) in zip(keys, values, ranges, strict=True)
     ]
     sm.check_endpoints(loaded, axes)
@@ -298,7 +315,7 @@ def run_map(args: argparse.Namespace) -> int:
     """``posfb design --map``: compute, print (or ``--json``), and with ``--out`` write the
     figure and the JSON."""
     from posfb.analysis import stability_map as sm
-    from posfb.analysis.outputs import output_folder
+    from posfb.analysis.outputs import output_folder, staged_folder
     from posfb.diagrams.resolve import resolve
 
     if args.strict:
@@ -306,28 +323,39 @@ def run_map(args: argparse.Namespace) -> int:
     out = None if args.out is None else output_folder("--out", args.out)
     settings = _map_settings(args)
     loaded = scenario_from_args(args)
-    relevant = relevant_checks(resolve(loaded).config)
+    study = None
+    if args.study is not None:  # first: a study of another arm is refused before any work
+        from posfb.analysis.montecarlo.config import load_study
+        from posfb.diagrams.arm import arm_identity
+
+        study = load_study(args.study, arm=arm_identity(loaded.scenario, loaded.base_dir))
+    from posfb.analysis.loop_effects import left_out, left_out_note
+
+    resolved = resolve(loaded)
+    relevant = relevant_checks(resolved.config)
+    note = left_out_note(left_out(resolved.config))
+    if note:
+        sys.stderr.write(f"posfb design --map: {note}\n")
     x, y = _map_axes(args, loaded)
     marks = {"scenario": {x.key: x.scenario_value, y.key: y.scenario_value}}
     if args.mark is not None:
-        marks["marked"] = sm.mark_values(args.mark, (x.key, y.key))
-    study = None
-    if args.study is not None:
-        from posfb.analysis.montecarlo.config import load_study
-
-        study = load_study(args.study)
+        marks["marked"] = sm.mark_values(args.mark, (x.key, y.key), loaded)
+    x, y = sm.with_marks(x, y, marks.values())
+    sm.check_size(x, y, settings.plants)  # before the plants are drawn
     setup = sm.map_setup(loaded, relevant, study, settings.plants, settings.seed, settings.margin)
     smap = sm.compute_map(setup, x, y)
     robust = sm.largest_robust_sample_time(setup, smap)
-    points = {name: (values, sm.evaluate_point(setup, values)) for name, values in marks.items()}
-    data = sm.map_to_dict(setup, smap, robust, points, settings.seed, args.study)
+    verdicts = sm.mark_verdicts(setup, smap, marks)
+    data = sm.map_to_dict(setup, smap, robust, verdicts, settings.seed, args.study)
+    data["left_out"] = left_out(resolved.config)
     if out is not None:
-        paths = sm.write_map(out, sm.plot_map(setup, smap, marks, robust), data)
-        data["files"] = [str(p) for p in paths]
+        with staged_folder(out) as staged:
+            paths = sm.write_map(staged.path, sm.plot_map(setup, smap, verdicts, robust), data)
+        data["files"] = [str(p) for p in staged.final(paths)]
     if args.json:
         print(json.dumps(data, allow_nan=False))
     else:
-        print(sm.format_map(setup, smap, robust, points))
+        print(sm.format_map(setup, smap, robust, verdicts))
         if out is not None:
             print(f"wrote {', '.join(data['files'])}")
     return 0

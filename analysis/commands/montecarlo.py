@@ -18,8 +18,8 @@ import sys
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from posfb.analysis.errors import UsageError
-from posfb.analysis.outputs import output_file, output_folder
+from posfb.analysis.errors import EXIT_WORKER_DIED, UsageError
+from posfb.analysis.outputs import output_file, output_folder, staged_folder
 
 if TYPE_CHECKING:
     from posfb.analysis.montecarlo.config import Study
@@ -89,7 +89,10 @@ def configure(parser: argparse.ArgumentParser) -> None:
         "export", help="one tidy table, a row per (sample, controller): Parquet or CSV"
     )
     export.add_argument("--db", required=True, help="SQLite results file")
-    export.add_argument("--out", required=True, help="FILE.parquet or FILE.csv")
+    export.add_argument(
+        "--out", required=True, help="FILE.parquet or FILE.csv (an existing file only with --force)"
+    )
+    export.add_argument("--force", action="store_true", help="overwrite an existing --out")
     export.set_defaults(handler=export_command)
 
     replay = actions.add_parser(
@@ -121,7 +124,7 @@ def run_command(args: argparse.Namespace) -> int:
     from posfb.analysis.montecarlo.store import ResultStore
 
     study = with_overrides(load_study(args.study), samples=args.samples, seed=args.seed)
-    output_file("--db", args.db)
+    output_file("--db", args.db, force=True)  # an existing store is resumed, never replaced
     if args.dask_scheduler and args.workers != 1:
         raise UsageError("--workers applies to local runs; a Dask cluster brings its own workers")
     notes = []
@@ -160,7 +163,20 @@ def run_command(args: argparse.Namespace) -> int:
         f"({summary.written} new in {summary.elapsed_s:.1f} s, "
         f"{summary.samples_per_second:.2f} samples/s; runs: {statuses})"
     )
+    if summary.worker_died:
+        sys.stderr.write(f"posfb montecarlo: warning: {worker_died_note(summary.worker_died)}\n")
+        return EXIT_WORKER_DIED
     return 0
+
+
+def worker_died_note(samples: tuple[int, ...]) -> str:
+    """The warning of a run whose worker died on ``samples`` (``scheduler.WORKER_DIED``)."""
+    listed = ", ".join(str(index) for index in samples)
+    return (
+        f"a worker process died on sample{'s' if len(samples) > 1 else ''} {listed} and on "
+        "the retry (killed, e.g. out of memory); recorded as that sample's error, the run "
+        "went on"
+    )
 
 
 def dry_run(study: Study, db: str, workers: int, cores: int) -> int:
@@ -183,7 +199,7 @@ def export_command(args: argparse.Namespace) -> int:
     from posfb.analysis.montecarlo.store import ResultStore
     from posfb.analysis.montecarlo.table import TABLE_FORMATS, study_table
 
-    out = output_file("--out", args.out, TABLE_FORMATS)
+    out = output_file("--out", args.out, TABLE_FORMATS, args.force, inputs=(args.db,))
     with ResultStore.open_existing(args.db) as store:
         table = study_table(store)
     write_table(table, out)
@@ -196,13 +212,14 @@ def report_command(args: argparse.Namespace) -> int:
     from posfb.analysis.montecarlo.store import ResultStore
 
     out = output_folder("--out", args.out)
-    with ResultStore.open_existing(args.db) as store:
-        path = write_report(store, out)
+    with ResultStore.open_existing(args.db) as store, staged_folder(out) as staged:
+        (path,) = staged.final([write_report(store, staged.path)])
         expected, finished = store.study().samples, len(store.finished())
     if finished < expected:
         sys.stderr.write(
             f"posfb montecarlo: warning: {expected - finished} of {expected} samples are "
-            f"missing (unfinished run); the report covers the {finished} finished ones\n"
+            f"missing or lack a run (unfinished run); the report covers the {finished} "
+            "complete ones\n"
         )
     print(f"report written to {path}")
     return 0
@@ -248,7 +265,8 @@ def replay_command(args: argparse.Namespace) -> int:
         if current != stored_by:
             print(f"  note: the sample was stored by {stored_by}; this is {current}")
     try:
-        paths = write_outputs(args.sample, results, out, animate=args.animate)
+        with staged_folder(out) as staged:
+            paths = write_outputs(args.sample, results, staged.path, animate=args.animate)
     except RuntimeError as error:  # Meshcat could not start (as ``posfb animate``)
         raise UsageError(str(error)) from None
     print(f"{len(paths)} files written to {out}")

@@ -9,10 +9,12 @@ stores as they are.
 from __future__ import annotations
 
 import argparse
+import sys
 from pathlib import Path
 
-from posfb.analysis.commands.montecarlo import _positive_int, available_cores
-from posfb.analysis.outputs import output_folder
+from posfb.analysis.commands.montecarlo import _positive_int, available_cores, worker_died_note
+from posfb.analysis.errors import EXIT_WORKER_DIED
+from posfb.analysis.outputs import output_folder, staged_folder
 
 #: The shipped realism study.
 DEFAULT_STUDY = Path(__file__).resolve().parents[1] / "studies" / "realism" / "paper_table3.yaml"
@@ -50,13 +52,17 @@ def realism_command(args: argparse.Namespace) -> int:
     studies = load_realism(args.study)
     out = output_folder("--out", args.out)
     stores = out / "stores" if args.stores is None else output_folder("--stores", args.stores)
+    died = {}
     if not args.report_only:
         workers = min(args.workers, available_cores())
         chosen = None if args.only is None else args.only.split(",")
-        run_realism(studies, stores, workers, not args.no_progress, chosen)
-    path = write_report(studies, stores, out, command=_command(args))
+        died = run_realism(studies, stores, workers, not args.no_progress, chosen)
+    with staged_folder(out) as staged:  # the report's files; the stores are written as they run
+        (path,) = staged.final([write_report(studies, stores, staged.path, command=_command(args))])
     print(f"report written to {path}")
-    return 0
+    for name, samples in died.items():
+        sys.stderr.write(f"posfb realism: warning: {name}: {worker_died_note(samples)}\n")
+    return EXIT_WORKER_DIED if died else 0
 
 
 def _command(args: argparse.Namespace) -> str:

@@ -8,7 +8,7 @@ import argparse
 import sys
 from pathlib import Path
 
-from posfb.analysis.commands.design import EXIT_FAILED_CHECK, format_report
+from posfb.analysis.commands.design import EXIT_FAILED_CHECK, format_report, scenario_design
 from posfb.analysis.commands.scenario_args import add_scenario_arguments, scenario_from_args
 
 
@@ -53,7 +53,6 @@ def run_check(args: argparse.Namespace) -> int:
     from posfb.analysis.feasibility import trajectory_warnings
     from posfb.diagrams.resolve import load_scenario, resolve
     from posfb.models.controllers import design_checks
-    from posfb.models.design import cached_design
 
     loaded = load_scenario(args.file, args.settings)
     resolved = resolve(loaded)
@@ -66,7 +65,7 @@ def run_check(args: argparse.Namespace) -> int:
         print(f"verdict: {config.spec.label} has no Sec. 3 design; it was built with the "
               "scenario's settings")  # fmt: skip
         return 0
-    design = cached_design(config.design)
+    design = scenario_design(resolved, "scenario check")
     print(format_report(design, design_checks(config.controller)))
     relevant = design_checks(config.controller) if args.strict else config.spec.checks
     failed = [c.name for c in design.checks if c.name in relevant and not c.passed]

@@ -2,9 +2,11 @@
 nominal experiment), its metrics, and optionally its time series as a file.
 
 It is ``posfb.simulate`` (``analysis.api``) with the scenario from the command line:
-the same numbers as a script. Exit codes: 0 for a run that finished, 4
-(``analysis.errors.EXIT_DIVERGED``) for one that diverged (its metrics and time series
-are still written), 2 for bad input."""
+the same numbers as a script. Exit codes: 0 for a run that finished ``ok``, 4
+(``analysis.errors.EXIT_DIVERGED``) for one that diverged, 5 (``EXIT_NOT_TRACKED``)
+for one that finished ``saturated`` or ``lost`` (a warning line on stderr says why;
+``analysis.metrics.run_verdict``); the metrics and time series are written in every
+case. 2 for bad input."""
 
 from __future__ import annotations
 
@@ -14,8 +16,8 @@ import sys
 
 from posfb.analysis.commands.scenario_args import add_scenario_arguments, scenario_from_args
 from posfb.analysis.commands.warnings_io import printed_warnings
-from posfb.analysis.errors import EXIT_DIVERGED
-from posfb.analysis.outputs import EXPORT_FORMATS, output_file, output_folder
+from posfb.analysis.errors import run_exit_code
+from posfb.analysis.outputs import EXPORT_FORMATS, output_file, output_folder, staged_folder
 
 
 def configure(parser: argparse.ArgumentParser) -> None:
@@ -25,8 +27,10 @@ def configure(parser: argparse.ArgumentParser) -> None:
          "voltage_limit"),
     )  # fmt: skip
     parser.add_argument(
-        "--out", help=f"write the time series ({', '.join(EXPORT_FORMATS)} by suffix)"
-    )
+        "--out", help=f"write the time series ({', '.join(EXPORT_FORMATS)} by suffix; an "
+        "existing file only with --force)",
+    )  # fmt: skip
+    parser.add_argument("--force", action="store_true", help="overwrite an existing --out")
     parser.add_argument(
         "--figure", metavar="DIR", help="write positions/voltages and errors (PNG, SVG) into DIR"
     )
@@ -36,8 +40,8 @@ def configure(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    out = output_file("--out", args.out, EXPORT_FORMATS) if args.out else None
-    figures = output_folder("--figure", args.figure) if args.figure else None
+    out = None if args.out is None else output_file("--out", args.out, EXPORT_FORMATS, args.force)
+    figures = None if args.figure is None else output_folder("--figure", args.figure)
     loaded = scenario_from_args(args)
     from posfb.analysis import progress
     from posfb.analysis.api import simulate
@@ -48,10 +52,10 @@ def run(args: argparse.Namespace) -> int:
     if figures:
         from posfb.analysis import plots
 
-        figures.mkdir(parents=True, exist_ok=True)
         title = f"{run.label}, scenario {loaded.source}"
-        plots.save(run.plot("positions", title), figures, "positions")
-        plots.save(run.plot("errors", title), figures, "errors")
+        with staged_folder(figures) as staged:
+            plots.save(run.plot("positions", title), staged.path, "positions")
+            plots.save(run.plot("errors", title), staged.path, "errors")
     summary = run.summary()
     if written:
         summary["out"] = str(written)
@@ -59,7 +63,7 @@ def run(args: argparse.Namespace) -> int:
         print(json.dumps(summary))
     else:
         _print_summary(run, written)
-    return EXIT_DIVERGED if run.status == "diverged" else 0
+    return run_exit_code([run.status])
 
 
 def _print_summary(run: object, written: object) -> None:

@@ -71,12 +71,14 @@ from typing import ClassVar
 import scipy.stats
 from pydrake.common.yaml import yaml_dump_typed
 
+from posfb.diagrams.arm import ArmIdentity, arm_identity
 from posfb.diagrams.resolve import (
     LoadedScenario,
     load_scenario,
     resolve,
     resolve_path,
     self_contained,
+    with_arm_defaults,
 )
 from posfb.diagrams.scenario import (
     ControllerSection,
@@ -522,6 +524,19 @@ def _check_controllers(study: Study, scenario: Scenario) -> None:
         require_design(config.controller, config.design)
 
 
+#: The most samples a study of a design built whole in memory (``WHOLE_DESIGNS``) may
+#: ask for, refused before any work: a Latin-hypercube, Sobol' or Saltelli design takes
+#: samples x varied scalars x 8 bytes (10^12 samples of 3 scalars would take 21.8 TiB),
+#: and at about a second a sample a million samples is already days of one core; the
+#: statistics of a study need far fewer (the standard error of a probability at 10^6
+#: samples is below 5e-4). ``random`` sampling draws each sample from its index on use,
+#: so its memory stays flat at any count and it has no ceiling.
+MAX_SAMPLES = 1_000_000
+
+#: The sampling designs built whole in memory (every design but ``random``).
+WHOLE_DESIGNS = tuple(design for design in SAMPLING_DESIGNS if design != "random")
+
+
 def validate_study(study: Study) -> Study:
     """Return ``study`` if every value is allowed; otherwise raise ``ValueError``
     naming the key, the value and what is allowed."""
@@ -530,6 +545,12 @@ def validate_study(study: Study) -> Study:
         f"seed = {study.seed!r}; an integer >= 0 is required",
     )
     _require(study.samples > 0, f"samples = {study.samples!r}; at least 1 sample is required")
+    _require(
+        study.samples <= MAX_SAMPLES or study.sampling not in WHOLE_DESIGNS,
+        f"samples = {study.samples!r} with sampling: {study.sampling}; at most "
+        f"{MAX_SAMPLES:,} samples are allowed for a design built whole in memory "
+        "(sampling: random draws each sample on use, at any count)",
+    )
     _require(
         study.sampling in SAMPLING_DESIGNS,
         f"sampling = {study.sampling!r}; one of {', '.join(SAMPLING_DESIGNS)} is required",
@@ -578,30 +599,59 @@ def _check_saltelli(study: Study) -> None:
     )
 
 
-def load_study(path: str | Path) -> Study:
+def load_study(path: str | Path, arm: ArmIdentity | None = None) -> Study:
     """Load and validate a study file; every problem is one ``ValueError`` line. Its
     ``scenario`` (relative to the study's folder) and ``settings`` are folded into
-    ``base``, with the scenario's own relative paths made absolute."""
+    ``base``, with the scenario's own relative paths made absolute. With ``arm``, a
+    study of another arm is refused before the study is validated
+    (``require_study_arm``)."""
     path = Path(path)
     text = read_text(path, "study", missing=FileNotFoundError)
-    return study_from_text(text, source=f"study {path}", folder=path.parent)
+    return study_from_text(text, source=f"study {path}", folder=path.parent, arm=arm)
 
 
-def study_from_text(text: str, source: str = "study", folder: Path | None = None) -> Study:
+def study_from_text(
+    text: str, source: str = "study", folder: Path | None = None, arm: ArmIdentity | None = None
+) -> Study:
     """Parse and validate a study from YAML text (relative scenario paths are read from
-    ``folder``, default the working directory)."""
-    return complete_study(load_typed(Study, text, source), source, folder)
+    ``folder``, default the working directory; ``arm`` as for ``load_study``)."""
+    return complete_study(load_typed(Study, text, source), source, folder, arm)
 
 
-def complete_study(study: Study, source: str = "study", folder: Path | None = None) -> Study:
+def complete_study(
+    study: Study,
+    source: str = "study",
+    folder: Path | None = None,
+    arm: ArmIdentity | None = None,
+) -> Study:
     """A study as written (``scenario`` relative to ``folder``, default the working
     directory, and ``settings`` not yet applied) folded into its ``base`` and validated;
-    every problem is one ``ValueError`` line starting with ``source``."""
+    every problem is one ``ValueError`` line starting with ``source``. With ``arm``, a
+    study of another arm is refused right after the fold, before the validation's
+    designs (``require_study_arm``)."""
     try:
         study = _fold_scenario(study, Path.cwd() if folder is None else folder)
+        if arm is not None:
+            require_study_arm(study, arm)
         return validate_study(study)
     except ValueError as error:
         raise ValueError(f"{source}: {error}") from None
+
+
+def study_arm(study: Study) -> ArmIdentity:
+    """The arm the study describes: its base scenario's plant (``diagrams.arm``)."""
+    return arm_identity(study.base, Path.cwd())  # the base's paths are absolute
+
+
+def require_study_arm(study: Study, arm: ArmIdentity) -> None:
+    """Refuse (``ValueError``, one line naming both arms) a study whose base scenario's
+    arm is not ``arm``."""
+    own = study_arm(study)
+    _require(
+        own == arm,
+        f"the study describes {own} and the scenario {arm}; a study of the scenario's arm "
+        "is required",
+    )
 
 
 def _fold_scenario(study: Study, folder: Path) -> Study:
@@ -622,6 +672,8 @@ def _fold_scenario(study: Study, folder: Path) -> Study:
             loaded.scenario = apply_setting(loaded.scenario, setting)
     loaded.scenario = copy.deepcopy(loaded.scenario)
     loaded.scenario.controllers = {**loaded.scenario.controllers, **study.entries}
+    if study.entries:  # the study's own entries take what they leave out from the arm
+        loaded.scenario = with_arm_defaults(loaded.scenario, resolve(loaded).arm)
     return replace(study, scenario="", settings=[], base=self_contained(loaded), entries={})
 
 

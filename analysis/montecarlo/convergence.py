@@ -18,10 +18,11 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
+from matplotlib.figure import Figure
 
 from posfb.analysis.montecarlo.results import JointStats, StudyData
 from posfb.analysis.montecarlo.statistics import Interval, ecdf, running_quantiles
-from posfb.analysis.plots import joint_panels, label_joint_panel, save_report_figure
+from posfb.analysis.plots import joint_panels, label_joint_panel, legend_below, save_report_figure
 
 #: N is "enough" for a statistic whose 95 % interval half-width is at most this share of it.
 PRECISION = 0.10
@@ -125,8 +126,9 @@ def _samples_needed(precision: float, samples: int) -> str:
     return f"{int(np.ceil(samples * (precision / PRECISION) ** 2)):,}"
 
 
-def plot(data: StudyData, out: Path) -> None:
-    """Write ``convergence`` and ``ecdf`` (PNG and SVG) into ``out``."""
+def plot(data: StudyData, out: Path) -> tuple[Figure, Figure]:
+    """Write ``convergence`` and ``ecdf`` (PNG and SVG) into ``out``; return both figures
+    (each with its legend below the panels)."""
     figure, axes = joint_panels(data.joints, sharey=False)
     for joint, axis in enumerate(axes):
         for k, controller in enumerate(data.controllers):
@@ -135,9 +137,10 @@ def plot(data: StudyData, out: Path) -> None:
             axis.plot(counts, running[:, 0], color=colour, label=f"{controller} median")
             axis.plot(counts, running[:, 1], "--", color=colour, label=f"{controller} 95th pct")
         label_joint_panel(axis, joint, "RMS tracking error (rad)", "finished runs (sample order)")
-    axes[0].legend(fontsize=7)
+    legend_below(figure)
     figure.suptitle("Running median and 95th percentile: did the statistics settle?", y=1.02)
     save_report_figure(figure, out, "convergence")
+    settled = figure
 
     figure, axes = joint_panels(data.joints)
     for joint, axis in enumerate(axes):
@@ -147,6 +150,7 @@ def plot(data: StudyData, out: Path) -> None:
         label_joint_panel(
             axis, joint, "share of finished runs", "RMS tracking error (rad)", log="x"
         )
-    axes[0].legend()
+    legend_below(figure)
     figure.suptitle("Empirical distribution of the RMS error per controller", y=1.02)
     save_report_figure(figure, out, "ecdf")
+    return settled, figure

@@ -1,9 +1,12 @@
 """A cost model for a study, from a short calibration on this machine
 (``posfb montecarlo run --dry-run``).
 
-The calibration evaluates ``CALIBRATION_SAMPLES`` samples of the study in this
-process, exactly as a worker does (the first also builds the diagrams and designs),
-and measures the time per sample after the first and the process's peak memory.
+The calibration evaluates ``CALIBRATION_SAMPLES`` samples of the study in a fresh
+worker process, started as ``montecarlo run`` starts its workers (the scheduler's
+forkserver, with its preloaded modules), so the first sample pays what a worker's first
+does: it builds the diagrams and designs, which this process may already hold from
+validating the study (measured in this process, the warm-up read 0.00 s). It reports
+the time per sample after the first and the worker's peak memory.
 The prediction assumes the samples cost alike and that ``W`` local workers on ``W``
 free cores run ``PARALLEL_EFFICIENCY x W`` times as fast as one (measured with
 ``bench/bench_montecarlo.py`` on this project's 2-core machine: 1.28 samples/s with
@@ -15,12 +18,15 @@ calibration sees only if its samples differ.
 
 from __future__ import annotations
 
+import multiprocessing
 import resource
 import time
+from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass
 
+from posfb.analysis.montecarlo import worker
 from posfb.analysis.montecarlo.config import Study, canonical_text
-from posfb.analysis.montecarlo.worker import evaluate
+from posfb.analysis.montecarlo.scheduler import FORKSERVER_INIT
 
 #: Samples the calibration evaluates (the first is the warm-up).
 CALIBRATION_SAMPLES = 3
@@ -49,22 +55,33 @@ class CostEstimate:
         return self.memory_mib * max(1, workers)
 
 
-def calibrate(study: Study, todo: int) -> CostEstimate:
-    """Time ``CALIBRATION_SAMPLES`` samples of ``study`` in this process."""
-    text = canonical_text(study)
-    count = min(CALIBRATION_SAMPLES, study.samples)
+def calibration_samples(study_text: str, count: int) -> tuple[list[float], float]:
+    """In a worker process: the wall seconds of each of the first ``count`` samples of
+    the study ``study_text`` and the process's peak memory (MiB) after them."""
     times = []
     for index in range(count):
         start = time.perf_counter()
-        evaluate(text, index)
+        worker.evaluate(study_text, index)
         times.append(time.perf_counter() - start)
+    return times, resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
+
+
+def calibrate(study: Study, todo: int) -> CostEstimate:
+    """Time ``CALIBRATION_SAMPLES`` samples of ``study`` in a fresh worker process
+    (module docstring)."""
+    count = min(CALIBRATION_SAMPLES, study.samples)
+    context = multiprocessing.get_context("forkserver")
+    context.set_forkserver_preload([FORKSERVER_INIT, worker.__name__])
+    with ProcessPoolExecutor(max_workers=1, mp_context=context) as pool:
+        times, memory_mib = pool.submit(
+            calibration_samples, canonical_text(study), count
+        ).result()
     warm = times[1:] or times
     per_sample = sum(warm) / len(warm)
-    peak_kib = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
     return CostEstimate(
         seconds_per_sample=per_sample,
         warm_up_s=max(0.0, times[0] - per_sample),
-        memory_mib=peak_kib / 1024,
+        memory_mib=memory_mib,
         samples=todo,
     )
 

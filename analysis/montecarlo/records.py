@@ -5,8 +5,19 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-#: Outcomes of one controller on one sample.
-STATUSES = ("ok", "diverged", "error")
+from posfb.analysis.metrics import FINISHED_STATUSES, RUN_STATUSES
+
+#: Outcomes of one controller on one sample: a run's verdict
+#: (``analysis.metrics.run_verdict``: ``ok``, ``saturated``, ``lost``, ``diverged``), or
+#: ``error`` where it raised. The store keeps them as text; ``saturated`` and ``lost``
+#: are absent from a store written before posfb judged them (its runs that reached
+#: their end all read ``ok``).
+STATUSES = (*RUN_STATUSES, "error")
+
+#: The runs whose metrics cover the whole duration (``ok``, ``saturated``, ``lost``):
+#: the ones the RMS statistics use (``analysis.montecarlo.results``).
+FINISHED = FINISHED_STATUSES
+
 
 def measured_columns(joints: int) -> tuple[str, ...]:
     """``rms_measured_q1 .. rms_measured_qn``: the RMS of the measured error per joint

@@ -17,9 +17,10 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
+from matplotlib.figure import Figure
 
 from posfb.analysis.montecarlo import convergence, sensitivity, stability
-from posfb.analysis.montecarlo.records import STATUSES
+from posfb.analysis.montecarlo.records import FINISHED, STATUSES
 from posfb.analysis.montecarlo.results import (
     JointStats,
     StudyData,
@@ -35,12 +36,25 @@ from posfb.analysis.montecarlo.statistics import (
     proportion_interval,
 )
 from posfb.analysis.montecarlo.store import ResultStore
-from posfb.analysis.plots import joint_panels, label_joint_panel, save_report_figure
+from posfb.analysis.plots import (
+    dot_alpha,
+    joint_panels,
+    label_joint_panel,
+    legend_below,
+    save_report_figure,
+    thinned,
+)
 from posfb.diagrams.scenario import IdentifiedFromUrdf, Scenario, Theta, UrdfModel, Wave
 
 #: A run "saturates often" when more than this share of its control samples
 #: command a voltage beyond the limit.
 SATURATION_SHARE = 0.1
+
+#: Payload bins of the median line of ``rms_vs_payload`` (``payload_medians``).
+PAYLOAD_BINS = 12
+
+#: Box plots' median line: black, above the box's face.
+MEDIAN_STYLE = {"color": "black", "linewidth": 1.6, "zorder": 4}
 
 #: Figure files written next to every report (each as .png and .svg); ``rms_vs_radius``
 #: joins them when some controller has a designed loop (``stability``).
@@ -62,8 +76,10 @@ def _nominal_text(base: Scenario) -> str:
     return "the nominal Table 1 model"
 
 
-def plot_distributions(data: StudyData, out: Path) -> None:
-    """Box plots (with every sample as a dot) of the RMS error per controller and joint."""
+def plot_distributions(data: StudyData, out: Path) -> Figure:
+    """Box plots (median in black above the box) of the RMS error per controller and
+    joint, with up to ``MAX_DOTS`` of the samples as dots beside them (``thinned``);
+    saved as ``rms_distributions`` into ``out`` and returned."""
     figure, axes = joint_panels(data.joints)
     everything = np.ones(len(data.samples), dtype=bool)
     for joint, axis in enumerate(axes):
@@ -71,32 +87,58 @@ def plot_distributions(data: StudyData, out: Path) -> None:
         positions = np.arange(1, len(values) + 1)
         kept = [(p, v) for p, v in zip(positions, values, strict=True) if v.size]
         if kept:
-            axis.boxplot([v for _, v in kept], positions=[p for p, _ in kept], showfliers=False)
+            axis.boxplot([v for _, v in kept], positions=[p for p, _ in kept], showfliers=False,
+                         medianprops=MEDIAN_STYLE, zorder=3)  # fmt: skip
         jitter = np.random.default_rng(0)
         for position, v in zip(positions, values, strict=True):
-            axis.plot(position + jitter.uniform(-0.15, 0.15, v.size), v, ".", alpha=0.4)
+            (dots,) = thinned(v)
+            axis.plot(position + jitter.uniform(-0.15, 0.15, dots.size), dots, ".",
+                      markersize=3, alpha=dot_alpha(dots.size), zorder=2)  # fmt: skip
         axis.set_xticks(positions, data.controllers)
         label_joint_panel(axis, joint, "RMS tracking error (rad)")
     figure.suptitle("RMS tracking error over the sampled plants (runs that finished)", y=1.02)
     save_report_figure(figure, out, "rms_distributions")
+    return figure
 
 
-def plot_against_payload(data: StudyData, out: Path) -> None:
-    """RMS error against the sampled tip payload, per joint, one colour per controller."""
+def payload_medians(payload: np.ndarray, values: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The median of ``values`` in ``PAYLOAD_BINS`` payload bins of equal counts: the bins'
+    median payloads and the medians (one bin when the payload does not vary)."""
+    order = np.argsort(payload, kind="stable")
+    bins = [b for b in np.array_split(order, min(PAYLOAD_BINS, payload.size)) if b.size]
+    return (np.array([np.median(payload[b]) for b in bins]),
+            np.array([np.median(values[b]) for b in bins]))  # fmt: skip
+
+
+def plot_against_payload(data: StudyData, out: Path) -> Figure:
+    """RMS error against the sampled tip payload, per joint, one colour per controller:
+    the median over payload bins as a line (``payload_medians``) and up to ``MAX_DOTS``
+    samples as faint dots (``thinned``); saved as ``rms_vs_payload`` and returned."""
     figure, axes = joint_panels(data.joints)
     for joint, axis in enumerate(axes):
-        for controller in data.controllers:
+        for k, controller in enumerate(data.controllers):
             values = data.rms_q[controller][:, joint]
             ok = np.isfinite(values)
-            axis.plot(data.payload[ok], values[ok], ".", alpha=0.6, label=controller)
+            if not np.any(ok):
+                continue
+            colour = f"C{k}"
+            dots, payload = thinned(values[ok], data.payload[ok])
+            axis.plot(payload, dots, ".", color=colour, markersize=3,
+                      alpha=dot_alpha(dots.size))  # fmt: skip
+            axis.plot(*payload_medians(data.payload[ok], values[ok]), "-", color=colour,
+                      linewidth=1.8, label=f"{controller} (median)")  # fmt: skip
         label_joint_panel(axis, joint, "RMS tracking error (rad)", "tip payload (kg)")
-    axes[0].legend()
+    legend_below(figure)
+    figure.suptitle("RMS tracking error against the sampled tip payload (runs that finished)",
+                    y=1.02)  # fmt: skip
     save_report_figure(figure, out, "rms_vs_payload")
+    return figure
 
 
-def plot_inside_outside(data: StudyData, out: Path) -> None:
+def plot_inside_outside(data: StudyData, out: Path) -> Figure:
     """RMS error per controller for plants inside (blue) and outside (orange) the
-    Assumption-1 bounds."""
+    Assumption-1 bounds; each box's median in black, drawn above the box; saved as
+    ``rms_inside_outside`` and returned."""
     figure, axes = joint_panels(data.joints)
     groups = ((data.inside, "inside", "tab:blue"), (~data.inside, "outside", "tab:orange"))
     for joint, axis in enumerate(axes):
@@ -113,6 +155,7 @@ def plot_inside_outside(data: StudyData, out: Path) -> None:
                 positions=[k + offset for k, _ in kept],
                 widths=0.35,
                 patch_artist=True,
+                medianprops=MEDIAN_STYLE,
             )
             for box in boxes["boxes"]:
                 box.set_facecolor(colour)
@@ -120,10 +163,10 @@ def plot_inside_outside(data: StudyData, out: Path) -> None:
             axis.plot([], [], "s", color=colour, label=f"{name} ({int(np.sum(mask))} plants)")
         axis.set_xticks(range(len(data.controllers)), data.controllers)
         label_joint_panel(axis, joint, "RMS tracking error (rad)")
-    if axes[0].get_legend_handles_labels()[0]:
-        axes[0].legend()
+    legend_below(figure)
     figure.suptitle("Plants inside vs outside the Assumption-1 bounds of the design", y=1.02)
     save_report_figure(figure, out, "rms_inside_outside")
+    return figure
 
 
 def _number(value: float) -> str:
@@ -215,16 +258,20 @@ def markdown(
         "",
         "## Failures and saturation",
         "",
-        "Shares of the runs with Wilson 95 % intervals.",
+        "Shares of the runs with Wilson 95 % intervals. A run is `saturated` or `lost` "
+        "when it finished but spent most of its second half at the voltage limit or far "
+        "from its path (`analysis/metrics.py`); failed: it did not finish (`diverged`, "
+        "`error`).",
         "",
-        "| controller | ok | diverged | error | failed share [95 % CI] | runs saturated > "
+        f"| controller | {' | '.join(STATUSES)} | failed share [95 % CI] | runs saturated > "
         f"{SATURATION_SHARE:.0%} of the time [95 % CI] | largest saturated share |",
-        "|---|---:|---:|---:|---:|---:|---:|",
+        "|---|" + "---:|" * (len(STATUSES) + 3),
     ]
     for controller, counts in status_counts(data).items():
         row = " | ".join(str(counts[status]) for status in STATUSES)
         runs = sum(counts.values())
-        failed = _share(proportion_interval(runs - counts["ok"], runs))
+        finished = sum(counts[status] for status in FINISHED)
+        failed = _share(proportion_interval(runs - finished, runs))
         shares = data.saturated[controller]
         often = int(np.sum(shares > SATURATION_SHARE))
         saturated = f"{often} ({_share(proportion_interval(often, runs))})"
@@ -232,7 +279,7 @@ def markdown(
         lines.append(f"| {controller} | {row} | {failed} | {saturated} | {largest} |")
     failures = [m for c in data.controllers for m in data.messages[c][:3]]
     if failures:
-        lines += ["", "First failure messages per controller:", ""]
+        lines += ["", "First messages of the runs that are not `ok`, per controller:", ""]
         lines += [f"- {m}" for m in failures]
     if {"proposed", "pid"} <= set(data.controllers):
         wins, comparable = beats(data)
@@ -266,7 +313,7 @@ def markdown(
             for j in range(data.joints)
             for m in (data.inside, ~data.inside)
         ]
-        failed = data.status[controller] != "ok"
+        failed = ~np.isin(data.status[controller], FINISHED)
         lines.append(
             f"| {controller} | {' | '.join(medians)} | {int(np.sum(failed & data.inside))} | "
             f"{int(np.sum(failed & ~data.inside))} |"
@@ -278,8 +325,8 @@ def markdown(
     lines += [f"![{name}]({name}.png)" for name in FIGURES[:3]]
     lines += [
         "",
-        "RMS statistics use finished (`ok`) runs; a diverged run stops early and counts "
-        "as a failure instead.",
+        "RMS statistics use the runs that finished (`ok`, `saturated`, `lost`); a diverged "
+        "run stops early and counts as a failure instead.",
         "",
     ]
     return "\n".join(lines)

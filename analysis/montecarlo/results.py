@@ -2,11 +2,14 @@
 
 Conventions (the report states them too):
 
-* The RMS statistics use the runs with status ``ok`` only: a diverged run stops
-  early, so its RMS covers a different time span; it counts as a failure
-  (``diverged`` or ``error``) instead.
-* "The paper's controller beats PID" on a sample when ``proposed`` finished
-  (``ok``) and either PID did not, or the proposed controller's tracking error
+* The RMS statistics use the runs that finished (``records.FINISHED``: ``ok``,
+  ``saturated``, ``lost``, whose metrics cover the whole duration): a diverged run
+  stops early, so its RMS covers a different time span; it counts as a failure
+  (``diverged`` or ``error``) instead. A ``saturated`` or ``lost`` run is counted as
+  such and keeps its RMS in the statistics (leaving it out would flatter the
+  controller that failed).
+* "The paper's controller beats PID" on a sample when ``proposed`` finished and
+  either PID did not, or the proposed controller's tracking error
   ``||(rms_q1, .., rms_qn)||`` is smaller. The share is over the samples where
   neither run is an ``error``.
 """
@@ -20,7 +23,7 @@ import numpy as np
 
 from posfb.analysis.montecarlo.config import Study, VariedScalar, study_joints, varied_scalars
 from posfb.analysis.montecarlo.coverage import BOUND_NAMES
-from posfb.analysis.montecarlo.records import STATUSES, measured_columns
+from posfb.analysis.montecarlo.records import FINISHED, STATUSES, measured_columns
 from posfb.analysis.montecarlo.statistics import Interval, median_interval, quantile_interval
 from posfb.analysis.montecarlo.store import RADIUS_COLUMN, ResultStore
 
@@ -31,8 +34,9 @@ class StudyData:
 
     ``rms_q[controller]`` has shape ``(samples, joints)`` and ``saturated[controller]`` (the share
     of control samples with a commanded voltage beyond the limit) shape ``(n,)``, NaN
-    where the run is not ``ok``; ``rms_q_measured[controller]``, the RMS of the error the
-    encoder reads, is shaped as ``rms_q`` and NaN also where the store did not record it
+    where the run did not finish (``FINISHED``); ``rms_q_measured[controller]``, the RMS
+    of the error the encoder reads, is shaped as ``rms_q`` and NaN also where the store
+    did not record it
     (a version-2 store's samples); ``status[controller]`` holds the status strings.
     ``inputs`` maps the export column of every varied scalar (``varied_scalars``) to its
     drawn values; ``radius[controller]`` is the sampled-data spectral radius of the
@@ -58,7 +62,7 @@ class StudyData:
 
 @dataclass(frozen=True)
 class JointStats:
-    """RMS tracking error (rad) of one controller at one joint over its ``ok`` runs."""
+    """RMS tracking error (rad) of one controller at one joint over its finished runs."""
 
     controller: str
     joint: int
@@ -90,13 +94,13 @@ def load(store: ResultStore) -> StudyData:
         status[controller][i] = run["status"]
         if run[RADIUS_COLUMN] is not None:
             radius[controller][i] = run[RADIUS_COLUMN]
-        if run["status"] == "ok":
+        if run["status"] in FINISHED:
             rms_q[controller][i] = [run[column] for column in rms_columns]
             measured[controller][i] = [
                 math.nan if run[column] is None else run[column] for column in measured_names
             ]
             saturated[controller][i] = run["saturated_fraction"]
-        elif run["message"]:
+        if run["status"] != "ok" and run["message"]:
             messages[controller].append(f"sample {run['sample']}: {run['message']}")
     return StudyData(
         study=study,
@@ -175,7 +179,8 @@ def beats(data: StudyData, challenger: str = "proposed", baseline: str = "pid") 
     comparable = (ours != "error") & (theirs != "error")
     ours_error = np.linalg.norm(data.rms_q[challenger], axis=1)
     theirs_error = np.linalg.norm(data.rms_q[baseline], axis=1)
-    better = (ours == "ok") & ((theirs != "ok") | (ours_error < theirs_error))
+    ours_finished, theirs_finished = np.isin(ours, FINISHED), np.isin(theirs, FINISHED)
+    better = ours_finished & (~theirs_finished | (ours_error < theirs_error))
     return int(np.sum(better & comparable)), int(np.sum(comparable))
 
 

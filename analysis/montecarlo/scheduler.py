@@ -8,6 +8,12 @@ workers ignore it) the queued samples are dropped and the running ones are
 finished and stored before the run stops. A run killed outright (SIGTERM, SIGKILL)
 loses its samples in flight, and its workers end themselves within a second
 (``watchdog``).
+A local worker that dies (killed, or by the out-of-memory killer) breaks the pool and
+every sample in flight with it: a fresh pool runs those samples again, one at a time,
+so the one that kills its worker again is known; it is recorded as that sample's error
+(``WORKER_DIED``, every run ``error``, the draw kept) and the run goes on
+(``RunSummary.worker_died``). A stored sample with runs missing
+(``ResultStore.missing_runs``) is sent with the controllers to run on it.
 Local workers come from a ``forkserver`` context (fresh processes, never a fork
 of a parent with Drake threads) whose server preloads the worker module, so
 each worker starts without importing Drake again. With a Dask scheduler
@@ -24,7 +30,7 @@ import signal
 import sys
 import threading
 import time
-from collections import Counter
+from collections import Counter, deque
 from collections.abc import Callable, Generator, Iterator
 from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
 from concurrent.futures.process import BrokenProcessPool
@@ -32,7 +38,7 @@ from dataclasses import dataclass
 
 from tqdm import tqdm
 
-from posfb.analysis.errors import InterruptedRunError, UsageError
+from posfb.analysis.errors import InterruptedRunError, UsageError, WorkerDiedError
 from posfb.analysis.montecarlo import worker
 from posfb.analysis.montecarlo.config import Study, canonical_text, identity
 from posfb.analysis.montecarlo.records import SampleResult
@@ -48,7 +54,20 @@ FORKSERVER_INIT = "posfb.analysis.montecarlo.forkserver_init"
 #: Seconds to wait for a Dask scheduler to answer.
 DASK_CONNECT_TIMEOUT = "10s"
 
-Evaluate = Callable[[str, int], SampleResult]
+#: ``evaluate(study_text, index)``, or ``evaluate(study_text, index, controllers)`` for
+#: a sample stored with the runs of ``controllers`` missing.
+Evaluate = Callable[..., SampleResult]
+
+#: A unit of work: a sample's index and the controllers to run on it (``None``: every
+#: controller of the study).
+Task = tuple[int, tuple[str, ...] | None]
+
+#: The message of the runs of a sample whose worker process died on it, and again on
+#: its retry.
+WORKER_DIED = (
+    "the worker process died running this sample, and again on its retry (killed, "
+    "e.g. by the out-of-memory killer or a signal)"
+)
 
 
 @dataclass(frozen=True)
@@ -60,54 +79,123 @@ class RunSummary:
     written: int
     elapsed_s: float
     statuses: dict[str, int]
+    #: The samples recorded as errors because their worker died (``WORKER_DIED``).
+    worker_died: tuple[int, ...] = ()
 
     @property
     def samples_per_second(self) -> float:
         return self.written / self.elapsed_s if self.elapsed_s > 0 else 0.0
 
 
+def _arguments(study_text: str, task: Task) -> tuple[object, ...]:
+    """The arguments of ``evaluate`` for ``task``."""
+    index, controllers = task
+    return (study_text, index) if controllers is None else (study_text, index, controllers)
+
+
 def _local_results(
-    study_text: str, pending: Iterator[int], workers: int, evaluate: Evaluate
+    study_text: str, pending: Iterator[Task], workers: int, evaluate: Evaluate
 ) -> Generator[SampleResult, None, None]:
     context = multiprocessing.get_context("forkserver")
     # By name: importing it here would make this (the parent) process ignore Ctrl-C.
     context.set_forkserver_preload([FORKSERVER_INIT, worker.__name__])
-    queue = pending
-    in_flight: set[Future] = set()
+    in_flight: dict[Future, Task] = {}
+    retries: deque[Task] = deque()  # in flight when a worker died: run again one at a time
+    retried: set[int] = set()
     ctrl_c = _DeferredCtrlC()
     previous = ctrl_c.install()
     started = False
-    pool = ProcessPoolExecutor(
-        max_workers=workers, mp_context=context, initializer=watch_run, initargs=(os.getpid(),)
-    )
+    pool = _pool(context, workers)
     try:
         while True:
-            for index in queue:
-                in_flight.add(pool.submit(evaluate, study_text, index))
-                if len(in_flight) >= IN_FLIGHT_PER_WORKER * workers:
-                    break
+            if retries or any(index in retried for index, _ in in_flight.values()):
+                if retries and not in_flight:
+                    task = retries.popleft()
+                    retried.add(task[0])
+                    in_flight[_submit(pool, evaluate, study_text, task)] = task
+            else:
+                for task in pending:
+                    in_flight[_submit(pool, evaluate, study_text, task)] = task
+                    if len(in_flight) >= IN_FLIGHT_PER_WORKER * workers:
+                        break
             if not in_flight:
                 return
             done: set[Future] = set()
             try:
                 if started:
                     ctrl_c.allow()
-                done, in_flight = wait(in_flight, return_when=FIRST_COMPLETED)
+                done, _ = wait(in_flight, return_when=FIRST_COMPLETED)
                 ctrl_c.allowed = False
                 started = True
             except KeyboardInterrupt:
                 ctrl_c.allowed = True  # a second Ctrl-C drops the samples in flight
-                yield from _drain(done | in_flight)
+                yield from _drain(set(in_flight))
                 raise
-            for future in done:
-                yield future.result()
-    except BrokenProcessPool:
-        if ctrl_c.pending:  # Ctrl-C reached the forkserver before it could ignore it
-            raise KeyboardInterrupt from None
-        raise
+            lost = yield from _finished(done, in_flight)
+            if not lost:
+                continue
+            if ctrl_c.pending:  # Ctrl-C reached the forkserver before it could ignore it
+                raise KeyboardInterrupt
+            # The pool is broken: every sample still in flight is lost with it.
+            lost += yield from _finished(set(in_flight), in_flight)
+            pool.shutdown(wait=False, cancel_futures=True)
+            pool = _pool(context, workers)
+            if len(lost) == 1 and lost[0][0] in retried:  # it killed its worker again
+                yield _worker_died(pool, study_text, lost[0])
+            else:
+                retries.extend(sorted(lost))
     finally:
         ctrl_c.uninstall(previous)
         pool.shutdown(wait=False, cancel_futures=True)
+
+
+def _submit(pool: ProcessPoolExecutor, evaluate: Evaluate, study_text: str, task: Task) -> Future:
+    """``task`` submitted to ``pool``; a pool that broke meanwhile gives a future that
+    failed as the samples in flight did (the task is lost with them)."""
+    try:
+        return pool.submit(evaluate, *_arguments(study_text, task))
+    except BrokenProcessPool as error:
+        future: Future = Future()
+        future.set_exception(error)
+        return future
+
+
+def _pool(context: multiprocessing.context.BaseContext, workers: int) -> ProcessPoolExecutor:
+    """A local pool whose workers end themselves when this process is gone (``watchdog``)."""
+    return ProcessPoolExecutor(
+        max_workers=workers, mp_context=context, initializer=watch_run, initargs=(os.getpid(),)
+    )
+
+
+def _finished(
+    done: set[Future], in_flight: dict[Future, Task]
+) -> Generator[SampleResult, None, list[Task]]:
+    """Yield the results of the ``done`` futures (removed from ``in_flight``; waited for
+    first) and return the tasks lost with a broken pool. An exception of the evaluation
+    itself (a bug) propagates."""
+    lost = []
+    for future in wait(done).done:
+        task = in_flight.pop(future)
+        if isinstance(future.exception(), BrokenProcessPool):
+            lost.append(task)
+        else:
+            yield future.result()
+    return lost
+
+
+def _worker_died(pool: ProcessPoolExecutor, study_text: str, task: Task) -> SampleResult:
+    """Sample ``task``'s draw with each of its runs recorded as ``error`` (``WORKER_DIED``),
+    drawn on a worker of ``pool`` without running a controller."""
+    index, controllers = task
+    future = pool.submit(worker.record_failure, study_text, index, controllers, WORKER_DIED)
+    try:
+        return future.result()
+    except BrokenProcessPool:
+        raise WorkerDiedError(
+            f"sample {index}: the worker process died on it twice, and again when only "
+            "drawing it; every sample stored before is kept (run the same command again "
+            "to resume)"
+        ) from None
 
 
 class _DeferredCtrlC:
@@ -162,7 +250,7 @@ def _drain(in_flight: set[Future]) -> Generator[SampleResult, None, None]:
 
 
 def _dask_results(
-    study_text: str, pending: Iterator[int], address: str, evaluate: Evaluate, key: str
+    study_text: str, pending: Iterator[Task], address: str, evaluate: Evaluate, key: str
 ) -> Generator[SampleResult, None, None]:
     from dask.distributed import Client, as_completed
 
@@ -174,16 +262,17 @@ def _dask_results(
         slots = max(1, sum(client.nthreads().values())) * IN_FLIGHT_PER_WORKER
         queue = pending
 
-        def submit(index: int):
-            return client.submit(evaluate, study_text, index, key=f"{key}-{index}", pure=False)
+        def submit(task: Task):
+            arguments = _arguments(study_text, task)
+            return client.submit(evaluate, *arguments, key=f"{key}-{task[0]}", pure=False)
 
-        running = as_completed([submit(index) for index in itertools.islice(queue, slots)])
+        running = as_completed([submit(task) for task in itertools.islice(queue, slots)])
         for future in running:
             result = future.result()
             future.release()
-            next_index = next(queue, None)
-            if next_index is not None:
-                running.add(submit(next_index))
+            next_task = next(queue, None)
+            if next_task is not None:
+                running.add(submit(next_task))
             yield result
     finally:
         client.close()
@@ -198,17 +287,20 @@ def run_study(
     progress: bool = True,
     evaluate: Evaluate = worker.evaluate,
 ) -> RunSummary:
-    """Evaluate every sample of ``study`` not yet in ``store`` and store it.
+    """Evaluate every sample of ``study`` not yet in ``store`` (and the missing runs of
+    those stored incomplete) and store it.
 
     ``evaluate(study_text, index)`` must be importable by the workers (a
     module-level function); the default runs the closed loops."""
     if workers < 1:
         raise UsageError(f"workers = {workers!r}; at least 1 worker is required")
-    finished = store.finished()
+    finished, partial = store.finished(), store.missing_runs()
     already = sum(1 for index in finished if index < study.samples)
     todo = study.samples - already
     # Lazy: the memory of a run does not grow with --samples.
-    pending = (index for index in range(study.samples) if index not in finished)
+    pending = (
+        (index, partial.get(index)) for index in range(study.samples) if index not in finished
+    )
     text = canonical_text(study)
     if todo == 0:
         results: Generator[SampleResult, None, None] = (result for result in ())
@@ -218,7 +310,7 @@ def run_study(
     else:
         results = _local_results(text, pending, max(1, min(workers, todo)), evaluate)
     statuses: Counter[str] = Counter()
-    written = 0
+    written, died = 0, []
     start = time.perf_counter()
     bar = tqdm(
         total=study.samples,
@@ -233,6 +325,8 @@ def run_study(
             store.write(result, code_version)
             written += 1
             statuses.update(run.status for run in result.runs)
+            if any(run.message == WORKER_DIED for run in result.runs):
+                died.append(result.index)
             bar.update(1)
     finally:
         results.close()  # stops the workers at once on an interrupt or a failure
@@ -243,6 +337,7 @@ def run_study(
         written=written,
         elapsed_s=time.perf_counter() - start,
         statuses=dict(statuses),
+        worker_died=tuple(sorted(died)),
     )
 
 

@@ -4,9 +4,10 @@ sampled-data section.
 Each sample stores, per controller with a loop of Sec. 3 (the proposed
 controller and Lin+LC), the spectral radius ``rho`` of that loop closed around
 the sample's own linear part ``M0, B`` with the filters as designed on the
-nominal model (``models.design.plant_spectral_radii``; on the nominal model it
-is the design report's number). ``rho >= 1``: the held, sampled linear loop is
-unstable on that plant, and the nonlinear run typically oscillates (a limit
+nominal model and the sample's linear effects (compute and sensor delay, lag,
+compliant gear: ``analysis.loop_effects``; ``models.design.plant_spectral_radii``;
+on the nominal model it is the design report's number). ``rho >= 1``: the held,
+sampled linear loop is unstable on that plant, and the nonlinear run typically oscillates (a limit
 cycle bounded by friction and saturation) rather than diverging.
 
 The section counts the plants with ``rho >= 1`` (Wilson 95 % interval of the
@@ -21,6 +22,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
+from matplotlib.figure import Figure
 
 from posfb.analysis.montecarlo.results import StudyData, ok_values
 from posfb.analysis.montecarlo.statistics import (
@@ -31,7 +33,14 @@ from posfb.analysis.montecarlo.statistics import (
     proportion_interval,
     spearman_ranking,
 )
-from posfb.analysis.plots import joint_panels, label_joint_panel, save_report_figure
+from posfb.analysis.plots import (
+    dot_alpha,
+    joint_panels,
+    label_joint_panel,
+    legend_below,
+    save_report_figure,
+    thinned,
+)
 
 
 @dataclass(frozen=True)
@@ -131,20 +140,25 @@ def markdown(found: list[LoopStability]) -> list[str]:
     return lines
 
 
-def plot(data: StudyData, found: list[LoopStability], out: Path) -> None:
-    """RMS error against the loop's spectral radius, per joint, one colour per controller."""
+def plot(data: StudyData, found: list[LoopStability], out: Path) -> Figure:
+    """RMS error against the loop's spectral radius, per joint, one colour per controller
+    (up to ``MAX_DOTS`` samples each, ``analysis.plots.thinned``); saved as
+    ``rms_vs_radius`` into ``out`` and returned."""
     figure, axes = joint_panels(data.joints, width=11.0)
     for joint, axis in enumerate(axes):
         for entry in found:
             radius = data.radius[entry.controller]
             values = data.rms_q[entry.controller][:, joint]
             ok = np.isfinite(values) & np.isfinite(radius)
-            axis.plot(radius[ok], values[ok], ".", alpha=0.6, label=entry.controller)
+            dots, radii = thinned(values[ok], radius[ok])
+            axis.plot(radii, dots, ".", markersize=4, alpha=dot_alpha(dots.size),
+                      label=entry.controller)  # fmt: skip
         axis.axvline(1.0, color="black", linestyle="--", linewidth=0.8)
         label_joint_panel(
             axis, joint, "RMS tracking error (rad)",
             "spectral radius of the designed sampled loop on the plant",
         )  # fmt: skip
-    axes[0].legend()
+    legend_below(figure)
     figure.suptitle("Error against per-sample sampled-data stability (rho >= 1: unstable)", y=1.02)
     save_report_figure(figure, out, "rms_vs_radius")
+    return figure

@@ -6,14 +6,18 @@ export --db STORE --out FILE.parquet|.csv`` writes it
 (``analysis.export.write_table``: atomic, CSV floats round-trip exactly). Columns,
 in this order:
 
-* ``sample``, ``controller``, ``status`` (``ok | diverged | error``);
+* ``sample``, ``controller``, ``status`` (``records.STATUSES``: ``ok | saturated | lost |
+  diverged | error``);
 * the run's metrics with units: ``rms_q1_rad`` .. ``rms_qn_rad``, ``rms_u1_V`` ..
   ``rms_un_V`` (``n`` joints), ``max_abs_q_err_rad``, ``saturated_fraction`` (NaN
   where the run produced none);
 * the sample's plant, one column per scalar with its unit: ``link_mass_1_kg``,
   ``link_mass_2_kg``, ... ``motor_constant_n_N_m_per_V``, ``payload_mass_kg``,
   ``encoder_counts``, then every scenario key the study draws (``draws:``), under
-  its dotted key (``timing.sample_time``);
+  its dotted key (``timing.sample_time``). The values are ``models.plant.ArmParameters``'
+  at the joint: ``rotor_inertia_j_kg_m2`` is the *reflected* rotor inertia (the URDF's
+  ``drake:rotor_inertia`` at the motor times ``drake:gear_ratio`` squared), and
+  ``damping``, ``coulomb`` and ``motor_constant`` are joint-side;
 * for a study of the theta nominal model (the paper's), the identified lumped model
   ``theta1`` ... ``theta11`` and ``l1_m`` (``models.identify``; the theta in the
   units of Table 1);

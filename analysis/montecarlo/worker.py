@@ -25,7 +25,8 @@ from pathlib import Path
 
 from pydrake.systems.framework import Context
 
-from posfb.analysis.metrics import RunMetrics, run_metrics
+from posfb.analysis.loop_effects import loop_effects
+from posfb.analysis.metrics import RunMetrics, run_metrics, run_verdict
 from posfb.analysis.montecarlo.config import Study, study_from_text
 from posfb.analysis.montecarlo.coverage import Coverage, coverage, serial_coverage
 from posfb.analysis.montecarlo.records import ControllerRun, SampleResult, metric_columns
@@ -45,7 +46,12 @@ from posfb.diagrams.scenario import (
     with_controller,
 )
 from posfb.models.controllers import cached_design
-from posfb.models.design import LOOP_CONTROLLERS, ControllerConfig, plant_spectral_radii
+from posfb.models.design import (
+    LOOP_CONTROLLERS,
+    ControllerConfig,
+    LoopEffects,
+    plant_spectral_radii,
+)
 from posfb.models.identify import linear_part_model
 from posfb.models.lumped import LumpedParameters
 from posfb.models.nominal import nominal_model
@@ -137,12 +143,14 @@ class ClosedLoopEvaluator:
         return self.evaluate(index)[0]
 
     def evaluate(
-        self, index: int, controllers: Sequence[str] | None = None
+        self, index: int, controllers: Sequence[str] | None = None, failed: str | None = None
     ) -> tuple[SampleResult, dict[str, ClosedLoopResult]]:
         """Sample ``index``: the ``SampleResult`` with one run per controller of
         ``controllers`` (default: the study's, in its order) and each run's
         ``ClosedLoopResult`` by controller (none for a run that raised). The one code
-        path of both a study's samples (``__call__``) and ``montecarlo replay``."""
+        path of both a study's samples (``__call__``) and ``montecarlo replay``. With
+        ``failed``, no controller runs: each run is recorded as ``error`` with that
+        message (the sample's draw, theta and radii are still computed)."""
         scenario, drawn = sample_scenario(self.study, index)
         config = resolve(self._loaded(scenario)).config
         plant = sample_plant(self.study, self.nominal_plant, index)
@@ -156,13 +164,16 @@ class ClosedLoopEvaluator:
         runners = {c: self._runner_or_error(scenario, c) for c in chosen}
         configs = {c: r.config for c, r in runners.items() if isinstance(r, ClosedLoopRunner)}
         theta, where, linear_plant = self._place(self._designed(config, configs), context)
-        radii = self._radii(configs, linear_plant)
+        radii = self._radii(configs, linear_plant, loop_effects(config, plant.parameters))
         parameters = {
             key: list(value) if isinstance(value, tuple) else value
             for key, value in asdict(plant.parameters).items()
         }
         runs, results = [], {}
         for controller in chosen:
+            if failed is not None:
+                runs.append(ControllerRun(controller, "error", failed, {}, radii.get(controller)))
+                continue
             run, result = self._run(
                 controller,
                 runners[controller],
@@ -214,17 +225,20 @@ class ClosedLoopEvaluator:
         return {}, serial_coverage(true, nominal_model(design.nominal), bounds), true
 
     @staticmethod
-    def _radii(configs: dict[str, ClosedLoopConfig], linear_plant: object) -> dict[str, float]:
+    def _radii(
+        configs: dict[str, ClosedLoopConfig], linear_plant: object, effects: LoopEffects
+    ) -> dict[str, float]:
         """The sampled-data spectral radius of each controller's designed loop (its own
-        design) closed around the sampled plant's linear part; none for a controller
-        without one (PID, the plug-ins)."""
+        design) closed around the sampled plant's linear part with the sample's linear
+        ``effects`` (``analysis.loop_effects``); none for a controller without one (PID,
+        the plug-ins)."""
         radii, by_design = {}, {}
         for name, config in configs.items():
             if config.controller_settings is not None or config.controller not in LOOP_CONTROLLERS:
                 continue
             if config.design not in by_design:
                 by_design[config.design] = plant_spectral_radii(
-                    cached_design(config.design), linear_plant
+                    cached_design(config.design), linear_plant, effects
                 )
             radius = by_design[config.design].get(config.controller)
             if radius is not None:
@@ -263,19 +277,34 @@ class ClosedLoopEvaluator:
             )
         except Exception as error:  # recorded, never stops the study
             return ControllerRun(controller, "error", _one_line(error), {}, radius), None
-        metrics = _metrics_dict(run_metrics(result))
-        run = ControllerRun(controller, result.status, result.message, metrics, radius)
+        metrics, verdict = _metrics_dict(run_metrics(result)), run_verdict(result)
+        run = ControllerRun(controller, verdict.status, verdict.message, metrics, radius)
         return run, result
 
 
 _local = threading.local()
 
 
-def evaluate(study_text: str, index: int) -> SampleResult:
-    """Sample ``index`` of the study given as canonical YAML (the unit of work sent to
-    worker processes and Dask workers)."""
+def _evaluator(study_text: str) -> ClosedLoopEvaluator:
+    """This thread's evaluator of the study given as canonical YAML."""
     if getattr(_local, "study_text", None) != study_text:
         # One study per worker thread at a time: a new study replaces the last one's diagrams.
         _local.evaluator = ClosedLoopEvaluator(study_from_text(study_text))
         _local.study_text = study_text
-    return _local.evaluator(index)
+    return _local.evaluator
+
+
+def evaluate(study_text: str, index: int, controllers: Sequence[str] | None = None) -> SampleResult:
+    """Sample ``index`` of the study given as canonical YAML (the unit of work sent to
+    worker processes and Dask workers), with every controller of the study or only
+    ``controllers`` (the runs a stored sample lacks)."""
+    return _evaluator(study_text).evaluate(index, controllers)[0]
+
+
+def record_failure(
+    study_text: str, index: int, controllers: Sequence[str] | None, message: str
+) -> SampleResult:
+    """Sample ``index`` drawn without running a controller: each run of ``controllers``
+    (default: the study's) recorded as ``error`` with ``message`` (a sample whose worker
+    process died, ``scheduler.WORKER_DIED``)."""
+    return _evaluator(study_text).evaluate(index, controllers, failed=message)[0]

@@ -11,12 +11,14 @@ every study and joint: how often the paper's ranking of the controllers holds
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from itertools import combinations
 from pathlib import Path
 
 import numpy as np
 
+from posfb.analysis.montecarlo.config import identity
+from posfb.analysis.montecarlo.records import FINISHED
 from posfb.analysis.montecarlo.results import StudyData, load
 from posfb.analysis.montecarlo.store import ResultStore
 from posfb.analysis.realism.run import store_path
@@ -102,6 +104,7 @@ class StudyFindings:
     expected: int
     errors: dict[str, ControllerErrors]
     data: StudyData
+    resumable: bool = True
 
 
 @dataclass(frozen=True)
@@ -166,7 +169,7 @@ class Findings:
 def _study_findings(name: str, label: str, data: StudyData) -> StudyFindings:
     errors = {
         c: ControllerErrors(
-            data.rms_q[c], data.rms_q_measured[c], int(np.sum(data.status[c] != "ok"))
+            data.rms_q[c], data.rms_q_measured[c], int(np.sum(~np.isin(data.status[c], FINISHED)))
         )
         for c in data.controllers
     }
@@ -186,5 +189,7 @@ def findings(studies: RealismStudies, stores: Path) -> Findings:
                 )
             continue
         with ResultStore.open_existing(path) as store:
-            found[name] = _study_findings(name, studies.label(name), load(store))
+            study = _study_findings(name, studies.label(name), load(store))
+            same = store.meta()["identity"] == identity(studies.studies[name])
+        found[name] = replace(study, resumable=same)
     return Findings(studies, found, PAPER_TABLES[studies.spec.paper_table])

@@ -303,7 +303,13 @@ def markdown(found: Findings, command: str) -> str:
     spec = found.studies.spec
     missing = [n for n in found.studies.studies if n not in found.found]
     unfinished = [
-        f"{s.name}: {s.samples} of {s.expected} samples (`--only {s.name}` completes it)"
+        f"{s.name}: {s.samples} of {s.expected} samples ("
+        + (
+            f"`--only {s.name}` completes it)"
+            if s.resumable
+            else f"stored by an earlier posfb, which cannot be resumed: `--only {s.name}` "
+            "into a fresh `--out` runs it again)"
+        )
         for s in found.found.values()
         if s.samples < s.expected
     ]

@@ -23,16 +23,18 @@ def run_realism(
     workers: int = 1,
     progress: bool = True,
     only: list[str] | None = None,
-) -> None:
+) -> dict[str, tuple[int, ...]]:
     """Every study of ``studies`` (those named in ``only``, where given) into
     ``stores/NAME.sqlite``, in order; finished samples are kept (a store resumes), so an
-    interrupted run loses only samples in flight."""
+    interrupted run loses only samples in flight. Returns, by study, the samples
+    recorded as errors because their worker process died (``scheduler.WORKER_DIED``;
+    studies without such samples are left out)."""
     names = list(studies.studies)
     for name in only or ():
         if name not in names:
             raise UsageError(f"--only {name!r}; one of {', '.join(names)} is required")
     stores.mkdir(parents=True, exist_ok=True)
-    version = code_version()
+    version, died = code_version(), {}
     for name, study in studies.studies.items():
         if only is not None and name not in only:
             continue
@@ -46,3 +48,6 @@ def run_realism(
             f"posfb realism: {name}: {summary.already_done + summary.written} of "
             f"{summary.requested} samples ({summary.written} new in {summary.elapsed_s:.0f} s)\n"
         )
+        if summary.worker_died:
+            died[name] = summary.worker_died
+    return died

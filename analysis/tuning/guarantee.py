@@ -28,10 +28,17 @@ import math
 from dataclasses import dataclass
 
 
+def verification_bound(epsilon: float, beta: float, rounds: int = 1) -> float:
+    """``ln(rounds/beta) / ln(1/(1 - epsilon))``, the real number ``verification_plants``
+    rounds up at ``beta / rounds`` (``inf`` where it overflows; written with logarithms
+    of each factor and ``log1p`` so that tiny ``beta`` and ``epsilon`` stay exact)."""
+    return (math.log(rounds) - math.log(beta)) / -math.log1p(-epsilon)
+
+
 def verification_plants(epsilon: float, beta: float) -> int:
     """The smallest ``N`` with ``(1 - epsilon)^N <= beta``:
     ``ceil(ln(1/beta) / ln(1/(1 - epsilon)))`` (Tempo, Bai and Dabbene 1997)."""
-    return math.ceil(math.log(1.0 / beta) / math.log(1.0 / (1.0 - epsilon)))
+    return math.ceil(verification_bound(epsilon, beta))
 
 
 def violation_bound(failures: int, plants: int, beta: float) -> float:
@@ -85,7 +92,7 @@ class Guarantee:
             f", beta split over {self.rounds} rounds by the union bound" if self.rounds > 1 else ""
         )
         if self.failures == 0:
-            needed = math.log(self.rounds / self.beta) / math.log(1 / (1 - self.epsilon))
+            needed = verification_bound(self.epsilon, self.beta, self.rounds)
             return (
                 f"{head} (N = {self.plants} >= ln({self.rounds}/beta) / ln(1/(1 - epsilon)) "
                 f"= {needed:.1f} for epsilon = {self.epsilon:g}, beta = {self.beta:g}{split}: "

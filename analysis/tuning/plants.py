@@ -17,14 +17,17 @@ each is justified), with no payload (its size is the arm's).
 
 from __future__ import annotations
 
+from collections.abc import Iterator
 from dataclasses import dataclass, replace
 
 import numpy as np
 
-from posfb.analysis.montecarlo.config import Study, study_from_text, study_joints
+from posfb.analysis.loop_effects import loop_effects, rigid_plant
+from posfb.analysis.montecarlo.config import Study, require_study_arm, study_from_text
 from posfb.analysis.montecarlo.sampling import sample_plant
+from posfb.diagrams.arm import arm_identity
 from posfb.diagrams.resolve import LoadedScenario, ResolvedScenario, self_contained
-from posfb.models.design.closed_loop import HeldPlant, held_plant
+from posfb.models.design.closed_loop import HeldPlant, LoopEffects, held_plant
 from posfb.models.identify import linear_part_model
 from posfb.models.lumped import LumpedModel, LumpedParameters
 from posfb.models.nominal import nominal_model
@@ -50,8 +53,10 @@ ERROR_INSTANTS = 400
 
 @dataclass(frozen=True, eq=False)
 class LinearPlant:
-    """The linear part of one drawn arm: ``M0`` (V s^2/rad), ``B`` (V s/rad), that part
-    held over the scenario's sample time (``held``, the same for every design), and the
+    """The linear part of one drawn arm: ``M0`` (V s^2/rad), ``B`` (V s/rad), the
+    scenario's linear effects on it (``effects``, ``analysis.loop_effects``), that part
+    held over the scenario's sample time with them (``held``, the same for every design),
+    and the
     model error along the trajectory (``torque_error``: the plant's inverse dynamics
     minus the nominal model's, V, one row per instant of ``error_instants``; empty when
     not asked for)."""
@@ -59,6 +64,7 @@ class LinearPlant:
     index: int
     M0: np.ndarray
     B: np.ndarray
+    effects: LoopEffects
     held: HeldPlant
     torque_error: np.ndarray
 
@@ -72,17 +78,14 @@ def error_instants(resolved: ResolvedScenario) -> np.ndarray:
 
 def plant_family(study: Study | None, loaded: LoadedScenario) -> Study:
     """The distributions of ``study`` (``DEFAULT_SPREAD`` when ``None``) as a family of
-    i.i.d. plants around the arm of the scenario ``loaded``. A study of an arm with
-    another number of joints is refused (``ValueError`` naming both counts)."""
+    i.i.d. plants around the arm of the scenario ``loaded``. A study of another arm
+    (``diagrams.arm``: another URDF content, not only another joint count) is refused
+    (``ValueError`` naming both arms)."""
     base = self_contained(loaded)
     if study is None:
         study = study_from_text(DEFAULT_SPREAD, source="posfb tune's default spread")
-    elif study_joints(study) != study_joints(replace(study, base=base)):
-        raise ValueError(
-            f"the study describes a {study_joints(study)}-joint arm and the scenario a "
-            f"{study_joints(replace(study, base=base))}-joint one; a study of the "
-            "scenario's arm is required"
-        )
+    else:
+        require_study_arm(study, arm_identity(loaded.scenario, loaded.base_dir))
     return replace(study, base=base, sampling="random", overrides=[], draws={})
 
 
@@ -91,18 +94,27 @@ def linear_plants(
 ) -> list[LinearPlant]:
     """``count`` plants drawn from ``family`` (seed ``seed``, sample indices
     ``0..count-1``) around the scenario's true arm, each as its linear part in the form
-    of the scenario's nominal model (``models.identify.linear_part_model``); with
+    of the scenario's nominal model (``models.identify.linear_part_model``, on the arm
+    with a rigid gear: a compliant one is the plant's ``effects``); with
     ``errors``, also its model error along the trajectory at ``error_instants``."""
+    return list(draw_plants(family, resolved, seed, count, errors))
+
+
+def draw_plants(
+    family: Study, resolved: ResolvedScenario, seed: int, count: int, errors: bool = False
+) -> Iterator[LinearPlant]:
+    """The plants of ``linear_plants``, drawn one at a time as they are asked for (so
+    that a caller can time, bound or stop the drawing)."""
     config = resolved.config
-    _, arm, context = build_arm_diagram(config.plant)
+    _, arm, context = build_arm_diagram(rigid_plant(config.plant))
     around = resolved.true_parameters(arm.default_parameters)
     family = replace(family, seed=seed, samples=max(count, 1))
     states = [config.trajectory.evaluate(float(t)) for t in error_instants(resolved)]
     nominal = nominal_model(config.design.nominal)
     needed = np.array([nominal.inverse_dynamics(*state) for state in states]) if errors else None
-    plants = []
     for index in range(count):
-        apply_parameters(arm, context, sample_plant(family, around, index).parameters)
+        parameters = sample_plant(family, around, index).parameters
+        apply_parameters(arm, context, parameters)
         model = linear_part_model(arm, context, config.design.nominal)
         if isinstance(model, LumpedParameters):
             model = LumpedModel(model)
@@ -112,5 +124,6 @@ def linear_plants(
             if errors
             else np.empty((0, len(M0)))
         )
-        plants.append(LinearPlant(index, M0, B, held_plant(M0, B, config.sample_time), error))
-    return plants
+        effects = loop_effects(config, parameters)
+        held = held_plant(M0, B, config.sample_time, effects)
+        yield LinearPlant(index, M0, B, effects, held, error)

@@ -37,11 +37,14 @@ voltage the two inputs cause stays within the limit.
 from __future__ import annotations
 
 import math
+import time
 from collections.abc import Callable
 from dataclasses import dataclass, replace
 
 import numpy as np
 
+from posfb.analysis.loop_effects import nominal_effects
+from posfb.analysis.tuning.budget import Deadline
 from posfb.analysis.tuning.plants import LinearPlant, error_instants
 from posfb.diagrams.resolve import ResolvedScenario
 from posfb.models.controllers import require_design
@@ -134,16 +137,42 @@ class Evaluation:
     refused: str = ""
 
 
+def judging_seconds(
+    resolved: ResolvedScenario,
+    controller: str,
+    entry: LinearTorqueInputs,
+    plants: list[LinearPlant],
+) -> float:
+    """Seconds to judge ``entry``'s loop (``controller``) around one plant: the fastest
+    over ``plants`` (the price of each further plant); 0 when the entry's design is
+    refused (its cost is then not known)."""
+    config = resolved.config
+    try:
+        design_config = entry.config(config.design.nominal, config.sample_time)
+        require_design(controller, design_config)
+    except ValueError:
+        return 0.0
+    design = cached_design(design_config)
+    times = []
+    for plant in plants:
+        began = time.perf_counter()
+        held_design_radius(design, controller, plant.held)
+        times.append(time.perf_counter() - began)
+    return min(times, default=0.0)
+
+
 @dataclass
 class TuningProblem:
     """The tuning of ``controller`` (``proposed`` or ``lin_lc``) starting from the
-    scenario's ``entry``, checked on ``plants`` with ``margin``."""
+    scenario's ``entry``, checked on ``plants`` with ``margin``; ``deadline`` (``None``:
+    none) is checked before each plant a design is judged on (``radii``)."""
 
     resolved: ResolvedScenario
     controller: str
     entry: LinearTorqueInputs
     plants: list[LinearPlant]
     margin: float
+    deadline: Deadline | None = None
 
     def __post_init__(self) -> None:
         config = self.resolved.config
@@ -151,7 +180,8 @@ class TuningProblem:
         self.nominal = config.design.nominal
         self.knobs = knobs(self.entry)
         model = nominal_model(self.nominal)
-        self.nominal_held = held_plant(model.M0(), model.B(), self.sample_time)
+        self.effects = nominal_effects(self.resolved)
+        self.nominal_held = held_plant(model.M0(), model.B(), self.sample_time, self.effects)
         times = np.arange(config.samples + 1) * config.sample_time
         needed = trajectory_voltages(model, config.trajectory, times)
         self.peak_voltage = np.max(np.abs(needed), axis=0)
@@ -195,9 +225,13 @@ class TuningProblem:
             return Evaluation(math.inf, math.inf, math.inf, (), math.inf, False, str(error))
         design = cached_design(config)
         nominal_radius = (
-            design.sampled_data_spectral_radius
-            if self.controller == "proposed"
-            else design.sampled_data_spectral_radius_lin_lc
+            (
+                design.sampled_data_spectral_radius
+                if self.controller == "proposed"
+                else design.sampled_data_spectral_radius_lin_lc
+            )
+            if self.effects.ideal
+            else held_design_radius(design, self.controller, self.nominal_held)
         )
         worst = max(self.radii(design, self.plants), default=math.nan)
         if nominal_radius >= 1.0:
@@ -219,8 +253,16 @@ class TuningProblem:
         )
 
     def radii(self, design: Design, plants: list[LinearPlant]) -> list[float]:
-        """The spectral radius of the controller's loop around each of ``plants``."""
-        return [held_design_radius(design, self.controller, p.held) for p in plants]
+        """The spectral radius of the controller's loop around each of ``plants``
+        (``BudgetError`` once ``deadline`` has passed)."""
+        found = []
+        for index, plant in enumerate(plants):
+            if self.deadline is not None and self.deadline.passed():
+                raise self.deadline.error(
+                    f"judging a {self.controller} design on plant {index + 1} of {len(plants)}"
+                )
+            found.append(held_design_radius(design, self.controller, plant.held))
+        return found
 
     def violations(self, evaluation: Evaluation) -> np.ndarray:
         """How far ``evaluation`` is from each constraint (``<= 0``: met): the nominal and

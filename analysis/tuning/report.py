@@ -85,6 +85,9 @@ def _controller_lines(entry: TunedController, result: TuneResult) -> list[str]:
         f"beta = {entry.scenario_beta:.3g} for epsilon = {settings.epsilon:g}, Calafiore "
         "and Campi 2006; this search is not convex)",
     ]
+    lines += [f"  warning: {edge.sentence()}" for edge in entry.at_edge]
+    if entry.worse:
+        lines.append(f"  worse than the scenario's own: {', '.join(entry.worse)}")
     return lines
 
 
@@ -152,6 +155,8 @@ def result_dict(result: TuneResult) -> dict[str, object]:
             "scenario_approach_beta": entry.scenario_beta,
             "generations": entry.generations,
             "evaluations": entry.evaluations,
+            "worse": list(entry.worse),
+            "at_edge": [vars(edge) for edge in entry.at_edge],
         }  # fmt: skip
     return {
         "scenario": result.source,

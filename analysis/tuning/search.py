@@ -4,18 +4,22 @@ rules (Lampinen 2002: a feasible point beats an infeasible one, two infeasible o
 ranked by how far they are from feasible), the scenario's own settings in the first
 population, and a fixed schedule (``TuneSettings.generations``, population
 ``POPULATION`` per variable, no polishing). The result is a pure function of the
-problem and the seed; the wall-clock budget only stops a search that would overrun it,
-and then nothing is returned (``BudgetError``), never a time-dependent answer.
+problem and the seed; the wall-clock budget (``analysis.tuning.budget``: checked after
+each generation and, through the problem, before each plant a design is judged on) only
+stops a search that would overrun it, and then nothing is returned (``BudgetError``),
+never a time-dependent answer.
 """
 
 from __future__ import annotations
 
-import time
+import math
 import warnings
 from dataclasses import dataclass
 
 import numpy as np
 
+from posfb.analysis.tuning.budget import BudgetError, Deadline
+from posfb.analysis.tuning.budget import TuneError as TuneError  # its home for callers
 from posfb.analysis.tuning.problem import Evaluation, TuningProblem
 
 #: Population members per decision variable.
@@ -26,13 +30,10 @@ POPULATION = 10
 UNSTABLE_OBJECTIVE = 1e6
 
 
-class TuneError(RuntimeError):
-    """No tuned design: none meets the constraints, or the search would overrun its
-    budget (the message says which, in one line)."""
-
-
-class BudgetError(TuneError):
-    """The search's fixed schedule did not fit in the wall-clock budget."""
+def population(decisions: int) -> int:
+    """The members of each generation over ``decisions`` variables: ``POPULATION`` per
+    variable, rounded up to a power of 2 (scipy's Sobol' initialisation does)."""
+    return 2 ** math.ceil(math.log2(POPULATION * decisions))
 
 
 @dataclass(frozen=True)
@@ -47,9 +48,12 @@ class SearchResult:
     evaluations: int
 
 
-def search(problem: TuningProblem, seed: int, generations: int, deadline: float) -> SearchResult:
+def search(
+    problem: TuningProblem, seed: int, generations: int, deadline: Deadline
+) -> SearchResult:
     """Minimise ``problem``'s predicted error subject to its constraints; raise
-    ``BudgetError`` when ``time.monotonic()`` passes ``deadline`` first."""
+    ``BudgetError`` when ``deadline`` passes first: after a generation, or inside one
+    (``problem.deadline``, checked before each plant a design is judged on)."""
     import scipy.linalg  # on use: start-up
     import scipy.optimize
 
@@ -70,34 +74,39 @@ def search(problem: TuningProblem, seed: int, generations: int, deadline: float)
 
     done = [0]
 
+    def ran_out() -> BudgetError:
+        return deadline.error(
+            f"the search ran {done[0]} of its {generations} generations ({len(cache)} designs "
+            f"judged on {len(problem.plants)} plants)"
+        )
+
     def on_generation(intermediate_result: object) -> None:  # scipy passes it by this name
         done[0] += 1
-        if time.monotonic() > deadline:
-            raise BudgetError(
-                f"no design within the budget: the search ran {done[0]} of its {generations} "
-                f"generations ({len(cache)} designs) before it ran out; raise --budget, or "
-                "lower --plants or --generations"
-            )
+        if deadline.passed():
+            raise ran_out()
 
     start = problem.start()
     with warnings.catch_warnings():
         # The search visits ill-conditioned designs on purpose (its box is wide); their
         # Riccati and Lyapunov solutions are judged by the constraints, not reported.
         warnings.simplefilter("ignore", scipy.linalg.LinAlgWarning)
-        result = scipy.optimize.differential_evolution(
-            objective,
-            problem.bounds(),
-            constraints=scipy.optimize.NonlinearConstraint(violations, -np.inf, 0.0),
-            maxiter=generations,
-            popsize=POPULATION,
-            init="sobol",
-            x0=start,
-            seed=seed,
-            polish=False,
-            tol=0.0,
-            updating="deferred",
-            callback=on_generation,
-        )
+        try:
+            result = scipy.optimize.differential_evolution(
+                objective,
+                problem.bounds(),
+                constraints=scipy.optimize.NonlinearConstraint(violations, -np.inf, 0.0),
+                maxiter=generations,
+                popsize=POPULATION,
+                init="sobol",
+                x0=start,
+                seed=seed,
+                polish=False,
+                tol=0.0,
+                updating="deferred",
+                callback=on_generation,
+            )
+        except BudgetError:  # after or inside a generation: say how far the search got
+            raise ran_out() from None
     return SearchResult(
         start=evaluation(start),
         best=evaluation(result.x),

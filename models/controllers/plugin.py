@@ -26,8 +26,10 @@ The contract, in the order posfb calls it:
    memory of the next sample.
 
 Wrong sizes or non-finite output are refused in one line naming the class and its file
-(``PluginError``); an exception raised inside the plug-in's own code propagates as it
-is, with the plug-in's frames in its traceback.
+(``PluginError``). A ``ValueError`` raised inside the plug-in's own code (numpy's
+"operands could not be broadcast", say) is one line too, naming the class and the file
+and line of the plug-in where it was raised (``in_plugin``); any other exception
+propagates as it is, with the plug-in's frames in its traceback.
 """
 
 from __future__ import annotations
@@ -40,16 +42,22 @@ import traceback
 import types
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
+from typing import TypeVar
 
 import numpy as np
 
 from posfb.models.controllers.base import SampledController
 from posfb.models.controllers.registry import ControllerBuild, ControllerSpec
+from posfb.models.lumped import LumpedModel
 from posfb.models.nominal import nominal_model
+from posfb.models.serial_model import SerialArmModel
+
+_T = TypeVar("_T")
 
 
 class PluginError(ValueError):
-    """A plug-in broke the contract (bad class, sizes, non-finite output): one line."""
+    """A plug-in or its scenario entry is wrong (missing file, bad class, sizes,
+    non-finite output, a ``ValueError`` in its code): one line that names its own keys."""
 
 
 #: The source files of the user plug-ins loaded in this process: an error raised in
@@ -62,20 +70,62 @@ def user_frames(error: BaseException) -> list[traceback.FrameSummary]:
     return [f for f in traceback.extract_tb(error.__traceback__) if f.filename in USER_SOURCES]
 
 
+def in_plugin(name: str, call: Callable[[], _T]) -> _T:
+    """``call()``, a call into the code of plug-in class ``name``; a ``ValueError``
+    raised in the plug-in's source becomes a ``PluginError`` naming the class and the
+    file and line where it was raised, so that it is one line that says where."""
+    try:
+        return call()
+    except PluginError:
+        raise
+    except ValueError as error:
+        frames = user_frames(error)
+        if not frames:
+            raise
+        frame = frames[-1]
+        where = f"{name} ({frame.filename}, line {frame.lineno})"
+        raise PluginError(f"{where}: ValueError: {error}") from error
+
+
 class NominalDynamics:
     """The scenario's nominal model as a plug-in sees it: joint ``i``'s equation of
     motion divided by its motor constant (``models.lumped``, reading note 9), so every
-    "torque" is an armature voltage (V) and ``mass_matrix`` is in V s^2/rad."""
+    "torque" is an armature voltage (V) and ``mass_matrix`` is in V s^2/rad.
 
-    def __init__(self, model: object) -> None:
+    Eq. 2, ``M*(q) q'' + C*(q, q') q' + G*(q) + B* q' + F*(q') = u``, term by term:
+    ``rigid_body`` (``M* q'' + C* q' + G*``), ``viscous_friction`` (``B* q'``) and
+    ``coulomb_friction`` (``F*(q')``); ``inverse_dynamics`` is their sum, Coulomb
+    friction included. A plug-in that models friction its own way composes the pieces
+    it wants instead (``rigid_body(q, v, a) + viscous_friction(v)``, say)."""
+
+    def __init__(self, model: LumpedModel | SerialArmModel) -> None:
         self._model = model
 
     def inverse_dynamics(
         self, q: np.ndarray, qdot: np.ndarray, qddot: np.ndarray
     ) -> np.ndarray:
-        """``M(q) qddot + C(q, qdot) qdot + G(q) + B qdot`` (V): the voltage that makes
-        the nominal arm (without Coulomb friction) follow ``(q, qdot, qddot)``."""
-        return np.asarray(self._model.inverse_dynamics(q, qdot, qddot), dtype=float)
+        """``M(q) qddot + C(q, qdot) qdot + G(q) + B qdot + F(qdot)`` (V, Eq. 2): the
+        voltage that makes the nominal arm, Coulomb friction included, follow
+        ``(q, qdot, qddot)``; the sum of ``rigid_body``, ``viscous_friction`` and
+        ``coulomb_friction``."""
+        rigid = self.rigid_body(q, qdot, qddot)
+        return rigid + self.viscous_friction(qdot) + self.coulomb_friction(qdot)
+
+    def rigid_body(self, q: np.ndarray, qdot: np.ndarray, qddot: np.ndarray) -> np.ndarray:
+        """``M(q) qddot + C(q, qdot) qdot + G(q)`` (V): the arm's inertia, Coriolis,
+        centrifugal and gravity terms of Eq. 2, no friction."""
+        model = self._model
+        q, qdot, qddot = (np.asarray(x, dtype=float) for x in (q, qdot, qddot))
+        return np.asarray(model.M(q) @ qddot + model.coriolis(q, qdot) + model.G(q), dtype=float)
+
+    def viscous_friction(self, qdot: np.ndarray) -> np.ndarray:
+        """``B qdot`` (V): the viscous friction of Eq. 2 (``viscous()`` is ``B``)."""
+        return self.viscous() @ np.asarray(qdot, dtype=float)
+
+    def coulomb_friction(self, qdot: np.ndarray) -> np.ndarray:
+        """``F(qdot) = diag(f_c) sgn(qdot)`` (V): the Coulomb friction of Eq. 2
+        (reading note 1; ``coulomb_levels()`` is ``f_c``), 0 for a joint at rest."""
+        return self.coulomb_levels() * np.sign(np.asarray(qdot, dtype=float))
 
     def mass_matrix(self, q: np.ndarray) -> np.ndarray:
         """``M(q)`` (n x n, V s^2/rad)."""
@@ -199,6 +249,7 @@ class PluginSystem(SampledController):
         super().__init__(setup.sample_time, setup.joints, names, int(memory))
         self.plugin = controller
         self._where = where
+        self._name = type(controller).__name__
         self.set_name(f"{type(controller).__name__}_controller")
 
     @property
@@ -206,7 +257,8 @@ class PluginSystem(SampledController):
         return self.internals_names
 
     def _start(self, q: np.ndarray, desired: np.ndarray) -> np.ndarray:
-        memory = np.array(self.plugin.start(q.copy(), desired.copy()), dtype=float).ravel()
+        started = in_plugin(self._name, lambda: self.plugin.start(q.copy(), desired.copy()))
+        memory = np.array(started, dtype=float).ravel()
         if memory.shape != (self.memory_size,):
             raise PluginError(
                 f"{self._where}: start returned {memory.shape[0]} memory values; "
@@ -217,7 +269,7 @@ class PluginSystem(SampledController):
     def _step(
         self, q: np.ndarray, desired: np.ndarray, memory: np.ndarray
     ) -> tuple[np.ndarray, np.ndarray]:
-        result = self.plugin.step(q.copy(), desired.copy(), memory)
+        result = in_plugin(self._name, lambda: self.plugin.step(q.copy(), desired.copy(), memory))
         if not isinstance(result, tuple) or len(result) != 2:
             raise PluginError(f"{self._where}: step returned {type(result).__name__}; "
                               "a pair (voltage, internals) is required")  # fmt: skip
@@ -280,10 +332,12 @@ class UserPlugin:
     @property
     def spec(self) -> ControllerSpec:
         def build(inputs: ControllerBuild) -> PluginSystem:
+            where = f"{self.kind} ({self.source})"
+            setup = controller_setup(inputs)
             try:
-                controller = self.cls(controller_setup(inputs), **dict(self.settings))
+                controller = in_plugin(self.kind, lambda: self.cls(setup, **dict(self.settings)))
             except TypeError as error:
-                raise PluginError(f"{self.kind} ({self.source}): {error}") from None
+                raise PluginError(f"{where}: {error}") from None
             return PluginSystem(controller)
 
         return ControllerSpec(kind=self.kind, label=self.label, factory=build)

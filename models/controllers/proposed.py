@@ -26,7 +26,7 @@ import numpy as np
 from posfb.models.controllers.base import SampledController, joint_names
 from posfb.models.controllers.feedforward import nominal_torques
 from posfb.models.controllers.registry import ControllerSpec
-from posfb.models.design import Design, cached_design
+from posfb.models.design import ControllerConfig, Design, cached_design
 from posfb.models.design.settings import Proposed
 
 
@@ -104,10 +104,35 @@ class ProposedController(SampledController):
         return tau_lin + tau_lc + tau_nc, internals
 
 
+#: The label of the paper's controller with the paper's Sec. 4.2 settings.
+PAPER_LABEL = "Lin + LC + NC (paper)"
+
+#: Its label with any other settings (a tuned design, a scenario's own values).
+OWN_SETTINGS_LABEL = "Lin + LC + NC (own settings)"
+
+
+def has_paper_settings(design: ControllerConfig) -> bool:
+    """Whether ``design``'s controller settings are the paper's Sec. 4.2 ones (the
+    defaults of ``ControllerConfig``): the LQR weights and ``lambdas``, the nonlinear
+    torque, the Assumption-1 bounds and the discretisation. The arm (nominal model) and
+    ``T_s`` are the scenario's, not the controller's, and are not compared."""
+    paper = ControllerConfig()
+    return (design.lqr, design.nonlinear, design.bounds, design.discretisation) == (
+        paper.lqr, paper.nonlinear, paper.bounds, paper.discretisation
+    )  # fmt: skip
+
+
+def proposed_label(design: ControllerConfig) -> str:
+    """``PAPER_LABEL`` for the paper's settings (``has_paper_settings``), else
+    ``OWN_SETTINGS_LABEL``."""
+    return PAPER_LABEL if has_paper_settings(design) else OWN_SETTINGS_LABEL
+
+
 #: The paper's controller (Eq. 3): Lin + LC + NC.
 SPEC = ControllerSpec(
     kind="proposed",
-    label="Lin + LC + NC (paper)",
+    label=PAPER_LABEL,
+    design_label=proposed_label,
     factory=lambda build: ProposedController(cached_design(build.design)),
     style={"linestyle": ":", "color": "tab:green", "linewidth": 1.6},
     checks=("riccati", "lc_filter", "spr", "bound_filter", "continuous_with_nc", "sampled_data"),

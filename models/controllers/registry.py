@@ -1,7 +1,8 @@
 """One place per controller: the registry of controller specs.
 
 A spec holds everything posfb knows about a kind of controller: its ``kind`` (the
-scenario's name for it), its ``label`` and plot ``style`` (legends, tables), its
+scenario's name for it), its ``label`` and plot ``style`` (legends, tables; a
+``design_label`` where the label depends on the settings, ``label_for``), its
 settings class (a member of the scenario's ``controller:`` union: ``!Proposed``,
 ``!LinLc``, ``!Pid``, ...), the design checks that concern it, what it refuses, and its
 factory. Plots, exports, tables,
@@ -46,6 +47,13 @@ class ControllerSpec:
     checks: tuple[str, ...] = ()
     require: Callable[[ControllerConfig], None] | None = None
     internals: Callable[[int], tuple[str, ...]] | None = None
+    design_label: Callable[[ControllerConfig], str] | None = None
+
+    def label_for(self, design: ControllerConfig) -> str:
+        """The label of this controller built from ``design``: ``design_label(design)``
+        where the spec has one (e.g. "(paper)" only for the paper's settings), else
+        ``label``."""
+        return self.label if self.design_label is None else self.design_label(design)
 
     def refuse(self, design: ControllerConfig) -> None:
         """Raise ``ValueError`` (one line) if the controller refuses ``design``."""
@@ -59,9 +67,11 @@ _REGISTRY: dict[str, ControllerSpec] = {}
 #: Read-only view of the registry.
 REGISTRY: Mapping[str, ControllerSpec] = MappingProxyType(_REGISTRY)
 
-#: Line colours given to controllers in registration order (matplotlib's cycle).
-_COLOURS = ("tab:blue", "tab:orange", "tab:green", "tab:red", "tab:purple", "tab:brown",
-            "tab:pink", "tab:olive", "tab:cyan")  # fmt: skip
+#: Line colours given to controllers in registration order (matplotlib's cycle); a figure
+#: gives a line without a colour of its own the first one no registered kind holds
+#: (``analysis.plots``).
+PALETTE = ("tab:blue", "tab:orange", "tab:green", "tab:red", "tab:purple", "tab:brown",
+           "tab:pink", "tab:olive", "tab:cyan")  # fmt: skip
 
 
 def register(spec: ControllerSpec) -> ControllerSpec:
@@ -69,10 +79,15 @@ def register(spec: ControllerSpec) -> ControllerSpec:
     if spec.kind in _REGISTRY:
         raise ValueError(f"controller kind {spec.kind!r} is registered twice")
     if "color" not in spec.style:
-        colour = _COLOURS[len(_REGISTRY) % len(_COLOURS)]
+        colour = PALETTE[len(_REGISTRY) % len(PALETTE)]
         spec = replace(spec, style={**spec.style, "color": colour})
     _REGISTRY[spec.kind] = spec
     return spec
+
+
+def registered_colours() -> tuple[str, ...]:
+    """The line colour of every registered kind, in registration order."""
+    return tuple(str(entry.style["color"]) for entry in _REGISTRY.values())
 
 
 def kinds() -> tuple[str, ...]:

@@ -4,6 +4,7 @@ closed-loop checks. ``compute_design`` puts them together."""
 
 from functools import lru_cache
 
+from posfb.models.design.closed_loop import NO_EFFECTS, CompliantGear, LoopEffects
 from posfb.models.design.config import (
     ControllerConfig,
     LqrWeights,
@@ -21,6 +22,7 @@ from posfb.models.design.synthesis import (
     held_design_loop,
     held_design_radius,
     plant_spectral_radii,
+    with_effects,
 )
 
 #: Designs are pure functions of the (frozen, hashable) config: reuse them.
@@ -42,4 +44,8 @@ __all__ = [
     "held_design_loop",
     "held_design_radius",
     "diagonal",
+    "with_effects",
+    "CompliantGear",
+    "LoopEffects",
+    "NO_EFFECTS",
 ]

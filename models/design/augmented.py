@@ -74,19 +74,53 @@ class LqrSolution(GainBlocks):
     K: np.ndarray
 
 
+def _scaled_care(A: np.ndarray, B: np.ndarray, Q: np.ndarray, R: np.ndarray) -> np.ndarray:
+    """Eq. 15 solved in coordinates where ``Q`` and ``R`` have unit diagonals: with
+    ``x = S z`` (``S = diag(1/sqrt(Q_ii))``) and ``v = T w`` (``T = diag(1/sqrt(R_ii))``)
+    the equation for ``(S^-1 A S, S^-1 B T, S Q S, T R T)`` has the solution
+    ``S P S``, the same equation in other units. Weights of a fast loop (``scenario init``
+    at 5 kHz: ``Q`` from 1e-3 to 1e11, ``R`` 2e-7) make the unscaled Hamiltonian too
+    ill-conditioned for the Schur method; the scaled one is not."""
+    q, r = np.diag(Q).copy(), np.diag(R)
+    q[q <= 0.0] = 1.0
+    s, t = 1.0 / np.sqrt(q), 1.0 / np.sqrt(r)
+    Pz = scipy.linalg.solve_continuous_are(
+        A * (s[None, :] / s[:, None]), B * (t[None, :] / s[:, None]),
+        Q * np.outer(s, s), R * np.outer(t, t),
+    )  # fmt: skip
+    return Pz / np.outer(s, s)
+
+
+def is_hurwitz(poles: np.ndarray) -> bool:
+    """Every pole's real part below ``-1e-9`` times the largest ``|pole|`` (or 1): a pole
+    on the imaginary axis up to round-off is not stable."""
+    return bool(poles.real.max() < -1e-9 * max(1.0, float(np.abs(poles).max())))
+
+
 def solve_lqr(system: AugmentedSystem, Q: np.ndarray, R: np.ndarray) -> LqrSolution:
-    """Solve Eq. 15 with scipy and form ``K`` (Eq. 14).
+    """Solve Eq. 15 with scipy and form ``K`` (Eq. 14). Where scipy's Schur method fails
+    on the weights as written it solves the same equation in scaled units
+    (``_scaled_care``) and keeps that solution if it is stabilising.
 
     Raises ``ValueError`` naming ``Q1, Q2, R`` when no stabilising solution exists.
     """
+    A, B = system.A_a, system.B_a1
     try:
-        P = scipy.linalg.solve_continuous_are(system.A_a, system.B_a1, Q, R)
+        P = scipy.linalg.solve_continuous_are(A, B, Q, R)
     except (np.linalg.LinAlgError, ValueError) as error:
-        raise ValueError(
-            f"Q1, Q2, R: the Riccati equation (Eq. 15) has no stabilising solution ({error})"
-        ) from None
+        try:
+            P = _scaled_care(A, B, Q, R)
+        except (np.linalg.LinAlgError, ValueError):
+            P = None
+        stable = P is not None and np.all(np.isfinite(P)) and is_hurwitz(
+            np.linalg.eigvals(A - B @ np.linalg.solve(R, B.T @ P))
+        )
+        if not stable:
+            raise ValueError(
+                f"Q1, Q2, R: the Riccati equation (Eq. 15) has no stabilising solution ({error})"
+            ) from None
     P = 0.5 * (P + P.T)
-    return LqrSolution(P=P, K=np.linalg.solve(R, system.B_a1.T @ P))
+    return LqrSolution(P=P, K=np.linalg.solve(R, B.T @ P))
 
 
 def nonlinear_input_matrix(P: np.ndarray, M0: np.ndarray) -> np.ndarray:

@@ -16,9 +16,15 @@ from dataclasses import dataclass
 import numpy as np
 
 from posfb.models.design.config import UncertaintyBounds
+from posfb.models.disk_cache import cached_floats, file_digest
 from posfb.models.lumped import LumpedModel, LumpedParameters
-from posfb.models.nominal import NominalModel, nominal_model
-from posfb.models.serial_bounds import model_norms
+from posfb.models.nominal import NominalModel, UrdfNominal, nominal_model
+from posfb.models.serial_bounds import (
+    MODEL_NORM_SAMPLES,
+    MODEL_NORM_SEED,
+    SEARCH_STEPS,
+    model_norms,
+)
 from posfb.models.serial_model import SerialArmModel
 
 
@@ -122,10 +128,23 @@ def _lumped_norms(parameters: LumpedParameters, k_C1: float) -> dict[str, float]
     }
 
 
-def _serial_norms(model: SerialArmModel, k_C1: float | None) -> tuple[dict[str, float], float]:
+def _serial_norms(
+    nominal: UrdfNominal, model: SerialArmModel, k_C1: float | None
+) -> tuple[dict[str, float], float]:
     """The nominal norms of a serial arm: ``M1*``, ``C*`` and ``G*`` maximised over a
-    sampled workspace (``models.serial_bounds.model_norms``)."""
-    sampled = model_norms(model)
+    sampled workspace (``models.serial_bounds.model_norms``), kept in the on-disk cache
+    (``models.disk_cache``) under the URDF's content and the search's settings, so a
+    second command on an unchanged arm does not search again."""
+    sampled = cached_floats(
+        "model_norms",
+        {
+            "urdf_sha256": file_digest(nominal.urdf),
+            "samples": MODEL_NORM_SAMPLES,
+            "seed": MODEL_NORM_SEED,
+            "steps": SEARCH_STEPS,
+        },
+        lambda: model_norms(model, MODEL_NORM_SAMPLES, MODEL_NORM_SEED),
+    )
     k_C1 = sampled["delta_C"] if k_C1 is None else k_C1
     return {
         "delta_M0": float(np.linalg.norm(model.M0(), 2)),
@@ -147,7 +166,7 @@ def resolve_bounds(bounds: UncertaintyBounds, nominal: NominalModel) -> Resolved
         k_C1 = coriolis_bound(nominal) if bounds.k_C1 is None else bounds.k_C1
         norms = _lumped_norms(nominal, k_C1)
     else:
-        norms, k_C1 = _serial_norms(model, bounds.k_C1)
+        norms, k_C1 = _serial_norms(nominal, model, bounds.k_C1)
     F_norm = float(np.linalg.norm(model.coulomb_levels()))
     norms["delta_F"] = F_norm
     resolved = {

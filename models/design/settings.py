@@ -27,7 +27,8 @@ from posfb.models.design.config import (
     PidGains,
     UncertaintyBounds,
 )
-from posfb.models.nominal import NominalModel, joint_count
+from posfb.models.lumped import TABLE1
+from posfb.models.nominal import NominalModel, joint_count, nominal_model
 from posfb.models.validation import per_joint
 
 #: What a flat ``controller:`` section's ``kind`` key says now (``yaml_schema.check_shape``).
@@ -65,27 +66,95 @@ Bounds = dataclasses.make_dataclass(
 )
 
 
-def _paper_h_gamma() -> list[float]:
-    """``gamma_i`` of the paper's ``H(s) = diag(gamma_i / (s + gamma_i))`` (the default
-    ``NonlinearTorqueConfig.B_zeta``'s diagonal)."""
-    return [float(v) for v in np.diag(default_of(NonlinearTorqueConfig, "B_zeta")())]
+#: The joint count of the paper's arm (Table 1): an arm with this many joints gets the
+#: paper's Sec. 4.2 lists as its defaults (module docstring).
+PAPER_JOINTS = joint_count(TABLE1)
+
+
+@dataclass(frozen=True)
+class ArmInputs:
+    """What an entry's left-out per-joint settings are derived from (module docstring):
+    the ``nominal`` model (its joint count ``n`` and ``M0*``), the sample time ``T_s``
+    (s), the desired trajectory's wave ``frequencies`` (rad/s; empty for a trajectory
+    that is not a wave: ``H`` then gets the paper's ``gamma``), and per joint the
+    ``encoder_counts`` per revolution (0: ideal) and ``voltage_limit`` (V) that the PID
+    rule's quantisation bound reads (empty: ideal encoders, the sampling rule alone)."""
+
+    nominal: NominalModel
+    sample_time: float
+    frequencies: tuple[float, ...] = ()
+    encoder_counts: tuple[int, ...] = ()
+    voltage_limit: tuple[float, ...] = ()
+
+    @property
+    def joints(self) -> int:
+        """``n``: the nominal model's joint count."""
+        return joint_count(self.nominal)
+
+    @property
+    def paper_arm(self) -> bool:
+        """Whether the arm has the paper's two joints (its defaults are the paper's)."""
+        return self.joints == PAPER_JOINTS
+
+    def M0(self) -> np.ndarray:
+        """The nominal ``M0*`` (n x n, V s^2/rad)."""
+        return np.asarray(nominal_model(self.nominal).M0(), dtype=float)
+
+    def h_gamma(self) -> float:
+        """``gamma`` of ``H(s)`` by ``scenario init``'s rule (``models.design.initial.
+        h_gamma``: the paper's ratio to the fastest wave frequency); the paper's ``gamma``
+        when no wave has a frequency."""
+        from posfb.models.design.initial import h_gamma, paper_h_gamma
+
+        moving = [f for f in self.frequencies if f > 0.0]
+        return h_gamma(moving) if moving else paper_h_gamma()
+
+
+def _paper(cls: type, name: str) -> object:
+    """The paper's value of ``cls.name`` as a scenario writes it (lists of floats)."""
+    return default_of(cls, name)()
+
+
+def _filled(entry: object, values: dict[str, typing.Callable[[], object]]) -> object:
+    """A copy of ``entry`` with each field left out (``None``) among ``values`` set to its
+    value (each computed only when needed)."""
+    changes = {name: make() for name, make in values.items() if getattr(entry, name) is None}
+    return replace(entry, **changes) if changes else entry
 
 
 @dataclass
 class DiagonalH:
     """``H(s) = diag(gamma_i / (s + gamma_i))``, the paper's choice (Sec. 3.4, remark 1):
-    ``gamma_i > 0`` above the bandwidth of ``q_id``; SPR with relative degree 1."""
+    ``gamma_i > 0`` above the bandwidth of ``q_id``; SPR with relative degree 1. Left out:
+    from the arm (module docstring)."""
 
-    gamma: list[float] = field(default_factory=_paper_h_gamma)
+    gamma: list[float] | None = None
+
+    def with_arm_defaults(self, arm: ArmInputs) -> "DiagonalH":
+        """This ``H`` with a left-out ``gamma`` from ``arm`` (module docstring)."""
+        if arm.paper_arm:
+            paper = [float(v) for v in np.diag(_paper(NonlinearTorqueConfig, "B_zeta"))]
+            return _filled(self, {"gamma": lambda: paper})
+        return _filled(self, {"gamma": lambda: [arm.h_gamma()] * arm.joints})
 
 
 @dataclass
 class StateSpaceH:
-    """``H(s) = C_zeta (sI - A_zeta)^-1 B_zeta`` (n x n each), checked for SPR."""
+    """``H(s) = C_zeta (sI - A_zeta)^-1 B_zeta`` (n x n each), checked for SPR. Left out:
+    from the arm (module docstring; the diagonal ``H`` of the arm's ``gamma``)."""
 
-    A_zeta: list[list[float]] = field(default_factory=default_of(NonlinearTorqueConfig, "A_zeta"))
-    B_zeta: list[list[float]] = field(default_factory=default_of(NonlinearTorqueConfig, "B_zeta"))
-    C_zeta: list[list[float]] = field(default_factory=default_of(NonlinearTorqueConfig, "C_zeta"))
+    A_zeta: list[list[float]] | None = None
+    B_zeta: list[list[float]] | None = None
+    C_zeta: list[list[float]] | None = None
+
+    def with_arm_defaults(self, arm: ArmInputs) -> "StateSpaceH":
+        """This ``H`` with its left-out matrices from ``arm`` (module docstring)."""
+        names = ("A_zeta", "B_zeta", "C_zeta")
+        if arm.paper_arm:
+            return _filled(self, {name: default_of(NonlinearTorqueConfig, name) for name in names})
+        gamma, identity = arm.h_gamma(), np.eye(arm.joints)
+        matrices = dict(zip(names, (-gamma * identity, gamma * identity, identity), strict=True))
+        return _filled(self, {name: matrices[name].tolist for name in names})
 
 
 FilterH = DiagonalH | StateSpaceH
@@ -93,7 +162,7 @@ FilterH = DiagonalH | StateSpaceH
 
 def h_matrices(settings: FilterH, joints: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """``(A_zeta, B_zeta, C_zeta)`` of either form of ``H(s)`` (one ``gamma`` broadcasts
-    to the ``joints`` joints)."""
+    to the ``joints`` joints; every part is given: ``with_arm_defaults`` fills them)."""
     if isinstance(settings, StateSpaceH):
         return tuple(np.asarray(m, dtype=float) for m in (settings.A_zeta, settings.B_zeta,
                                                           settings.C_zeta))  # fmt: skip
@@ -107,21 +176,61 @@ def _vector(settings: object, name: str, joints: int) -> tuple[float, ...]:
     return tuple(per_joint(name, getattr(settings, name), joints))
 
 
+def _rows(matrix: tuple[tuple[float, ...], ...]) -> list[list[float]]:
+    return [list(row) for row in matrix]
+
+
+def _pid_rule(arm: ArmInputs) -> dict[str, list[float]]:
+    """``Kp``, ``Kv``, ``KI`` by ``scenario init``'s rule (``models.design.initial.
+    pid_gains``), joint by joint with its own encoder counts and voltage limit. An ideal
+    encoder (0 counts) has no count to chatter on: its joint gets the sampling rule
+    alone (an unbounded allowance, so the quantisation bound never binds)."""
+    import math
+
+    from posfb.models.design.initial import pid_gains
+
+    n, M0 = arm.joints, arm.M0()
+    counts = per_joint("sensor.encoder_counts", list(arm.encoder_counts) or [0], n)
+    limits = per_joint("actuator.voltage_limit", list(arm.voltage_limit) or [math.inf], n)
+    gains: dict[str, list[float]] = {"Kp": [], "Kv": [], "KI": []}
+    for j in range(n):
+        ideal = counts[j] == 0
+        joint = pid_gains(arm.sample_time, M0[j : j + 1, j : j + 1], 1 if ideal else counts[j],
+                          math.inf if ideal else limits[j])  # fmt: skip
+        for name in gains:
+            gains[name].append(getattr(joint, name)[0])
+    return gains
+
+
 @dataclass
 class Pid:
     """Computed torque + PID (Eq. 26, ``controller: !Pid {...}``): the diagonal gains
-    ``Kp``, ``Kv``, ``KI`` (per joint). No Sec. 3 design."""
+    ``Kp``, ``Kv``, ``KI`` (per joint; left out: from the arm, module docstring). No
+    Sec. 3 design."""
 
     #: A flat section's ``kind`` is refused with this hint.
     REMOVED: typing.ClassVar[dict[str, str]] = {"kind": FLAT_FORM_HINT}
 
-    Kp: list[float] = field(default_factory=default_of(PidGains, "Kp"))
-    Kv: list[float] = field(default_factory=default_of(PidGains, "Kv"))
-    KI: list[float] = field(default_factory=default_of(PidGains, "KI"))
+    Kp: list[float] | None = None
+    Kv: list[float] | None = None
+    KI: list[float] | None = None
+
+    def with_arm_defaults(self, arm: ArmInputs) -> "Pid":
+        """This entry with its left-out gains from ``arm`` (module docstring)."""
+        names = ("Kp", "Kv", "KI")
+        if arm.paper_arm:
+            return _filled(self, {name: default_of(PidGains, name) for name in names})
+        if all(getattr(self, name) is not None for name in names):
+            return self
+        rule = _pid_rule(arm)
+        return _filled(self, {name: (lambda name=name: rule[name]) for name in names})
 
     def config(self, nominal: NominalModel, sample_time: float) -> ControllerConfig:
+        """The design inputs of this entry on ``nominal`` at ``sample_time`` (left-out
+        gains from ``ArmInputs(nominal, sample_time)``)."""
+        entry = self.with_arm_defaults(ArmInputs(nominal, sample_time))
         n = joint_count(nominal)
-        gains = PidGains(*(_vector(self, name, n) for name in ("Kp", "Kv", "KI")))
+        gains = PidGains(*(_vector(entry, name, n) for name in ("Kp", "Kv", "KI")))
         return replace(ControllerConfig.without_design(nominal, sample_time), pid=gains)
 
 
@@ -136,20 +245,39 @@ class LinearTorqueInputs:
     REMOVED: typing.ClassVar[dict[str, str]] = {"kind": FLAT_FORM_HINT}
 
     discretisation: str = field(default_factory=default_of(ControllerConfig, "discretisation"))
-    Q1: list[list[float]] = field(default_factory=default_of(LqrWeights, "Q1"))
-    Q2: list[list[float]] = field(default_factory=default_of(LqrWeights, "Q2"))
-    R: list[list[float]] = field(default_factory=default_of(LqrWeights, "R"))
-    lambdas: list[float] = field(default_factory=default_of(LqrWeights, "lambdas"))
+    Q1: list[list[float]] | None = None
+    Q2: list[list[float]] | None = None
+    R: list[list[float]] | None = None
+    lambdas: list[float] | None = None
+
+    def with_arm_defaults(self, arm: ArmInputs) -> "LinearTorqueInputs":
+        """This entry with its left-out weights (and ``H``) from ``arm`` (module
+        docstring)."""
+        names = ("Q1", "Q2", "R", "lambdas")
+        if arm.paper_arm:
+            return _filled(self, {name: default_of(LqrWeights, name) for name in names})
+        if all(getattr(self, name) is not None for name in names):
+            return self
+        from posfb.models.design.initial import lqr_weights
+
+        rule = lqr_weights(arm.M0(), arm.sample_time).lqr()
+        matrices = {name: _rows(getattr(rule, name)) for name in ("Q1", "Q2", "R")}
+        matrices["lambdas"] = list(rule.lambdas)
+        return _filled(self, {name: (lambda name=name: matrices[name]) for name in names})
 
     def lqr(self, joints: int) -> LqrWeights:
+        """The LQR weights for ``joints`` joints (every weight given)."""
         lambdas = _vector(self, "lambdas", joints)
         return LqrWeights(Q1=self.Q1, Q2=self.Q2, R=self.R, lambdas=lambdas)
 
     def config(self, nominal: NominalModel, sample_time: float) -> ControllerConfig:
+        """The design inputs of this entry on ``nominal`` at ``sample_time`` (left-out
+        settings from ``ArmInputs(nominal, sample_time)``)."""
+        entry = self.with_arm_defaults(ArmInputs(nominal, sample_time))
         return replace(
             ControllerConfig.without_design(nominal, sample_time),
-            lqr=self.lqr(joint_count(nominal)),
-            discretisation=self.discretisation,
+            lqr=entry.lqr(joint_count(nominal)),
+            discretisation=entry.discretisation,
         )
 
 
@@ -172,15 +300,24 @@ class Proposed(LinearTorqueInputs):
     filter_a: float = field(default_factory=default_of(NonlinearTorqueConfig, "filter_a"))
     bounds: Bounds = field(default_factory=Bounds)
 
+    def with_arm_defaults(self, arm: ArmInputs) -> "Proposed":
+        """This entry with its left-out weights and ``H`` from ``arm`` (module docstring)."""
+        entry = super().with_arm_defaults(arm)
+        H = entry.H.with_arm_defaults(arm)
+        return entry if H is entry.H else replace(entry, H=H)
+
     def config(self, nominal: NominalModel, sample_time: float) -> ControllerConfig:
+        """The design inputs of this entry on ``nominal`` at ``sample_time`` (left-out
+        settings from ``ArmInputs(nominal, sample_time)``)."""
+        entry = self.with_arm_defaults(ArmInputs(nominal, sample_time))
         joints = joint_count(nominal)
-        A_zeta, B_zeta, C_zeta = h_matrices(self.H, joints)
+        A_zeta, B_zeta, C_zeta = h_matrices(entry.H, joints)
         nonlinear = NonlinearTorqueConfig(
-            alpha_star=self.alpha_star, K_alpha=self.K_alpha, alpha0=self.alpha0,
-            A_zeta=A_zeta, B_zeta=B_zeta, C_zeta=C_zeta, filter_a=self.filter_a,
+            alpha_star=entry.alpha_star, K_alpha=entry.K_alpha, alpha0=entry.alpha0,
+            A_zeta=A_zeta, B_zeta=B_zeta, C_zeta=C_zeta, filter_a=entry.filter_a,
         )  # fmt: skip
         return replace(
-            super().config(nominal, sample_time),
+            LinearTorqueInputs.config(entry, nominal, sample_time),
             nonlinear=nonlinear,
-            bounds=UncertaintyBounds(**dataclasses.asdict(self.bounds)),
+            bounds=UncertaintyBounds(**dataclasses.asdict(entry.bounds)),
         )

@@ -14,8 +14,9 @@ controllers refuse what they cannot use: Lin+LC a failed LQR design
 
 from __future__ import annotations
 
+import functools
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -23,6 +24,7 @@ from posfb.models.design.augmented import (
     GainBlocks,
     augmented_system,
     column_block,
+    is_hurwitz,
     nonlinear_input_matrix,
     solve_lqr,
 )
@@ -33,13 +35,14 @@ from posfb.models.design.bounds import (
     resolve_bounds,
 )
 from posfb.models.design.closed_loop import (
+    NO_EFFECTS,
     HeldPlant,
+    LoopEffects,
     SampledLoop,
     continuous_closed_loop,
     held_loop,
     held_plant,
     held_transition,
-    sampled_data_closed_loop,
     spectral_radius,
 )
 from posfb.models.design.config import ControllerConfig
@@ -108,12 +111,19 @@ class Design(GainBlocks):
     continuous_poles_with_nc: np.ndarray
     lc_filter_poles: np.ndarray
     bound_filter: BoundFilterConstants
-    bounds: ResolvedBounds
     lin_lc_filter: DiscreteFilter
     proposed_filter: DiscreteFilter
     sampled_data_spectral_radius: float
     sampled_data_spectral_radius_lin_lc: float
     checks: tuple[Check, ...]
+
+    @functools.cached_property
+    def bounds(self) -> ResolvedBounds:
+        """Assumption 1's constants and ``k_C1`` (``models.design.bounds.resolve_bounds``),
+        resolved on first use: only the proposed controller's bound of Eq. 18 and a
+        study's coverage read them, so Lin+LC, PID and plug-ins never pay a URDF arm's
+        workspace search."""
+        return resolve_bounds(self.config.bounds, self.config.nominal)
 
     @property
     def E1(self) -> np.ndarray:
@@ -154,10 +164,19 @@ def _sorted_poles(matrix: np.ndarray) -> np.ndarray:
 
 
 def _riccati_check(P: np.ndarray, poles: np.ndarray) -> Check:
+    """``P`` positive definite and ``A_a - B_a1 K`` Hurwitz. Definiteness is judged on
+    the equilibrated ``D P D`` (``D = diag(P_ii^-1/2)``, unit diagonal): a congruence,
+    so it has the signs of ``P``'s eigenvalues, and its smallest eigenvalue does not
+    depend on the units of the states (a fast loop's ``P`` spans many decades)."""
     eigenvalues = np.linalg.eigvalsh(P)
     smallest = float(eigenvalues.min())
-    tolerance = 1e-12 * max(1.0, float(np.abs(eigenvalues).max()))
-    passed = smallest > tolerance and poles.real.max() < -1e-9 * max(1.0, np.abs(poles).max())
+    diagonal = np.diag(P)
+    if np.all(diagonal > 0.0):
+        scale = 1.0 / np.sqrt(diagonal)
+        definite = float(np.linalg.eigvalsh(P * np.outer(scale, scale)).min()) > 1e-12
+    else:
+        definite = False
+    passed = definite and is_hurwitz(poles)
     if passed:
         detail = (
             "Riccati equation (Eq. 15): P is positive definite and A_a - B_a1 K is Hurwitz "
@@ -230,25 +249,79 @@ def _loop_radii(
     filters: dict[str, DiscreteFilter],
     alpha_star: float,
     sample_time: float,
+    effects: LoopEffects = NO_EFFECTS,
 ) -> dict[str, float]:
     """Spectral radius of each ``LOOP_CONTROLLERS`` sampled-data loop (its filter in
-    ``filters``) on the linear part ``M0 q~'' + B q~' = u`` (``models.design.closed_loop``)."""
+    ``filters``) on the linear part ``M0 q~'' + B q~' = u`` with ``effects``
+    (``models.design.closed_loop``)."""
+    plant = held_plant(M0, B, sample_time, effects)
     return {
         name: spectral_radius(
-            sampled_data_closed_loop(
-                M0, B, filters[name],
-                _output_gain(name, len(M0), filters[name].C.shape[0], alpha_star), sample_time,
+            held_transition(
+                plant,
+                filters[name],
+                _output_gain(name, len(M0), filters[name].C.shape[0], alpha_star),
             )  # fmt: skip
         )
         for name in LOOP_CONTROLLERS
     }
 
 
-def design_loop(design: Design, controller: str, M0: np.ndarray, B: np.ndarray) -> SampledLoop:
+def _sampled_checks(
+    config: ControllerConfig, radii: dict[str, float], effects: LoopEffects
+) -> tuple[Check, Check]:
+    """The ``sampled_data`` and ``sampled_data_lin_lc`` checks of ``radii``; their details
+    name the ``effects`` the loop includes."""
+    T, method = config.sample_time, config.discretisation.upper()
+    included = "; with " + ", ".join(effects.describe()) if effects.describe() else ""
+    return (
+        _stability_check(
+            "sampled_data",
+            f"sampled-data closed loop of the proposed controller (nominal linear plant held "
+            f"over T_s = {T:g} s, alpha = alpha* = {config.nonlinear.alpha_star:g}, "
+            f"{method} filters{included})",
+            radii["proposed"],
+        ),
+        _stability_check(
+            "sampled_data_lin_lc",
+            f"sampled-data closed loop of Lin+LC (T_s = {T:g} s, {method} filters{included})",
+            radii["lin_lc"],
+        ),
+    )
+
+
+def with_effects(design: Design, effects: LoopEffects) -> Design:
+    """``design`` with its sampled-data radii and checks computed on the nominal linear
+    part with ``effects`` (a scenario's compute delay, sensor delay, lag, compliant gear:
+    ``models.design.closed_loop``); ``design`` itself without any."""
+    if effects.ideal:
+        return design
+    radii = _loop_radii(
+        design.M0, design.B,
+        {"proposed": design.proposed_filter, "lin_lc": design.lin_lc_filter},
+        design.config.nonlinear.alpha_star, design.config.sample_time, effects,
+    )  # fmt: skip
+    sampled = {check.name: check for check in _sampled_checks(design.config, radii, effects)}
+    return replace(
+        design,
+        sampled_data_spectral_radius=radii["proposed"],
+        sampled_data_spectral_radius_lin_lc=radii["lin_lc"],
+        checks=tuple(sampled.get(check.name, check) for check in design.checks),
+    )
+
+
+def design_loop(
+    design: Design,
+    controller: str,
+    M0: np.ndarray,
+    B: np.ndarray,
+    effects: LoopEffects = NO_EFFECTS,
+) -> SampledLoop:
     """The sampled-data loop of ``controller`` (one of ``LOOP_CONTROLLERS``) with its filter
-    *as designed* closed around the linear part ``M0, B`` (``SampledLoop``: its inputs and
-    outputs too)."""
-    return held_design_loop(design, controller, held_plant(M0, B, design.config.sample_time))
+    *as designed* closed around the linear part ``M0, B`` with ``effects`` (``SampledLoop``:
+    its inputs and outputs too)."""
+    plant = held_plant(M0, B, design.config.sample_time, effects)
+    return held_design_loop(design, controller, plant)
 
 
 def _designed(design: Design, controller: str, joints: int) -> tuple[DiscreteFilter, np.ndarray]:
@@ -271,12 +344,15 @@ def held_design_radius(design: Design, controller: str, plant: HeldPlant) -> flo
 
 
 def plant_spectral_radii(
-    design: Design, plant: LumpedParameters | SerialArmModel
+    design: Design,
+    plant: LumpedParameters | SerialArmModel,
+    effects: LoopEffects = NO_EFFECTS,
 ) -> dict[str, float]:
     """The sampled-data spectral radius of each ``LOOP_CONTROLLERS`` loop with the filters
     *as designed* (on the nominal model) closed around the linear part ``M0, B`` of
-    ``plant`` (another arm's theta, or a serial arm's model): the design report's check,
-    asked of a sampled plant. On the design's own nominal model it is the design's radii."""
+    ``plant`` (another arm's theta, or a serial arm's model) with ``effects``: the design
+    report's check, asked of a sampled plant. On the design's own nominal model it is the
+    design's radii (``with_effects``')."""
     model = LumpedModel(plant) if isinstance(plant, LumpedParameters) else plant
     return _loop_radii(
         model.M0(),
@@ -284,6 +360,7 @@ def plant_spectral_radii(
         {"proposed": design.proposed_filter, "lin_lc": design.lin_lc_filter},
         design.config.nonlinear.alpha_star,
         design.config.sample_time,
+        effects,
     )
 
 
@@ -340,18 +417,7 @@ def compute_design(config: ControllerConfig | None = None) -> Design:
             + ("stable" if poles_with_nc.real.max() < 0.0 else "UNSTABLE")
             + ")",
         ),
-        _stability_check(
-            "sampled_data",
-            f"sampled-data closed loop of the proposed controller (nominal linear plant held "
-            f"over T_s = {T:g} s, alpha = alpha* = {nonlinear.alpha_star:g}, "
-            f"{method.upper()} filters)",
-            radii["proposed"],
-        ),
-        _stability_check(
-            "sampled_data_lin_lc",
-            f"sampled-data closed loop of Lin+LC (T_s = {T:g} s, {method.upper()} filters)",
-            radii["lin_lc"],
-        ),
+        *_sampled_checks(config, radii, NO_EFFECTS),
     )
     return Design(
         config=config,
@@ -371,7 +437,6 @@ def compute_design(config: ControllerConfig | None = None) -> Design:
         continuous_poles_with_nc=poles_with_nc,
         lc_filter_poles=lc_filter_poles,
         bound_filter=bound_filter,
-        bounds=resolve_bounds(config.bounds, config.nominal),
         lin_lc_filter=lin_lc_filter,
         proposed_filter=proposed_filter,
         sampled_data_spectral_radius=radii["proposed"],
