@@ -33,6 +33,7 @@ from matplotlib.colors import to_hex
 from matplotlib.figure import Figure
 from matplotlib.layout_engine import ConstrainedLayoutEngine
 
+from posfb.analysis.outputs import atomic_file
 from posfb.diagrams.closed_loop import ClosedLoopResult
 from posfb.models.controllers.registry import PALETTE, registered_colours
 
@@ -216,13 +217,16 @@ def save(
     figure: Figure, directory: Path, stem: str, dpi: int = 100, tight: bool = False
 ) -> list[Path]:
     """Write ``stem.png`` (at ``dpi``; 1100 x 700 px for the Figs. 4-7 layout) and
-    ``stem.svg`` into ``directory``. The SVG carries no date and fixed element ids,
-    so re-running on the same data rewrites identical files."""
+    ``stem.svg`` into ``directory``, each atomically (``analysis.outputs.atomic_file``:
+    an interrupted write leaves the previous file). The SVG carries no date and fixed
+    element ids, so re-running on the same data rewrites identical files."""
     paths = [directory / f"{stem}.png", directory / f"{stem}.svg"]
     bbox = "tight" if tight else None
     with matplotlib.rc_context({"svg.hashsalt": "posfb"}):
-        figure.savefig(paths[0], dpi=dpi, bbox_inches=bbox)
-        figure.savefig(paths[1], bbox_inches=bbox, metadata={"Date": None})
+        with atomic_file(paths[0]) as png:
+            figure.savefig(png, dpi=dpi, bbox_inches=bbox)
+        with atomic_file(paths[1]) as svg:
+            figure.savefig(svg, bbox_inches=bbox, metadata={"Date": None})
     return paths
 
 

@@ -11,6 +11,7 @@ from collections.abc import Mapping
 from pathlib import Path
 
 from posfb.analysis.experiment import CASES, case_title, payload_mass
+from posfb.analysis.outputs import atomic_file
 from posfb.analysis.tables import (
     PAPER_TABLES,
     ranking,
@@ -466,5 +467,6 @@ def build_report(data: Mapping[str, object]) -> str:
 def write_report(data: Mapping[str, object], out: Path) -> Path:
     """Write ``out/report.md``; returns its path."""
     path = Path(out) / "report.md"
-    path.write_text(build_report(data))
+    with atomic_file(path) as partial:
+        partial.write_text(build_report(data))
     return path

@@ -1,10 +1,9 @@
 """``posfb reproduce``: Sec. 4 of the paper in simulation, with every artefact.
 
-Every file is written into a temporary folder beside ``--out`` and moved into
-``--out`` once the whole reproduction is done (``analysis.outputs.staged_folder``): an
-interrupted or failed run leaves ``--out`` as the previous run left it. Order of work
-(``results.json`` is rewritten after every run; figures are written as soon as their
-runs exist):
+Every file is written into ``--out`` atomically (a temporary file beside it, then a
+rename), so an interrupted run leaves each file whole. Order of work (``results.json``
+is rewritten after every run, so finished runs are never lost; figures are written as
+soon as their runs exist):
 
 1. **Paper settings** (the main result): 3 controllers x {nominal, payload},
    Figs. 4-7, Tables 3-4 side by side.
@@ -39,7 +38,7 @@ from posfb.analysis.experiment import (
     result_entry,
 )
 from posfb.analysis.metrics import run_metrics, run_verdict
-from posfb.analysis.outputs import staged_folder
+from posfb.analysis.outputs import atomic_file, staged_folder
 from posfb.analysis.progress import run_progress
 from posfb.analysis.report import write_report
 from posfb.analysis.tables import PAPER_TABLES, side_by_side, theta_table
@@ -331,7 +330,8 @@ class Reproduction:
                 lines += [f"## {table}: {case_title(case)}, paper settings", ""]
                 lines += [side_by_side(data[case], PAPER_TABLES[case]), ""]
         path = self.out / "tables.md"
-        path.write_text("\n".join(lines))
+        with atomic_file(path) as partial:
+            partial.write_text("\n".join(lines))
         if path not in self.artefacts:
             self.artefacts.append(path)
 
@@ -343,12 +343,12 @@ def reproduce(
     bars: bool = False,
 ) -> list[Path]:
     """Run everything into ``out`` (``bars``: a progress bar per run on stderr); returns
-    the artefacts written. They are written into a temporary folder beside ``out`` and
-    moved into it once all are (``analysis.outputs.staged_folder``): an interrupted or
-    failed reproduction leaves ``out`` as it was, and ``out``'s other files are kept."""
+    the artefacts written. Each is written atomically as soon as it exists (module
+    docstring): an interrupted reproduction keeps every run it finished in
+    ``results.json``, and ``out``'s other files are kept."""
     started = time.perf_counter()
-    with staged_folder(out) as staged:
-        artefacts = staged.final(Reproduction(staged.path, duration, progress, bars).run())
+    Path(out).mkdir(parents=True, exist_ok=True)
+    artefacts = Reproduction(Path(out), duration, progress, bars).run()
     progress(f"done in {time.perf_counter() - started:.1f} s: {Path(out) / 'report.md'}")
     return artefacts
 

@@ -220,3 +220,32 @@ def test_a_sample_count_beyond_the_ceiling_is_refused_before_any_work():
         study_from_text(lhs.replace("samples: 4", f"samples: {10**12}"))
     assert study_from_text(lhs.replace("samples: 4", f"samples: {MAX_SAMPLES}"))
     assert study_from_text(TINY_STUDY.replace("samples: 4", f"samples: {10**12}"))
+
+
+def test_a_sample_that_kills_its_dask_workers_is_an_error_and_the_run_goes_on(tmp_path):
+    """On a Dask cluster (real worker processes under nannies), the sample whose plug-in
+    SIGKILLs its worker is re-run by Dask itself (``allowed-failures``, here 1), then
+    recorded as ``WORKER_DIED``; every other sample is stored ``ok``."""
+    import dask
+    from dask.distributed import LocalCluster
+
+    from posfb.analysis.cli import main
+
+    study, log = write_killer_study(tmp_path)
+    db = tmp_path / "dask.sqlite"
+    with (
+        dask.config.set({"distributed.scheduler.allowed-failures": 1}),
+        LocalCluster(
+            n_workers=2, processes=True, threads_per_worker=1, host="127.0.0.1",
+            dashboard_address=None,
+        ) as cluster,
+    ):  # fmt: skip
+        args = ["montecarlo", "run", str(study), "--db", str(db), "--no-progress"]
+        code = main([*args, "--dask-scheduler", cluster.scheduler_address])
+    assert code == EXIT_WORKER_DIED
+    assert len(log.read_text().split()) == 2  # the first try and Dask's one retry
+    stored, runs = all_rows(db)
+    died = {row["sample"] for row in runs if row["message"] == WORKER_DIED}
+    assert len(died) == 1
+    assert all(row["status"] == "ok" for row in runs if row["sample"] not in died)
+    assert len(stored) == len({row["sample"] for row in runs})

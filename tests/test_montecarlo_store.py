@@ -160,3 +160,22 @@ def test_a_store_written_before_the_new_statuses_reads_and_is_not_resumed(tmp_pa
     assert all(c == {**dict.fromkeys(STATUSES, 0), "ok": samples} for c in counts.values())
     with pytest.raises(UsageError, match="as an earlier posfb wrote it"):
         ResultStore.create_or_resume(path, study, "v2")
+
+
+def test_a_store_of_an_edited_urdf_is_not_resumed(tmp_path):
+    """The study keeps its URDF's path only; the store also keeps the arm's digest
+    (``diagrams.arm``), so after the file is edited (a heavier link 2) a resume is
+    refused naming the arm, while the unedited file resumes."""
+    from posfb.models.plant import DEFAULT_URDF
+
+    urdf = tmp_path / "arm.urdf"
+    urdf.write_text(DEFAULT_URDF.read_text())
+    text = TINY_STUDY + f"settings: [plant.urdf={urdf}]\n"
+    path = tmp_path / "store.sqlite"
+    ResultStore.create_or_resume(path, study_from_text(text), "v").close()
+    ResultStore.create_or_resume(path, study_from_text(text), "v").close()
+    edited = DEFAULT_URDF.read_text().replace('<mass value="0.873"/>', '<mass value="0.9"/>')
+    assert edited != DEFAULT_URDF.read_text()
+    urdf.write_text(edited)
+    with pytest.raises(UsageError, match="holds results for another arm than the 2-joint arm"):
+        ResultStore.create_or_resume(path, study_from_text(text), "v")

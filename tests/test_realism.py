@@ -211,3 +211,47 @@ def test_the_report_writes_any_distribution_as_the_study_file_does():
         assert tag == f"!{type(distribution).__name__}"
         read = yaml.safe_load(flow)
         assert all(read[k] == v for k, v in vars(distribution).items() if v not in (None, False))
+
+
+def test_the_error_figure_has_a_title_and_its_legend_below_the_data(small_study, tmp_path):
+    """Issue 27's figures: the realism report's error figure is titled and its legend
+    covers no panel (read back from the drawn figure)."""
+    from figure_checks import legend_labels, legends_over_axes, suptitle
+
+    from posfb.analysis.realism.findings import findings
+    from posfb.analysis.realism.report import plot_errors
+    from posfb.analysis.realism.spec import load_realism
+
+    spec, out = small_study
+    figure = plot_errors(findings(load_realism(spec), out / "stores"), tmp_path)
+    assert suptitle(figure)
+    assert legends_over_axes(figure) == []
+    assert legend_labels(figure)
+
+
+def test_a_store_of_an_earlier_posfb_is_reported_as_not_resumable(small_study, tmp_path):
+    """An unfinished study whose store holds another identity (written by an earlier
+    posfb) is not offered ``--only NAME`` as the way to complete it, since a resume into
+    it is refused; one of this version is."""
+    import shutil
+    import sqlite3
+
+    from posfb.analysis.realism.findings import findings
+    from posfb.analysis.realism.report import markdown
+    from posfb.analysis.realism.spec import load_realism
+
+    spec, out = small_study
+    stores = tmp_path / "stores"
+    shutil.copytree(out / "stores", stores)
+    studies = load_realism(spec)
+    name = next(n for n in studies.studies if n != "ideal")
+    path = next(stores.glob(f"{name}.*"))
+    with sqlite3.connect(path) as connection:
+        connection.execute("DELETE FROM runs WHERE sample = 0")
+        connection.execute("DELETE FROM samples WHERE sample = 0")
+    text = markdown(findings(studies, stores), "posfb realism")
+    assert f"`--only {name}` completes it" in text
+    with sqlite3.connect(path) as connection:
+        connection.execute("UPDATE meta SET value = 'earlier' WHERE key = 'identity'")
+    text = markdown(findings(studies, stores), "posfb realism")
+    assert "stored by an earlier posfb, which cannot be resumed" in text

@@ -18,7 +18,10 @@ Local workers come from a ``forkserver`` context (fresh processes, never a fork
 of a parent with Drake threads) whose server preloads the worker module, so
 each worker starts without importing Drake again. With a Dask scheduler
 address, the same ``worker.evaluate(study_text, index)`` tasks go to an
-existing ``dask.distributed`` cluster (its workers need posfb installed).
+existing ``dask.distributed`` cluster (its workers need posfb installed). There Dask
+itself re-runs a task whose worker died, on another worker, up to its
+``distributed.scheduler.allowed-failures`` (3 by default); a sample that still kills its
+worker (``KilledWorker``) is recorded as ``WORKER_DIED`` as on a local pool.
 """
 
 from __future__ import annotations
@@ -252,7 +255,7 @@ def _drain(in_flight: set[Future]) -> Generator[SampleResult, None, None]:
 def _dask_results(
     study_text: str, pending: Iterator[Task], address: str, evaluate: Evaluate, key: str
 ) -> Generator[SampleResult, None, None]:
-    from dask.distributed import Client, as_completed
+    from dask.distributed import Client, KilledWorker, as_completed
 
     try:
         client = Client(address, timeout=DASK_CONNECT_TIMEOUT)
@@ -261,14 +264,25 @@ def _dask_results(
     try:
         slots = max(1, sum(client.nthreads().values())) * IN_FLIGHT_PER_WORKER
         queue = pending
+        tasks: dict[str, Task] = {}
 
         def submit(task: Task):
             arguments = _arguments(study_text, task)
-            return client.submit(evaluate, *arguments, key=f"{key}-{task[0]}", pure=False)
+            future = client.submit(evaluate, *arguments, key=f"{key}-{task[0]}", pure=False)
+            tasks[future.key] = task
+            return future
 
         running = as_completed([submit(task) for task in itertools.islice(queue, slots)])
         for future in running:
-            result = future.result()
+            try:
+                result = future.result()
+            except KilledWorker:  # Dask retried it on fresh workers; each one died
+                index, controllers = tasks[future.key]
+                result = client.submit(
+                    worker.record_failure, study_text, index, controllers, WORKER_DIED,
+                    key=f"{key}-{index}-died", pure=False,
+                ).result()  # fmt: skip
+            tasks.pop(future.key, None)
             future.release()
             next_task = next(queue, None)
             if next_task is not None:

@@ -71,6 +71,7 @@ from posfb.analysis.montecarlo.config import (
     Study,
     canonical_text,
     identity,
+    study_arm,
     study_from_text,
     study_joints,
 )
@@ -86,6 +87,11 @@ SCHEMA_VERSION = "3"
 #: The meta key of a migrated version-2 store: the samples stored without the
 #: measured error (JSON list of indices).
 UNMEASURED_KEY = "unmeasured_samples"
+
+#: Meta key of the digest of the arm the study describes (``diagrams.arm``): the study
+#: keeps only its URDF's path, so an edited URDF would otherwise resume as the same
+#: study. Stores written before it lack the key and are not checked for it.
+ARM_KEY = "arm"
 
 #: SQLite ``PRAGMA application_id`` of a posfb store: "posf" in ASCII.
 APPLICATION_ID = 0x706F7366
@@ -358,6 +364,7 @@ class ResultStore:
             "schema_version": SCHEMA_VERSION,
             "study": canonical_text(study),
             "identity": identity(study),
+            ARM_KEY: study_arm(study).digest,
             "code_version": code_version,
             "created_at": datetime.now(UTC).isoformat(timespec="seconds"),
         }
@@ -398,6 +405,13 @@ class ResultStore:
             raise UsageError(
                 f"{self.path} has schema version {meta.get('schema_version')!r}; "
                 f"this posfb writes {SCHEMA_VERSION!r}"
+            )
+        arm = study_arm(study)
+        if meta.get(ARM_KEY, arm.digest) != arm.digest:
+            raise UsageError(
+                f"{self.path} holds results for another arm than {arm} (stored digest "
+                f"{meta[ARM_KEY][:12]}): its URDF changed since the store was written; run "
+                "the study into another store"
             )
         if meta["identity"] != identity(study):
             keys = _differing_keys(self.study(), study)

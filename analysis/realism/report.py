@@ -13,6 +13,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -20,7 +21,7 @@ from posfb.analysis.api import yaml_value
 from posfb.analysis.montecarlo.provenance import code_version
 from posfb.analysis.montecarlo.sensitivity import sensitivities
 from posfb.analysis.montecarlo.statistics import MIN_INFERENCE_ROWS
-from posfb.analysis.plots import joint_panels, save_report_figure
+from posfb.analysis.plots import joint_panels, legend_below, save_report_figure
 from posfb.analysis.realism.findings import (
     CLEAR_RATIO,
     EXPLAINS,
@@ -31,6 +32,9 @@ from posfb.analysis.realism.findings import (
     findings,
 )
 from posfb.analysis.realism.spec import COMBINED, IDEAL, RealismStudies
+
+if TYPE_CHECKING:
+    from matplotlib.figure import Figure
 
 TABLE_NAMES = {"nominal": "Table 3 (nominal arm)", "payload": "Table 4 (0.288 kg payload)"}
 
@@ -267,9 +271,10 @@ def _verdict_section(found: Findings) -> list[str]:
     return [*lines, ""]
 
 
-def plot_errors(found: Findings, out: Path) -> None:
+def plot_errors(found: Findings, out: Path) -> Figure:
     """Every sample's RMS error per study (rows) and controller (colours), one panel per
-    joint, with the paper's values as vertical lines in the controller's colour."""
+    joint, with the paper's values as vertical lines in the controller's colour; a title,
+    and one legend below the panels. Returns the figure (written to ``out``)."""
     names = list(found.found)
     figure, axes = joint_panels(found.joints, sharey=True, width=12.0)
     figure.set_figheight(0.45 * len(names) + 1.5)
@@ -295,8 +300,10 @@ def plot_errors(found: Findings, out: Path) -> None:
         axis.set_xlabel(f"RMS(q̃{joint + 1}) (rad); dashed: the paper's hardware")
         axis.set_title(f"joint {joint + 1}")
         axis.grid(True, which="both", alpha=0.3)
-    axes[0].legend(fontsize="small")
+    figure.suptitle("RMS tracking error of every sample, per study and controller")
+    legend_below(figure)
     save_report_figure(figure, out, "errors")
+    return figure
 
 
 def markdown(found: Findings, command: str) -> str:
