@@ -14,7 +14,6 @@ from __future__ import annotations
 
 import json
 import math
-import os
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 from functools import cache, partial
@@ -22,6 +21,7 @@ from pathlib import Path
 
 from posfb.analysis.cases import CASE_FILES, CASES
 from posfb.analysis.metrics import run_metrics, run_verdict
+from posfb.analysis.outputs import atomic_file
 from posfb.diagrams.closed_loop import ClosedLoopResult
 from posfb.diagrams.resolve import LoadedScenario, load_scenario, resolve, run_scenario
 from posfb.models.controllers import PAPER_CONTROLLERS
@@ -123,6 +123,5 @@ class ResultsFile:
         self._write()
 
     def _write(self) -> None:
-        partial = self.path.with_name(self.path.name + ".partial")
-        partial.write_text(json.dumps(self.data, indent=2, allow_nan=False) + "\n")
-        os.replace(partial, self.path)
+        with atomic_file(self.path) as partial:
+            partial.write_text(json.dumps(self.data, indent=2, allow_nan=False) + "\n")
