@@ -27,7 +27,7 @@ import numpy as np
 import yaml
 
 from posfb.analysis import progress as progress_bars
-from posfb.analysis.cases import CASE_FILES, SCENARIO_DIR
+from posfb.analysis.cases import CASE_FILES
 from posfb.analysis.metrics import (
     NOT_TRACKED_STATUSES,
     RunMetrics,
@@ -35,6 +35,7 @@ from posfb.analysis.metrics import (
     run_metrics,
     run_verdict,
 )
+from posfb.analysis.shipped import shipped_files
 from posfb.diagrams.closed_loop import (
     ClosedLoop,
     ClosedLoopResult,
@@ -89,7 +90,7 @@ def shipped_scenarios() -> dict[str, Path]:
     >>> sorted(posfb.shipped_scenarios())[:2]
     ['paper_nominal', 'paper_payload']
     """
-    return {path.stem: path for path in sorted(SCENARIO_DIR.glob("*.yaml"))}
+    return shipped_files("scenario")
 
 
 def yaml_value(value: object, key: str = "value") -> str:

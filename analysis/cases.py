@@ -5,10 +5,7 @@ here without loading the models; ``analysis.experiment`` builds the cases on the
 
 from __future__ import annotations
 
-from pathlib import Path
-
-#: The folder of the shipped scenario files.
-SCENARIO_DIR = Path(__file__).resolve().parent / "scenarios"
+from posfb.analysis.shipped import SCENARIO_DIR
 
 #: The shipped scenario files of the two experiments of Sec. 4.
 CASE_FILES = {

@@ -13,6 +13,7 @@ import sys
 import traceback
 from collections.abc import Sequence
 
+from posfb import __version__
 from posfb.analysis.errors import (
     DISK_FULL_ERRNOS,
     EXIT_DISK_FULL,
@@ -99,6 +100,7 @@ def build_parser(argv: Sequence[str] | None = None) -> argparse.ArgumentParser:
         prog="posfb", description=DESCRIPTION, epilog=EPILOG,
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )  # fmt: skip
+    parser.add_argument("--version", action="version", version=f"posfb {__version__}")
     subparsers = parser.add_subparsers(
         dest="command", required=True, parser_class=_Parser, title="commands", metavar="COMMAND"
     )

@@ -69,12 +69,13 @@ from posfb.models.drive import (
 )
 from posfb.models.friction import DEFAULT_LAW, check_law
 from posfb.models.gear import GearBlock, GearConfig, add_gear
+from posfb.models.package_data import package_path
 from posfb.models.serial_model import SerialArmModel
 from posfb.models.urdf_check import SerialChain, add_urdf_models, check_serial_urdf
 from posfb.models.validation import require_finite, require_nonnegative, require_positive
 
-#: The arm shipped with posfb.
-DEFAULT_URDF = Path(__file__).resolve().parent.parent / "urdf" / "two_link_arm.urdf"
+#: The arm shipped with posfb (the paper's two-link arm).
+DEFAULT_URDF = package_path("posfb.urdf", "two_link_arm.urdf")
 
 #: The link that carries the tip payload, where an arm has one.
 PAYLOAD_BODY = "payload"

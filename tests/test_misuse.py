@@ -109,6 +109,17 @@ SIX_JOINT = str(SCENARIOS / "six_joint_nominal.yaml")
 STUDIES = SCENARIOS.parent / "studies"
 
 CASES = {
+    # shipped files by name (analysis.shipped)
+    "unknown shipped study": Case(
+        ("montecarlo", "run", "paper_uncertanty", "--db", "{tmp}/x.sqlite"),
+        "neither a file nor a shipped study",
+    ),
+    "unknown shipped scenario": Case(
+        ("simulate", "--scenario", "paper_nominl"), "one of: paper_nominal, paper_payload"
+    ),
+    "unknown shipped realism study": Case(
+        ("realism", "table3", "--out", "{tmp}/r"), "realism study 'table3'"
+    ),
     # scenario keys and values (simulate)
     "unknown key": Case(("simulate", "--set", "timing.sampel_time=1"), "unknown key"),
     "wrong type": Case(("simulate", "--set", "timing.sample_time=abc"), "a number is required"),

@@ -24,6 +24,7 @@ from typing import TYPE_CHECKING
 
 from posfb.analysis.commands.scenario_args import add_scenario_arguments, scenario_from_args
 from posfb.analysis.errors import UsageError
+from posfb.analysis.shipped import study_argument
 from posfb.analysis.tuning.settings import DEFAULT_MARGIN, TuneSettings
 
 if TYPE_CHECKING:
@@ -80,8 +81,9 @@ def add_map_arguments(parser: argparse.ArgumentParser) -> None:
     group.add_argument("--map-points", type=int, metavar="N",
                        help="grid points per axis, log-spaced, the scenario's value one of "
                        "them (default 25, 3 .. 201)")  # fmt: skip
-    group.add_argument("--study", metavar="STUDY.yaml",
-                       help="draw the plants from a study's distributions (default: +-20 %% on "
+    group.add_argument("--study", metavar="STUDY.yaml", type=study_argument,
+                       help="draw the plants from a study's distributions (a YAML file or a "
+                       "shipped study's name; default: +-20 %% on "
                        "every link and drive parameter, motor constants 5 %%)")  # fmt: skip
     group.add_argument(
         "--plants", type=int, metavar="N", help=f"sampled plants (default {defaults.plants})"

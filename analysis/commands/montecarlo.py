@@ -20,6 +20,7 @@ from typing import TYPE_CHECKING
 
 from posfb.analysis.errors import EXIT_WORKER_DIED, UsageError
 from posfb.analysis.outputs import output_file, output_folder, staged_folder
+from posfb.analysis.shipped import shipped_files, study_argument
 
 if TYPE_CHECKING:
     from posfb.analysis.montecarlo.config import Study
@@ -59,7 +60,10 @@ def configure(parser: argparse.ArgumentParser) -> None:
     actions = parser.add_subparsers(dest="action", required=True, parser_class=type(parser))
 
     run = actions.add_parser("run", help="run (or resume) a study into an SQLite store")
-    run.add_argument("study", help="study YAML (e.g. analysis/studies/paper_uncertainty.yaml)")
+    run.add_argument(
+        "study", type=study_argument,
+        help=f"study YAML, or a shipped study's name: {', '.join(shipped_files('study'))}",
+    )  # fmt: skip
     run.add_argument("--db", required=True, help="SQLite results file (created or resumed)")
     run.add_argument("--samples", type=_positive_int, help="override the study's sample count")
     run.add_argument(

@@ -10,20 +10,21 @@ from __future__ import annotations
 
 import argparse
 import sys
-from pathlib import Path
 
 from posfb.analysis.commands.montecarlo import _positive_int, available_cores, worker_died_note
 from posfb.analysis.errors import EXIT_WORKER_DIED
 from posfb.analysis.outputs import output_folder, staged_folder
+from posfb.analysis.shipped import REALISM_DIR, realism_argument, shipped_files
 
-#: The shipped realism study.
-DEFAULT_STUDY = Path(__file__).resolve().parents[1] / "studies" / "realism" / "paper_table3.yaml"
+#: The shipped realism study run by default (Tables 3 and 4's nominal case).
+DEFAULT_STUDY = REALISM_DIR / "paper_table3.yaml"
 
 
 def configure(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
-        "study", nargs="?", default=str(DEFAULT_STUDY),
-        help="realism study YAML (default: analysis/studies/realism/paper_table3.yaml)",
+        "study", nargs="?", default=str(DEFAULT_STUDY), type=realism_argument,
+        help="realism study YAML, or a shipped one's name: "
+        f"{', '.join(shipped_files('realism study'))} (default: {DEFAULT_STUDY.stem})",
     )  # fmt: skip
     parser.add_argument("--out", required=True, help="folder of report.md and its figures")
     parser.add_argument(

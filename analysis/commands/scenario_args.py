@@ -13,6 +13,7 @@ from typing import TYPE_CHECKING
 
 from posfb.analysis.cases import CASE_FILES, CASES
 from posfb.analysis.errors import UsageError
+from posfb.analysis.shipped import scenario_argument, shipped_files
 
 if TYPE_CHECKING:
     from posfb.diagrams.resolve import LoadedScenario
@@ -33,7 +34,11 @@ SHORTCUTS = {
 
 def add_scenario_arguments(parser: argparse.ArgumentParser, shortcuts: tuple[str, ...]) -> None:
     """``--scenario``, ``--case``, ``--set`` and the named ``shortcuts`` (keys of ``SHORTCUTS``)."""
-    parser.add_argument("--scenario", metavar="FILE", help="scenario YAML (posfb scenario dump)")
+    parser.add_argument(
+        "--scenario", metavar="FILE", type=scenario_argument,
+        help="scenario YAML (posfb scenario dump), or a shipped scenario's name: "
+        f"{', '.join(shipped_files('scenario'))}",
+    )  # fmt: skip
     parser.add_argument(
         "--case", choices=CASES, help="a shipped paper scenario instead of --scenario "
         "(default: nominal)",

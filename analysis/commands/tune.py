@@ -20,6 +20,8 @@ import re
 import sys
 from dataclasses import fields
 
+from posfb.analysis.shipped import scenario_argument, study_argument
+
 #: Exit code when no design is found (infeasible, or not within the budget).
 EXIT_NOT_FOUND = 1
 
@@ -37,9 +39,13 @@ SETTING_OPTIONS = {
 
 
 def configure(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("scenario", help="scenario YAML of the arm to tune for")
     parser.add_argument(
-        "--study", metavar="STUDY", help="Monte-Carlo study whose parameters give the plants "
+        "scenario", type=scenario_argument,
+        help="scenario YAML of the arm to tune for, or a shipped scenario's name",
+    )  # fmt: skip
+    parser.add_argument(
+        "--study", metavar="STUDY", type=study_argument,
+        help="Monte-Carlo study (YAML, or a shipped study's name) whose parameters give the plants "
         "(default: +-20 %% on every link, rotor, damping and friction value, 5 %% motor constants)",
     )  # fmt: skip
     parser.add_argument(

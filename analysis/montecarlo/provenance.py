@@ -1,5 +1,7 @@
-"""The code version stored with results: the package version and, in a git
-checkout, the commit and whether the working tree differs from it."""
+"""The code version stored with results: the package version and, when posfb runs from
+a git checkout of its own (an editable install), the commit and whether the working
+tree differs from it. An installed wheel reports its version only, even when its
+site-packages lies inside somebody's git repository."""
 
 from __future__ import annotations
 
@@ -7,6 +9,8 @@ import subprocess
 from importlib import metadata
 from pathlib import Path
 
+#: The checkout's root when posfb runs from one (``analysis/montecarlo/`` is two below
+#: it); in an installed wheel, the folder ``posfb/`` in site-packages.
 _ROOT = Path(__file__).resolve().parents[2]
 
 
@@ -32,6 +36,9 @@ def code_version() -> str:
         version = f"posfb {metadata.version('posfb')}"
     except metadata.PackageNotFoundError:
         version = "posfb (not installed)"
+    top = _git("rev-parse", "--show-toplevel")
+    if top is None or Path(top).resolve() != _ROOT:
+        return version  # not posfb's own checkout
     commit = _git("rev-parse", "--short=12", "HEAD")
     if commit is None:
         return version
