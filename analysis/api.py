@@ -15,16 +15,12 @@ command line prints them on stderr.
 from __future__ import annotations
 
 import json
-import math
 import warnings
 from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
 from functools import cached_property
 from pathlib import Path
 from typing import TYPE_CHECKING
-
-import numpy as np
-import yaml
 
 from posfb.analysis import progress as progress_bars
 from posfb.analysis.cases import CASE_FILES
@@ -49,6 +45,7 @@ from posfb.diagrams.resolve import (
     scenario_from_file,
     scenario_from_mapping,
 )
+from posfb.diagrams.scenario import yaml_value
 from posfb.models.controllers import PAPER_CONTROLLERS, failed_checks, require_design
 
 if TYPE_CHECKING:
@@ -91,26 +88,6 @@ def shipped_scenarios() -> dict[str, Path]:
     ['paper_nominal', 'paper_payload']
     """
     return shipped_files("scenario")
-
-
-def yaml_value(value: object, key: str = "value") -> str:
-    """``value`` as the YAML text of a ``KEY=VALUE`` setting: a string is taken as it is
-    (``lin_lc``, ``!Theta {theta6: 0}``); numbers, booleans and (nested) sequences,
-    numpy's included, are written as YAML flow text. Anything else is a ``TypeError``
-    naming ``key``."""
-    if isinstance(value, str):
-        return value
-    plain = np.asarray(value).tolist() if isinstance(value, np.ndarray | np.generic) else value
-    if isinstance(plain, tuple):
-        plain = list(plain)
-    try:
-        text = yaml.safe_dump(plain, default_flow_style=True, width=math.inf)
-    except yaml.representer.RepresenterError:
-        raise TypeError(
-            f"{key} = {value!r}; a number, a boolean, a string or a (nested) list of them "
-            "is required"
-        ) from None
-    return text.removesuffix("\n").removesuffix("\n...").strip()
 
 
 _SETTINGS_FORMS = "a mapping {key: value} or a list of 'KEY=VALUE' strings is required"

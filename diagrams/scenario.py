@@ -500,6 +500,26 @@ def scenario_joints(scenario: Scenario, base_dir: Path) -> int:
     return len(scenario_chain(scenario, base_dir).joints)
 
 
+def yaml_value(value: object, key: str = "value") -> str:
+    """``value`` as the YAML text of a ``KEY=VALUE`` setting: a string is taken as it is
+    (``lin_lc``, ``!Theta {theta6: 0}``); numbers, booleans and (nested) sequences,
+    numpy's included, are written as YAML flow text. Anything else is a ``TypeError``
+    naming ``key``."""
+    if isinstance(value, str):
+        return value
+    plain = value.tolist() if hasattr(value, "tolist") else value  # a numpy array or scalar
+    if isinstance(plain, tuple):
+        plain = list(plain)
+    try:
+        text = yaml.safe_dump(plain, default_flow_style=True, width=math.inf)
+    except yaml.representer.RepresenterError:
+        raise TypeError(
+            f"{key} = {value!r}; a number, a boolean, a string or a (nested) list of them "
+            "is required"
+        ) from None
+    return text.removesuffix("\n").removesuffix("\n...").strip()
+
+
 def apply_setting(scenario: Scenario, setting: str, base_dir: Path | None = None) -> Scenario:
     """A copy of ``scenario`` with ``KEY=VALUE`` applied: ``KEY`` is a dotted path
     (``timing.sample_time``, ``sensor.encoder_counts[1]``, ``trajectory.joints[0].frequency``),

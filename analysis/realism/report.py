@@ -17,7 +17,6 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from posfb.analysis.api import yaml_value
 from posfb.analysis.montecarlo.provenance import code_version
 from posfb.analysis.montecarlo.sensitivity import sensitivities
 from posfb.analysis.montecarlo.statistics import MIN_INFERENCE_ROWS
@@ -32,6 +31,7 @@ from posfb.analysis.realism.findings import (
     findings,
 )
 from posfb.analysis.realism.spec import COMBINED, IDEAL, RealismStudies
+from posfb.diagrams.scenario import yaml_value
 
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
