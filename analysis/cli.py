@@ -90,11 +90,14 @@ def chosen_command(argv: Sequence[str]) -> str | None:
     return next((token for token in argv if token in COMMANDS), None)
 
 
-def build_parser(argv: Sequence[str] | None = None) -> argparse.ArgumentParser:
+def build_parser(
+    argv: Sequence[str] | None = None, every: bool = False
+) -> argparse.ArgumentParser:
     """The parser of ``posfb``, for the arguments ``argv`` (default: ``sys.argv[1:]``).
 
     Only the chosen subcommand's module is imported and its options added; every
-    other subcommand is a stub with its help line, so that ``posfb --help`` lists all."""
+    other subcommand is a stub with its help line, so that ``posfb --help`` lists all.
+    ``every``: every subcommand with all its options (the user guide's CLI reference)."""
     chosen = chosen_command(sys.argv[1:] if argv is None else argv)
     parser = _Parser(
         prog="posfb", description=DESCRIPTION, epilog=EPILOG,
@@ -105,12 +108,17 @@ def build_parser(argv: Sequence[str] | None = None) -> argparse.ArgumentParser:
         dest="command", required=True, parser_class=_Parser, title="commands", metavar="COMMAND"
     )
     for name, text in COMMANDS.items():
-        if name != chosen:
+        if name != chosen and not every:
             subparsers.add_parser(name, help=text)
             continue
         module = importlib.import_module(f"posfb.analysis.commands.{name}")
         module.configure(subparsers.add_parser(name, help=text, description=text))
     return parser
+
+
+def full_parser() -> argparse.ArgumentParser:
+    """``posfb``'s parser with every subcommand's options (for generated documentation)."""
+    return build_parser([], every=True)
 
 
 def _user_frames(error: BaseException) -> list[traceback.FrameSummary]:
