@@ -66,16 +66,15 @@ from __future__ import annotations
 import copy
 import dataclasses
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Callable
 from dataclasses import dataclass, field
-from functools import partial
+from functools import cached_property, partial
 
 import numpy as np
 from pydrake.common import RandomDistribution, RandomGenerator
 from pydrake.geometry import Meshcat, MeshcatVisualizer, SceneGraph
 from pydrake.systems.analysis import (
     ApplySimulatorConfig,
-    GetIntegrationSchemes,
     Simulator,
     SimulatorConfig,
 )
@@ -100,12 +99,14 @@ from posfb.diagrams.actuator import (
     ActuatorBlocks,
     ActuatorState,
     add_actuator,
-    require_compute_delay,
-    require_dac_bits,
-    require_time_constant,
 )
-from posfb.diagrams.encoder import Encoder, per_joint_counts
-from posfb.diagrams.sections import Actuator, Sensor, Timing, require_run_samples
+from posfb.diagrams.encoder import Encoder
+from posfb.diagrams.sections import (
+    Actuator,
+    Sensor,
+    SensorState,
+    Timing,
+)
 from posfb.models.controllers import (
     REGISTRY,
     ControllerConfig,
@@ -127,39 +128,12 @@ from posfb.models.plant import (
     set_motor_state,
 )
 from posfb.models.trajectory import Trajectory, WaveTrajectory, sampled_source
-from posfb.models.validation import (
-    per_joint,
-    require_finite,
-    require_nonnegative,
-    require_positive,
-)
 
 #: ``run`` checks for divergence every this many control periods.
 MONITOR_SAMPLES = 10
 
-#: Where an encoder can sit (``sensor.location``): on the link or on the motor shaft.
-SENSOR_LOCATIONS = ("link", "motor")
-
 #: Names of the logged signals, in ``ClosedLoop.log_columns``.
 LOGGED = ("q_true", "q_measured", "desired", "u_commanded", "u_applied", "internals")
-
-
-def _per_joint(name: str, value: float | Sequence[float], joints: int) -> tuple[float, ...]:
-    values = per_joint(name, value, joints)
-    return tuple(require_finite(f"{name}[{j}]", v) for j, v in enumerate(values))
-
-
-@dataclass(frozen=True)
-class SensorState:
-    """The sensor settings of one run that live in the Context, not in the diagram:
-    counts per revolution, zero offset (rad) and noise standard deviation (rad) per
-    joint, and the noise seed. (Whether there is noise at all, and the delay, are
-    part of the diagram.)"""
-
-    encoder_counts: tuple[int, ...]
-    zero_offset: tuple[float, ...]
-    noise_std: tuple[float, ...]
-    noise_seed: int
 
 
 @dataclass(frozen=True)
@@ -228,109 +202,54 @@ class ClosedLoopConfig:
             raise ValueError(
                 f"controller.kind = {self.controller!r}; one of {', '.join(REGISTRY)} is required"
             )
-        if not isinstance(self.design, ControllerConfig):
-            raise ValueError(f"design = {self.design!r} is not a ControllerConfig")
-        set_field = partial(object.__setattr__, self)
-        for name, kind in (("timing", Timing), ("sensor", Sensor), ("actuator", Actuator)):
+        for name, kind in (
+            ("design", ControllerConfig), ("timing", Timing), ("sensor", Sensor),
+            ("actuator", Actuator), ("plant", PlantConfig), ("true_plant", TruePlant),
+        ):  # fmt: skip
             if not isinstance(getattr(self, name), kind):
                 raise ValueError(f"{name} = {getattr(self, name)!r} is not a {kind.__name__}")
         # Own copies: a scenario changed later does not change a config built from it.
+        set_field = partial(object.__setattr__, self)
         set_field("sensor", copy.deepcopy(self.sensor))
         set_field("actuator", copy.deepcopy(self.actuator))
         simulator = SimulatorConfig(
             **{f.name: getattr(self.timing.simulator, f.name) for f in SimulatorConfig.__fields__}
         )
         set_field("timing", dataclasses.replace(self.timing, simulator=simulator))
-        if self.timing.sample_time != self.design.sample_time:
-            raise ValueError(
-                f"timing.sample_time = {self.timing.sample_time!r}; the design's "
-                f"{self.design.sample_time!r} is required (one sample time)"
-            )
-        require_positive("timing.duration", self.duration)
-        if (
-            self.duration < self.sample_time
-            or abs(self.samples * self.sample_time - self.duration) > 1e-9 * self.duration
-        ):
-            raise ValueError(
-                f"timing.duration = {self.duration!r} is not a whole number (>= 1) of "
-                f"timing.sample_time = {self.sample_time!r} periods"
-            )
-        require_run_samples(self.samples, "timing.duration / timing.sample_time")
+        self.timing.check(self.design.sample_time)
         if not callable(getattr(self.trajectory, "evaluate", None)):
             raise ValueError(f"trajectory = {self.trajectory!r} has no evaluate(t)")
-        n = self.joints
-        if self.trajectory.joints != n:
+        if self.trajectory.joints != self.joints:
             raise ValueError(
                 f"trajectory drives {self.trajectory.joints} joints; the nominal model has "
-                f"{n}: one trajectory entry per joint is required"
+                f"{self.joints}: one trajectory entry per joint is required"
             )
-        sensor = self.sensor
-        set_field("_counts", per_joint_counts("sensor.encoder_counts", sensor.encoder_counts, n))
-        set_field("_offsets", _per_joint("sensor.zero_offset", sensor.zero_offset, n))
-        set_field("_noise", _per_joint("sensor.noise_std", sensor.noise_std, n))
-        for j, std in enumerate(self.noise_std):
-            require_nonnegative(f"sensor.noise_std[{j}]", std)
-        for name in ("noise_seed", "delay_samples"):
-            value = getattr(sensor, name)
-            if isinstance(value, bool) or not isinstance(value, int | np.integer) or value < 0:
-                raise ValueError(f"sensor.{name} = {value!r}; an integer >= 0 is required")
-        limits = _per_joint("actuator.voltage_limit", self.actuator.voltage_limit, n)
-        set_field("_limits", limits)
-        for j, limit in enumerate(self.voltage_limit):
-            require_positive(f"actuator.voltage_limit[{j}]", limit)
-        self._check_actuator_effects()
-        require_positive("timing.divergence_bound", self.divergence_bound)
-        require_positive("timing.lost_bound", self.timing.lost_bound)
-        share = require_finite("timing.saturated_share", self.timing.saturated_share)
-        if not 0.0 <= share <= 1.0:
-            raise ValueError(f"timing.saturated_share = {share!r}; a share in [0, 1] is required")
-        self._check_simulator()
-        if not isinstance(self.plant, PlantConfig):
-            raise ValueError(f"plant = {self.plant!r} is not a PlantConfig")
-        if sensor.location not in SENSOR_LOCATIONS:
-            raise ValueError(
-                f"sensor.location = {sensor.location!r}; one of {', '.join(SENSOR_LOCATIONS)} "
-                "is required"
-            )
-        if sensor.location == "motor" and not self.plant.gear.compliant:
+        # Each section checks its values for this arm's joint count (the first use
+        # computes and keeps them: functools.cached_property).
+        _ = self.sensor_state, self.voltage_limit, self.actuator_state
+        if self.sensor.location == "motor" and not self.plant.gear.compliant:
             raise ValueError(
                 "sensor.location = 'motor' with plant.gear_stiffness = "
                 f"{list(self.plant.gear.gear_stiffness)} (a rigid gear); "
                 "plant.gear_stiffness > 0 at some joint or sensor.location = 'link' is required"
             )
-        if not isinstance(self.true_plant, TruePlant):
-            raise ValueError(f"true_plant = {self.true_plant!r} is not a TruePlant")
 
-    def _check_actuator_effects(self) -> None:
-        """``actuator.electrical_time_constant``, ``dac_bits``, ``compute_delay``
-        (``diagrams.actuator``)."""
-        key = "actuator.electrical_time_constant"
-        taus = per_joint(key, self.actuator.electrical_time_constant, self.joints)
-        checked = (require_time_constant(f"{key}[{j}]", tau) for j, tau in enumerate(taus))
-        object.__setattr__(self, "_taus", tuple(checked))
-        require_dac_bits("actuator.dac_bits", self.actuator.dac_bits)
-        delay = self.actuator.compute_delay
-        require_compute_delay("actuator.compute_delay", delay, self.sample_time)
+    @cached_property
+    def sensor_state(self) -> SensorState:
+        """The sensor settings a Context holds (they change per run without rebuilding;
+        ``Sensor.state``)."""
+        return self.sensor.state(self.joints)
 
-    def _check_simulator(self) -> None:
-        simulator = self.simulator
-        schemes = GetIntegrationSchemes()
-        key = "timing.simulator"
-        if simulator.integration_scheme not in schemes:
-            raise ValueError(
-                f"{key}.integration_scheme = {simulator.integration_scheme!r}; one of "
-                f"{', '.join(schemes)} is required"
-            )
-        accuracy = require_positive(f"{key}.accuracy", simulator.accuracy)
-        if accuracy >= 1.0:
-            raise ValueError(f"{key}.accuracy = {accuracy!r}; a value in (0, 1) is required")
-        require_positive(f"{key}.max_step_size", simulator.max_step_size)
-        require_nonnegative(f"{key}.target_realtime_rate", simulator.target_realtime_rate)
-        if simulator.start_time != 0.0:
-            raise ValueError(
-                f"{key}.start_time = {simulator.start_time!r}; 0 is required (a run starts "
-                "at t = 0)"
-            )
+    @cached_property
+    def actuator_state(self) -> ActuatorState:
+        """The actuator settings a Context holds (the lag's time constants and the DAC's
+        bits; they change per run without rebuilding, ``Actuator.state``)."""
+        return self.actuator.state(self.joints, self.sample_time)
+
+    @cached_property
+    def voltage_limit(self) -> tuple[float, ...]:
+        """Armature-voltage saturation (V), one per joint (``actuator.voltage_limit``)."""
+        return self.actuator.voltage_limits(self.joints)
 
     @property
     def duration(self) -> float:
@@ -350,17 +269,17 @@ class ClosedLoopConfig:
     @property
     def encoder_counts(self) -> tuple[int, ...]:
         """Counts per revolution, one per joint (``sensor.encoder_counts``)."""
-        return self._counts  # type: ignore[attr-defined]
+        return self.sensor_state.encoder_counts
 
     @property
     def zero_offset(self) -> tuple[float, ...]:
         """Encoder zero offset (rad), one per joint."""
-        return self._offsets  # type: ignore[attr-defined]
+        return self.sensor_state.zero_offset
 
     @property
     def noise_std(self) -> tuple[float, ...]:
         """Encoder noise standard deviation (rad), one per joint."""
-        return self._noise  # type: ignore[attr-defined]
+        return self.sensor_state.noise_std
 
     @property
     def sensor_location(self) -> str:
@@ -377,14 +296,9 @@ class ClosedLoopConfig:
         return self.sensor.delay_samples
 
     @property
-    def voltage_limit(self) -> tuple[float, ...]:
-        """Armature-voltage saturation (V), one per joint (``actuator.voltage_limit``)."""
-        return self._limits  # type: ignore[attr-defined]
-
-    @property
     def electrical_time_constant(self) -> tuple[float, ...]:
         """Armature L/R (s), one per joint (0: static motor; ``diagrams.actuator``)."""
-        return self._taus  # type: ignore[attr-defined]
+        return self.actuator_state.electrical_time_constant
 
     @property
     def dac_bits(self) -> int:
@@ -415,17 +329,6 @@ class ClosedLoopConfig:
     def samples(self) -> int:
         """``N0 = duration / T_s``, the number of samples ``k = 1..N0`` the metrics use."""
         return round(self.duration / self.sample_time)
-
-    @property
-    def sensor_state(self) -> SensorState:
-        """The sensor settings a Context holds (they change per run without rebuilding)."""
-        return SensorState(self.encoder_counts, self.zero_offset, self.noise_std, self.noise_seed)
-
-    @property
-    def actuator_state(self) -> ActuatorState:
-        """The actuator settings a Context holds (the lag's time constants and the DAC's
-        bits; they change per run without rebuilding, ``diagrams.actuator``)."""
-        return ActuatorState(self.electrical_time_constant, self.dac_bits)
 
     @property
     def noisy(self) -> bool:

@@ -1,18 +1,33 @@
 """The closed loop's own settings, as a scenario file writes them and the runner consumes
 them: ``timing``, ``sensor`` and ``actuator`` (``diagrams.scenario`` holds them in the
 settings tree; ``diagrams.closed_loop.ClosedLoopConfig`` takes them as they are, so no
-code copies them field by field). Each default is written here once.
+code copies them field by field). Each default is written here once, and each section
+checks its own values (``Timing.check``, ``Sensor.state``, ``Actuator.state`` and
+``Actuator.voltage_limits``), naming them by their scenario keys.
 """
 
 # No "from __future__ import annotations": Drake's YAML reads the field types at runtime.
 
 from dataclasses import dataclass, field
 
-from pydrake.systems.analysis import SimulatorConfig
+import numpy as np
+from pydrake.systems.analysis import GetIntegrationSchemes, SimulatorConfig
 
-from posfb.diagrams.encoder import DEFAULT_ENCODER_COUNTS
+from posfb.diagrams.actuator import (
+    ActuatorState,
+    require_compute_delay,
+    require_dac_bits,
+    require_time_constant,
+)
+from posfb.diagrams.encoder import DEFAULT_ENCODER_COUNTS, per_joint_counts
 from posfb.models.design import ControllerConfig
 from posfb.models.design.settings import default_of
+from posfb.models.validation import (
+    per_joint,
+    require_finite,
+    require_nonnegative,
+    require_positive,
+)
 
 #: The paper's armature-voltage range, +-24 V (Sec. 4.1).
 VOLTAGE_LIMIT = 24.0
@@ -134,6 +149,76 @@ class Timing:
 
         return values(self) == values(other)
 
+    def check(self, design_sample_time: float) -> None:
+        """Refuse a sample time other than the design's ``design_sample_time`` (one sample
+        time), a duration that is not a whole number (>= 1, at most ``MAX_RUN_SAMPLES``)
+        of periods, bounds outside their ranges and integrator settings Drake's
+        ``Simulator`` would not run as posfb's runner expects."""
+        if self.sample_time != design_sample_time:
+            raise ValueError(
+                f"timing.sample_time = {self.sample_time!r}; the design's "
+                f"{design_sample_time!r} is required (one sample time)"
+            )
+        require_positive("timing.duration", self.duration)
+        samples = round(self.duration / self.sample_time)
+        if (
+            self.duration < self.sample_time
+            or abs(samples * self.sample_time - self.duration) > 1e-9 * self.duration
+        ):
+            raise ValueError(
+                f"timing.duration = {self.duration!r} is not a whole number (>= 1) of "
+                f"timing.sample_time = {self.sample_time!r} periods"
+            )
+        require_run_samples(samples, "timing.duration / timing.sample_time")
+        require_positive("timing.divergence_bound", self.divergence_bound)
+        require_positive("timing.lost_bound", self.lost_bound)
+        share = require_finite("timing.saturated_share", self.saturated_share)
+        if not 0.0 <= share <= 1.0:
+            raise ValueError(f"timing.saturated_share = {share!r}; a share in [0, 1] is required")
+        self._check_simulator()
+
+    def _check_simulator(self) -> None:
+        simulator = self.simulator
+        schemes = GetIntegrationSchemes()
+        key = "timing.simulator"
+        if simulator.integration_scheme not in schemes:
+            raise ValueError(
+                f"{key}.integration_scheme = {simulator.integration_scheme!r}; one of "
+                f"{', '.join(schemes)} is required"
+            )
+        accuracy = require_positive(f"{key}.accuracy", simulator.accuracy)
+        if accuracy >= 1.0:
+            raise ValueError(f"{key}.accuracy = {accuracy!r}; a value in (0, 1) is required")
+        require_positive(f"{key}.max_step_size", simulator.max_step_size)
+        require_nonnegative(f"{key}.target_realtime_rate", simulator.target_realtime_rate)
+        if simulator.start_time != 0.0:
+            raise ValueError(
+                f"{key}.start_time = {simulator.start_time!r}; 0 is required (a run starts "
+                "at t = 0)"
+            )
+
+
+#: Where an encoder can sit (``sensor.location``): on the link or on the motor shaft.
+SENSOR_LOCATIONS = ("link", "motor")
+
+
+def _finite_per_joint(name: str, value: object, joints: int) -> tuple[float, ...]:
+    values = per_joint(name, value, joints)
+    return tuple(require_finite(f"{name}[{j}]", v) for j, v in enumerate(values))
+
+
+@dataclass(frozen=True)
+class SensorState:
+    """The sensor settings of one run that live in the Context, not in the diagram:
+    counts per revolution, zero offset (rad) and noise standard deviation (rad) per
+    joint, and the noise seed. (Whether there is noise at all, and the delay, are
+    part of the diagram.)"""
+
+    encoder_counts: tuple[int, ...]
+    zero_offset: tuple[float, ...]
+    noise_std: tuple[float, ...]
+    noise_seed: int
+
 
 @dataclass
 class Sensor:
@@ -151,6 +236,26 @@ class Sensor:
     delay_samples: int = 0
     location: str = "link"
 
+    def state(self, joints: int) -> SensorState:
+        """The per-joint values of ``joints`` encoders (one value is every joint's),
+        checked: counts as ``diagrams.encoder`` allows, finite offsets, noise >= 0, the
+        seed and the delay integers >= 0, a known ``location``."""
+        counts = per_joint_counts("sensor.encoder_counts", self.encoder_counts, joints)
+        offsets = _finite_per_joint("sensor.zero_offset", self.zero_offset, joints)
+        noise = _finite_per_joint("sensor.noise_std", self.noise_std, joints)
+        for j, std in enumerate(noise):
+            require_nonnegative(f"sensor.noise_std[{j}]", std)
+        for name in ("noise_seed", "delay_samples"):
+            value = getattr(self, name)
+            if isinstance(value, bool) or not isinstance(value, int | np.integer) or value < 0:
+                raise ValueError(f"sensor.{name} = {value!r}; an integer >= 0 is required")
+        if self.location not in SENSOR_LOCATIONS:
+            raise ValueError(
+                f"sensor.location = {self.location!r}; one of {', '.join(SENSOR_LOCATIONS)} "
+                "is required"
+            )
+        return SensorState(counts, offsets, noise, self.noise_seed)
+
 
 @dataclass
 class Actuator:
@@ -167,3 +272,20 @@ class Actuator:
     electrical_time_constant: list[float] = field(default_factory=lambda: [0.0])
     dac_bits: int = 0
     compute_delay: float = 0.0
+
+    def voltage_limits(self, joints: int) -> tuple[float, ...]:
+        """The saturation (V) of each of ``joints`` joints, each finite and > 0."""
+        limits = _finite_per_joint("actuator.voltage_limit", self.voltage_limit, joints)
+        for j, limit in enumerate(limits):
+            require_positive(f"actuator.voltage_limit[{j}]", limit)
+        return limits
+
+    def state(self, joints: int, sample_time: float) -> ActuatorState:
+        """The values a Context holds (``diagrams.actuator``) for ``joints`` joints,
+        checked, and the compute delay checked against ``sample_time``."""
+        key = "actuator.electrical_time_constant"
+        taus = per_joint(key, self.electrical_time_constant, joints)
+        checked = tuple(require_time_constant(f"{key}[{j}]", tau) for j, tau in enumerate(taus))
+        bits = require_dac_bits("actuator.dac_bits", self.dac_bits)
+        require_compute_delay("actuator.compute_delay", self.compute_delay, sample_time)
+        return ActuatorState(checked, bits)
