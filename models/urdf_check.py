@@ -1,12 +1,17 @@
 """An arm URDF checked where it enters posfb, before Drake parses it.
 
-``check_arm_urdf`` runs inside ``models.plant.add_arm``, so every way a URDF
-enters (``posfb identify --urdf``, a scenario's ``plant.urdf``, a
-``PlantConfig``) gets it. Each failure is one line, ``URDF <path>: <element> =
-<value>; <what is allowed>``, raised as ``ValueError`` (``FileNotFoundError``
-for a file that does not exist).
+Two checks, each run where its model is made: ``check_serial_urdf`` (any serial arm)
+inside ``models.plant.add_arm``, so that every way a URDF enters (a scenario's
+``plant.urdf``, a ``PlantConfig``, a nominal model named by a URDF) gets it; and
+``check_arm_urdf`` (the paper's planar two-link model) inside
+``models.identify.identify_urdf`` (``posfb identify``, a ``!Theta`` nominal model
+identified from a URDF). Each failure is one line, ``URDF <path>: <element> =
+<value>; <what is allowed>``, raised as ``ValueError`` (``FileNotFoundError`` for a
+file that does not exist). A file is parsed and checked once per content: both
+checks keep their result for the file's bytes (``_checked``), so the many plants of
+a study, or the two checks of one scenario, read it once each.
 
-What is checked is what the planar two-link model of Sec. 4.1
+What ``check_arm_urdf`` checks is what the planar two-link model of Sec. 4.1
 (``models.lumped``, identified by ``models.identify``) and posfb's plant
 (``models.plant``) can represent:
 
@@ -58,6 +63,7 @@ needs after Drake parses the file).
 
 from __future__ import annotations
 
+import functools
 import logging
 import math
 import xml.etree.ElementTree as ET
@@ -147,7 +153,13 @@ def check_arm_urdf(path: str | Path, payload_link: str | None = None) -> None:
     Raises ``FileNotFoundError`` if ``path`` does not exist and ``ValueError``
     (one line naming the element, its value and what is allowed) otherwise."""
     path = Path(path)
-    robot = _read_robot(path)
+    _check_arm(path, _read_bytes(path), payload_link)
+
+
+@functools.lru_cache(maxsize=64)
+def _check_arm(path: Path, text: bytes, payload_link: str | None) -> None:
+    """``check_arm_urdf`` on the bytes ``text`` of ``path``."""
+    robot = _parse_robot(path, text)
     try:
         arm = _parse_arm(robot)
         for joint in (arm.shoulder, arm.elbow):
@@ -200,7 +212,7 @@ def add_urdf_models(parser: Parser, path: Path) -> None:
                 logger.warning("%s", line, extra={"posfb_shown": True})
 
 
-def _read_robot(path: Path) -> ET.Element:
+def _read_bytes(path: Path) -> bytes:
     if path.is_dir():
         raise ValueError(f"URDF {path} is a directory; a URDF file is required")
     if not path.exists():
@@ -208,11 +220,14 @@ def _read_robot(path: Path) -> ET.Element:
     if not path.is_file():
         raise ValueError(f"URDF {path} is not a regular file; a URDF file is required")
     try:
-        text = path.read_bytes()
+        return path.read_bytes()
     except OSError as error:
         raise ValueError(
             f"URDF {path} cannot be read ({error.strerror}); a readable file is required"
         ) from None
+
+
+def _parse_robot(path: Path, text: bytes) -> ET.Element:
     try:
         robot = ET.fromstring(text)
     except ET.ParseError as error:
@@ -725,7 +740,13 @@ def check_serial_urdf(path: str | Path) -> SerialChain:
     two-link arm's theta7 > 0: the diagonal of the mass matrix without rotor inertia).
     Raises as ``check_arm_urdf``: one line naming the element."""
     path = Path(path)
-    robot = _read_robot(path)
+    return _check_serial(path, _read_bytes(path))
+
+
+@functools.lru_cache(maxsize=64)
+def _check_serial(path: Path, text: bytes) -> SerialChain:
+    """``check_serial_urdf`` on the bytes ``text`` of ``path``."""
+    robot = _parse_robot(path, text)
     try:
         links, joints, root, parent_joint = _read_tree(robot, SERIAL_JOINTS)
         poses = _world_poses(root, links, parent_joint)  # refuses loops

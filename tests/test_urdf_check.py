@@ -403,3 +403,20 @@ def test_drakes_parser_warnings_are_shown_once_as_one_line(tmp_path, caplog):
     assert len(shown) == 1, shown
     assert "\n" not in shown[0] and str(path) in shown[0], shown[0]
     assert "do not satisfy the triangle inequality" in shown[0], shown[0]
+
+
+def test_a_file_is_checked_once_per_content_and_again_when_edited(tmp_path):
+    """The checks keep their result for a file's bytes: a second check of the same file
+    is a cache hit, while an edit (same path, other bytes) is checked afresh."""
+    from posfb.models import urdf_check
+
+    urdf = tmp_path / "arm.urdf"
+    urdf.write_text(SHIPPED)
+    before = urdf_check._check_serial.cache_info()
+    check_serial_urdf(urdf)
+    check_serial_urdf(str(urdf))
+    after = urdf_check._check_serial.cache_info()
+    assert (after.misses - before.misses, after.hits - before.hits) == (1, 1)
+    urdf.write_text(SHIPPED.replace('type="continuous"', 'type="prismatic"', 1))
+    with pytest.raises(ValueError, match="prismatic"):
+        check_serial_urdf(urdf)
