@@ -120,6 +120,15 @@ QUANTISATION_FRACTION = 0.05
 DIGITS = 6
 
 
+#: Points of the grid ``largest_alpha_star`` searches when no ``alpha*`` reaches its target.
+ALPHA_GRID_POINTS = 40
+
+
+def numbers(values: Sequence[float]) -> str:
+    """``values`` as the rules' texts write them: 4 significant digits, comma-separated."""
+    return ", ".join(f"{v:.4g}" for v in values)
+
+
 def rounded(value: float) -> float:
     """``value`` to ``DIGITS`` significant digits (what a scenario file holds)."""
     return float(f"{float(value):.{DIGITS}g}")
@@ -186,6 +195,25 @@ class InitialWeights:
     bandwidth: float
     rho: tuple[float, ...]
 
+    def rule(self) -> list[str]:
+        """``lqr_weights``'s rule in words, with this arm's numbers (``scenario init``
+        writes it above ``controller.Q1``)."""
+        ref = paper_reference()
+        return [
+            "LQR weights (Eq. 16), diagonal: every joint gets the paper's joint-1 loop (Q1 = "
+            f"{ref.Qp:g}, {ref.Qv:g}; Q2 = {ref.Qe:g};",
+            f"R = {ref.R:g}; lambda = {ref.lam:g}; on Table 1's M0*_11 = {ref.m:.4g} at T_s = "
+            f"{ref.sample_time:g} s) at the same bandwidth per sample:",
+            f"omega = (Qp_j / (R_j M0*_jj^2))^(1/6) = {ref.per_sample:.4f} / T_s = "
+            f"{self.bandwidth:.4g} rad/s (the geometric mean of a joint's",
+            "LQR pole radii, whatever its damping). With rho_j = M0*_jj omega^2 / "
+            f"({ref.m:.4g} x {ref.bandwidth:.4g}^2) = {numbers(self.rho)}:",
+            f"Qp_j = {ref.Qp:g} rho_j^2, Qv_j = {ref.Qv:g} (rho_j {ref.bandwidth:.4g} / "
+            f"omega)^2, Q2_j = {ref.Qe:g}, R_j = Qp_j / (M0*_jj^2 omega^6),",
+            f"lambdas = {ref.lam:g} omega / {ref.bandwidth:.4g}: the paper's weights in the "
+            "joint's own time and torque units.",
+        ]
+
     def lqr(self) -> LqrWeights:
         """As the design's ``LqrWeights``."""
         return LqrWeights(
@@ -225,6 +253,20 @@ def filter_pole(sample_time: float) -> float:
     return rounded(a_ref * max(1.0, t_ref / sample_time))
 
 
+def filter_pole_rule(sample_time: float) -> list[str]:
+    """``filter_pole``'s rule in words at ``sample_time`` (``scenario init`` writes it
+    above ``controller.filter_a``)."""
+    a_ref = float(_default(NonlinearTorqueConfig, "filter_a"))
+    t_ref = float(_default(ControllerConfig, "sample_time"))
+    a = filter_pole(sample_time)
+    return [
+        "G(s) = a/(s + a) needs a > ln 2 / T_s = "
+        f"{math.log(2) / sample_time:.4g} (Sec. 3.4); rule a = {a_ref:g} max(1, {t_ref:g} / T_s)",
+        f"= {a:g}: the paper's a at {t_ref * 1000:g} ms, its margin a T_s / ln 2 = "
+        f"{a_ref * t_ref / math.log(2):.3g} kept at faster sampling.",
+    ]
+
+
 def paper_h_gamma() -> float:
     """The paper's ``gamma`` of ``H(s) = gamma / (s + gamma)`` (default ``B_zeta``)."""
     return float(np.asarray(_default(NonlinearTorqueConfig, "B_zeta"))[0, 0])
@@ -237,6 +279,17 @@ def h_gamma(frequencies: Sequence[float]) -> float:
     return rounded(paper_h_gamma() * max(frequencies) / paper_fastest)
 
 
+def h_gamma_rule(gamma: float) -> list[str]:
+    """``h_gamma``'s rule in words, for its result ``gamma`` (``scenario init`` writes it
+    above ``controller.H``)."""
+    paper_fastest = max(w.frequency for w in PAPER_TRAJECTORY)
+    return [
+        f"H(s) = gamma/(s + gamma), SPR (Sec. 3.4): gamma = {paper_h_gamma():g} x (fastest "
+        f"trajectory frequency / the paper's {paper_fastest:g} rad/s)",
+        f"= {gamma:g}, above the trajectory's bandwidth as in the paper.",
+    ]
+
+
 @dataclass(frozen=True)
 class InitialPid:
     """Eq. 26's per-joint gains of ``pid_gains`` (1/s^2, 1/s, 1/s^3), the sampling
@@ -247,6 +300,21 @@ class InitialPid:
     KI: tuple[float, ...]
     omega_s: float
     bandwidth: tuple[float, ...]
+
+    def rule(self) -> list[str]:
+        """``pid_gains``'s rule in words, with this arm's numbers (``scenario init``
+        writes it above ``controllers.pid``)."""
+        r = INTEGRATOR_POLE_RATIO
+        kp, kv, _ = _pid_coefficients(1.0)
+        return [
+            "Computed torque + PID (Eq. 26, acceleration-level gains, 1/s^2, 1/s, 1/s^3):",
+            f"(s + omega_j)^2 (s + {r:g} omega_j): Kp = {kp:g} omega_j^2, "
+            f"Kv = {kv:g} omega_j, KI = {r:g} omega_j^3, omega_j the smaller of",
+            f"2 pi / ({SAMPLES_PER_BANDWIDTH:g} T_s) = {self.omega_s:.4g} rad/s "
+            "(models/controllers/tuning.py) and the bandwidth at which one encoder count moves",
+            f"joint j's voltage by {QUANTISATION_FRACTION:.0%} of the limit: omega_j = "
+            f"{numbers(self.bandwidth)} rad/s.",
+        ]
 
 
 def _pid_coefficients(omega: float) -> tuple[float, float, float]:
@@ -297,20 +365,42 @@ class AlphaChoice:
     radius: float
     met: bool
 
+    def rule(self, radius_at_cap: float, radius_lin_lc: float) -> list[str]:
+        """``largest_alpha_star``'s rule in words: this choice, the radius
+        ``radius_at_cap`` at the paper's ``alpha*`` and Lin+LC's ``radius_lin_lc``
+        (``scenario init`` writes it above ``controller.alpha_star``)."""
+        cap = float(_default(NonlinearTorqueConfig, "alpha_star"))
+        found = f"radius {radius_at_cap:.4f} at alpha* = {cap:g}"
+        if self.alpha_star != cap:
+            found += f", {self.radius:.4f} at alpha* = {self.alpha_star:g}"
+        lines = [
+            f"rule: the largest alpha* <= the paper's {cap:g} (Sec. 4.2) whose nominal "
+            "sampled-data",
+            f"spectral radius (check sampled_data) is <= {TARGET_RADIUS:g} (bisection): {found}",
+            f"(Lin+LC: {radius_lin_lc:.4f}).",
+        ]
+        if not self.met:
+            lines.append(
+                f"no alpha* reaches {TARGET_RADIUS:g}: this is the alpha* of the smallest "
+                f"radius on a {ALPHA_GRID_POINTS}-point grid; prefer Lin+LC or a faster T_s."
+            )
+        return lines
+
 
 def largest_alpha_star(
     radius: Callable[[float], float], cap: float | None = None, target: float = TARGET_RADIUS
 ) -> AlphaChoice:
     """The largest ``alpha* <= cap`` (default the paper's 4) with ``radius(alpha*) <=
     target``, by bisection; when even a small ``alpha*`` exceeds ``target``, the
-    ``alpha*`` of a 40-point grid with the smallest radius (``met`` is false)."""
+    ``alpha*`` of an ``ALPHA_GRID_POINTS`` grid with the smallest radius (``met`` is
+    false)."""
     cap = float(_default(NonlinearTorqueConfig, "alpha_star")) if cap is None else cap
     at_cap = radius(cap)
     if at_cap <= target:
         return AlphaChoice(cap, at_cap, True)
     low = cap * 1e-3
     if radius(low) > target:
-        grid = np.linspace(low, cap, 40)
+        grid = np.linspace(low, cap, ALPHA_GRID_POINTS)
         values = [radius(float(a)) for a in grid]
         best = int(np.argmin(values))
         return AlphaChoice(rounded(grid[best]), values[best], False)
@@ -358,6 +448,48 @@ def initial_waves(
             )
         )
     return tuple(waves)
+
+
+def trajectory_rule(
+    lower: Sequence[float],
+    upper: Sequence[float],
+    hanging: Sequence[bool],
+    scale: float,
+    peak: Sequence[float],
+    voltage_limit: float,
+) -> list[str]:
+    """The trajectory's rules in words (``initial_waves``, ``wave_frequencies``,
+    ``largest_scale``), for joints with limits ``lower``, ``upper`` (rad), those
+    ``hanging`` at their least potential energy, the amplitude ``scale`` found and the
+    ``peak`` voltages it needs (``scenario init`` writes it above ``trajectory``)."""
+    amplitude_fraction, wave_fraction = paper_fractions()
+    first, second = (w.frequency for w in PAPER_TRAJECTORY[:2])
+    hung = [j + 1 for j, free in enumerate(hanging) if free]
+    centred = [j + 1 for j, free in enumerate(hanging) if not free]
+    bounds = enumerate(zip(lower, upper, strict=True))
+    limits = "; ".join(f"q{j + 1} [{lo:.4g}, {hi:.4g}]" for j, (lo, hi) in bounds)
+    return [
+        "Sec. 4.2 wave form, per joint offset + s(t) (amplitude + wave_amplitude "
+        "sin(frequency t)).",
+        f"offset: joints {_joint_list(centred)} at the centre of their limits, joints "
+        f"{_joint_list(hung)}",
+        "(range of a full turn or more) at the posture of least potential energy (hanging).",
+        f"joint limits (rad): {limits}.",
+        f"amplitude = {amplitude_fraction:.4g} h, wave_amplitude = {wave_fraction:.4g} h "
+        "(the paper's joint 1: pi/4 and pi/9 of a quarter turn),",
+        f"h = min(pi/2, {LIMIT_FRACTION:g} x the room to the limit on the side moved to), "
+        f"all times a scale {scale:.4g}:",
+        f"the largest scale <= 1 whose nominal inverse dynamics (gravity and friction in) "
+        f"need at most {VOLTAGE_HEADROOM:.0%}",
+        f"of the voltage limit at every sample instant: peak |u| = {numbers(peak)} V "
+        f"(limit {voltage_limit:g} V).",
+        f"frequency: the paper's {first:g}, {second:g} rad/s continued geometrically, "
+        f"{first:g} ({second:g}/{first:g})^(j-1).",
+    ]
+
+
+def _joint_list(joints: list[int]) -> str:
+    return ", ".join(str(j) for j in joints) if joints else "(none)"
 
 
 def largest_scale(
