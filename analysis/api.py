@@ -22,16 +22,16 @@ from functools import cached_property
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from posfb.analysis import progress as progress_bars
-from posfb.analysis.cases import CASE_FILES
-from posfb.analysis.metrics import (
+from posfb.analysis.common import progress as progress_bars
+from posfb.analysis.common.cases import CASE_FILES
+from posfb.analysis.common.metrics import (
     NOT_TRACKED_STATUSES,
     RunMetrics,
     Verdict,
     run_metrics,
     run_verdict,
 )
-from posfb.analysis.shipped import shipped_files
+from posfb.analysis.common.shipped import shipped_files
 from posfb.diagrams.closed_loop import (
     ClosedLoop,
     ClosedLoopResult,
@@ -54,9 +54,9 @@ if TYPE_CHECKING:
     from pydrake.systems.analysis import Simulator
     from pydrake.systems.framework import Context, Diagram
 
-    from posfb.analysis.montecarlo.config import Study
-    from posfb.analysis.tuning.settings import TuneSettings
-    from posfb.analysis.tuning.tune import TuneResult
+    from posfb.analysis.design.settings import TuneSettings
+    from posfb.analysis.design.tune import TuneResult
+    from posfb.analysis.uncertainty.study import Study
 
 #: The paper's nominal experiment (Sec. 4.2): the scenario when none is given.
 DEFAULT_SCENARIO = CASE_FILES["nominal"]
@@ -74,7 +74,7 @@ Settings = Mapping[str, object] | Iterable[str]
 class ScenarioWarning(UserWarning):
     """Something about a scenario that does not stop a run but may spoil it: a
     trajectory beyond the voltage limit, a design check the controller fails, or a run
-    that finished ``saturated`` or ``lost`` (``analysis.metrics.run_verdict``)."""
+    that finished ``saturated`` or ``lost`` (``analysis.common.metrics.run_verdict``)."""
 
 
 def shipped_scenarios() -> dict[str, Path]:
@@ -186,7 +186,7 @@ def _scenario(source: ScenarioSource, controller: str | None) -> LoadedScenario:
 
 def scenario_warnings(resolved: ResolvedScenario) -> list[str]:
     """What may spoil a run of ``resolved`` without stopping it (``ScenarioWarning``)."""
-    from posfb.analysis.feasibility import trajectory_warnings
+    from posfb.analysis.common.feasibility import trajectory_warnings
 
     config = resolved.config
     return [
@@ -223,7 +223,7 @@ class Run:
 
     @cached_property
     def verdict(self) -> Verdict:
-        """The run's status and why (``analysis.metrics.run_verdict``)."""
+        """The run's status and why (``analysis.common.metrics.run_verdict``)."""
         return run_verdict(self.result)
 
     @property
@@ -251,14 +251,14 @@ class Run:
     @property
     def rms_q_measured(self) -> tuple[float, ...]:
         """RMS of the error the encoder reads, ``q_m - q_d``, per joint (rad): what a
-        hardware experiment reports (``analysis.metrics``)."""
+        hardware experiment reports (``analysis.common.metrics``)."""
         return self.metrics.rms_q_measured
 
     @property
     def status(self) -> str:
         """``ok``; ``saturated`` or ``lost`` (it finished, but at the voltage limit or far
         from its path most of its second half); or ``diverged`` (stopped early).
-        ``message`` says why (``analysis.metrics.run_verdict``)."""
+        ``message`` says why (``analysis.common.metrics.run_verdict``)."""
         return self.verdict.status
 
     @property
@@ -273,7 +273,7 @@ class Run:
         per joint is ``rms_measured_q`` (the spelling of the store's and ``compare``'s
         ``rms_measured_q1 .. n`` columns) and, under its earlier name, ``rms_q_measured``,
         kept so that scripts that read it keep working."""
-        from posfb.analysis.experiment import result_entry
+        from posfb.analysis.paper.experiment import result_entry
 
         config = self.result.config
         entry = result_entry(self.result)
@@ -289,15 +289,15 @@ class Run:
 
     def frame(self) -> pd.DataFrame:
         """The time series, one row per control sample: the columns of ``posfb simulate
-        --out`` (``analysis.export``)."""
-        from posfb.analysis.export import run_table
+        --out`` (``analysis.common.export``)."""
+        from posfb.analysis.common.export import run_table
 
         return run_table(self.result)
 
     def save(self, path: str | Path) -> Path:
         """Write ``frame()`` to ``path`` (``.csv``, ``.parquet`` or ``.npz``), atomically:
         an existing file is replaced, a failed write leaves it as it was; returns it."""
-        from posfb.analysis.export import export_run
+        from posfb.analysis.common.export import export_run
 
         return export_run(self.result, path)
 
@@ -308,7 +308,7 @@ class Run:
 
 
 def _figure(results: Mapping[str, ClosedLoopResult], figure: str, title: str) -> Figure:
-    from posfb.analysis import plots
+    from posfb.analysis.common import plots
 
     draw = {"errors": plots.tracking_errors, "positions": plots.positions_and_voltages}
     if figure not in draw:
@@ -448,7 +448,7 @@ class Comparison:
     def table(self) -> pd.DataFrame:
         """One row per controller: label, status, RMS(q~) and RMS(u) per joint (rad, V),
         max |q~| (rad), the share of saturated samples and the RMS of the measured error
-        per joint (rad, ``analysis.metrics``)."""
+        per joint (rad, ``analysis.common.metrics``)."""
         import pandas as pd
 
         rows = []
@@ -485,11 +485,11 @@ class Comparison:
         """Write ``comparison.csv``, ``comparison.md``, ``comparison.json`` (every run's
         ``summary()``) and both figures (PNG, SVG) into ``directory`` (created; its other
         files are kept). The files are written into a temporary folder beside it and
-        moved in only once all are complete (``analysis.outputs.staged_folder``): a
+        moved in only once all are complete (``analysis.common.outputs.staged_folder``): a
         failed save leaves ``directory`` as it was. Returns the paths written."""
-        from posfb.analysis import plots
-        from posfb.analysis.export import write_table
-        from posfb.analysis.outputs import staged_folder
+        from posfb.analysis.common import plots
+        from posfb.analysis.common.export import write_table
+        from posfb.analysis.common.outputs import staged_folder
 
         with staged_folder(directory) as staged:
             folder = staged.path
@@ -565,7 +565,7 @@ def tune(
     accept_worse: bool = False,
 ) -> TuneResult:
     """A robust design of the paper's controller and Lin+LC for the scenario's arm, with
-    a stated probabilistic guarantee (``analysis.tuning``; what ``posfb tune`` runs).
+    a stated probabilistic guarantee (``analysis.design``; what ``posfb tune`` runs).
 
     Parameters
     ----------
@@ -573,7 +573,7 @@ def tune(
         Anything ``load_scenario`` takes.
     study
         A Monte-Carlo study (file or ``Study``) whose ``parameters`` give the plants;
-        ``None``: the default spread (``analysis.tuning.plants.DEFAULT_SPREAD``).
+        ``None``: the default spread (``analysis.uncertainty.plants.DEFAULT_SPREAD``).
     settings
         ``TuneSettings`` (margin, plants, seed, epsilon, beta, budget, ...); default:
         its defaults.
@@ -609,23 +609,23 @@ def tune(
     TypeError
         ``study``, ``settings`` or ``out`` of another type than those above.
     """
-    from posfb.analysis.montecarlo.config import Study, load_study
-    from posfb.analysis.tuning.settings import TuneSettings
-    from posfb.analysis.tuning.tune import tune as tune_loaded
+    from posfb.analysis.design.settings import TuneSettings
+    from posfb.analysis.design.tune import tune as tune_loaded
+    from posfb.analysis.uncertainty.study import Study, load_study
     from posfb.diagrams.arm import arm_identity
 
     if not isinstance(study, str | Path | Study | None):
         raise TypeError(f"study = {study!r}; a study file's path, a Study or None is required")
     if not isinstance(settings, TuneSettings | None):
         raise TypeError(
-            f"settings = {settings!r}; a posfb.analysis.tuning.settings.TuneSettings or None "
+            f"settings = {settings!r}; a posfb.analysis.design.settings.TuneSettings or None "
             "is required (the scenario's own keys go in set=)"
         )
     if out is not None:
         if not isinstance(out, str | Path):
             raise TypeError(f"out = {out!r}; a file path or None is required")
-        from posfb.analysis.errors import UsageError
-        from posfb.analysis.outputs import output_file
+        from posfb.analysis.common.errors import UsageError
+        from posfb.analysis.common.outputs import output_file
 
         try:  # before the search, not after it
             output_file("out", str(out), (".yaml", ".yml"), force=True)

@@ -33,8 +33,8 @@ from pathlib import Path
 
 import numpy as np
 
-from posfb.analysis.experiment import case_scenario
-from posfb.analysis.metrics import run_metrics
+from posfb.analysis.common.metrics import run_metrics
+from posfb.analysis.paper.experiment import case_scenario
 from posfb.diagrams.closed_loop import ClosedLoopResult, ClosedLoopRunner
 from posfb.diagrams.resolve import LoadedScenario, load_scenario, resolve
 from posfb.models.controllers import PAPER_CONTROLLERS

@@ -29,10 +29,10 @@ from pathlib import Path
 
 import psutil
 
-from posfb.analysis.montecarlo.config import canonical_text, load_study
 from posfb.analysis.montecarlo.scheduler import run_study
 from posfb.analysis.montecarlo.store import ResultStore
 from posfb.analysis.montecarlo.worker import ClosedLoopEvaluator
+from posfb.analysis.uncertainty.study import canonical_text, load_study
 
 SHIPPED = Path(__file__).resolve().parent.parent / "analysis" / "studies" / "paper_uncertainty.yaml"
 

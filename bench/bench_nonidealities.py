@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import argparse
 
-from posfb.analysis.metrics import run_metrics
+from posfb.analysis.common.metrics import run_metrics
 from posfb.diagrams.closed_loop import ClosedLoopRunner
 from posfb.diagrams.resolve import load_scenario, resolve
 

@@ -110,7 +110,7 @@ from pydrake.systems.analysis import ApplySimulatorConfig, Simulator, SimulatorC
 from pydrake.systems.framework import DiagramBuilder, LeafSystem
 from pydrake.systems.primitives import ConstantVectorSource
 
-from posfb.analysis.metrics import run_metrics
+from posfb.analysis.common.metrics import run_metrics
 from posfb.diagrams.closed_loop import ClosedLoopConfig, ClosedLoopRunner
 from posfb.diagrams.resolve import load_scenario, resolve
 from posfb.models.controllers import cached_design, make_controller

@@ -38,9 +38,9 @@ _EXPORTS = {
     "build": "posfb.analysis.api",
     "compare": "posfb.analysis.api",
     "tune": "posfb.analysis.api",
-    "TuneSettings": "posfb.analysis.tuning.settings",
-    "TuneResult": "posfb.analysis.tuning.tune",
-    "TuneError": "posfb.analysis.tuning.search",
+    "TuneSettings": "posfb.analysis.design.settings",
+    "TuneResult": "posfb.analysis.design.tune",
+    "TuneError": "posfb.analysis.design.search",
     "shipped_scenarios": "posfb.analysis.api",
     "Run": "posfb.analysis.api",
     "BuiltLoop": "posfb.analysis.api",
@@ -88,9 +88,9 @@ if TYPE_CHECKING:
         simulate,
         tune,
     )
-    from posfb.analysis.tuning.search import TuneError
-    from posfb.analysis.tuning.settings import TuneSettings
-    from posfb.analysis.tuning.tune import TuneResult
+    from posfb.analysis.design.search import TuneError
+    from posfb.analysis.design.settings import TuneSettings
+    from posfb.analysis.design.tune import TuneResult
     from posfb.diagrams.resolve import LoadedScenario
     from posfb.models.controllers.plugin import (
         Controller,

@@ -4,9 +4,9 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from posfb.analysis.montecarlo.coverage import BOUND_NAMES
 from posfb.analysis.montecarlo.records import ControllerRun, SampleResult, metric_columns
 from posfb.analysis.montecarlo.store import ResultStore
+from posfb.analysis.uncertainty.coverage import BOUND_NAMES
 
 #: A store an earlier posfb wrote (schema version 3, before the ``saturated`` and
 #: ``lost`` statuses): the realism study's ideal arm, shipped with the docs.
@@ -80,8 +80,8 @@ def fake_evaluate(study_text: str, index: int) -> SampleResult:
 
 def run_into_store(path: Path, study_text: str, workers: int = 1) -> Path:
     """Run the study ``study_text`` (the real closed loop) into a new store at ``path``."""
-    from posfb.analysis.montecarlo.config import study_from_text
     from posfb.analysis.montecarlo.scheduler import run_study
+    from posfb.analysis.uncertainty.study import study_from_text
 
     study = study_from_text(study_text)
     with ResultStore.create_or_resume(path, study, "test") as store:

@@ -11,10 +11,10 @@ from pydrake.systems.analysis import Simulator
 from pydrake.systems.framework import DiagramBuilder
 from pydrake.systems.primitives import ConstantVectorSource, Multiplexer, VectorLogSink
 
-from posfb.analysis.metrics import run_metrics
-from posfb.analysis.montecarlo.config import study_from_text
-from posfb.analysis.montecarlo.sampling import sample_scenario
-from posfb.analysis.montecarlo.worker import ClosedLoopEvaluator, structure_key
+from posfb.analysis.common.metrics import run_metrics
+from posfb.analysis.montecarlo.worker import ClosedLoopEvaluator
+from posfb.analysis.uncertainty.sampling import sample_scenario
+from posfb.analysis.uncertainty.study import study_from_text
 from posfb.diagrams.actuator import (
     EFFECT_BLOCKS,
     ActuatorState,
@@ -24,6 +24,7 @@ from posfb.diagrams.actuator import (
 )
 from posfb.diagrams.closed_loop import ClosedLoopRunner, LoopSystems
 from posfb.diagrams.resolve import load_scenario, resolve
+from posfb.diagrams.structure import structure_key
 
 SHORT = "timing.duration=0.5"
 

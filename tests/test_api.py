@@ -14,7 +14,7 @@ import pytest
 import posfb
 from posfb.analysis.api import yaml_value
 from posfb.analysis.cli import main
-from posfb.analysis.errors import run_exit_code
+from posfb.analysis.common.errors import run_exit_code
 from posfb.diagrams.closed_loop import ClosedLoopRunner
 from posfb.diagrams.resolve import resolve
 
@@ -227,7 +227,7 @@ def test_an_argument_of_the_wrong_type_is_named(call, needle):
 def test_tune_checks_out_before_the_search(tmp_path, monkeypatch):
     """An ``out`` that cannot be written is refused before any tuning work: the search
     is replaced by one that fails the test if reached."""
-    from posfb.analysis.tuning import tune as tune_module
+    from posfb.analysis.design import tune as tune_module
 
     def no_search(*_args, **_kwargs):
         raise AssertionError("tune searched although out cannot be written")

@@ -11,7 +11,7 @@ import pytest
 from planar_arm import planar_arm_urdf
 
 import posfb
-from posfb.analysis.montecarlo import config
+from posfb.analysis.uncertainty import study as study_file
 from posfb.diagrams.arm import arm_identity
 from posfb.diagrams.scenario import PlantSettings, Scenario
 from posfb.models.plant import DEFAULT_URDF
@@ -57,9 +57,9 @@ def test_a_study_of_another_arm_is_refused_before_the_study_is_checked(tmp_path,
     def checked(study):  # the study's own checks design every controller: the costly part
         raise AssertionError("the study was checked before its arm")
 
-    monkeypatch.setattr(config, "validate_study", checked)
+    monkeypatch.setattr(study_file, "validate_study", checked)
     with pytest.raises(ValueError) as refused:
-        config.load_study(THREE_LINK_STUDY, arm=planar)
+        study_file.load_study(THREE_LINK_STUDY, arm=planar)
     message = str(refused.value)
     assert "\n" not in message and "a study of the scenario's arm is required" in message
     assert "three_link_arm.urdf" in message and "planar_arm_3.urdf" in message
@@ -72,6 +72,6 @@ def test_tune_refuses_a_study_of_another_arm_with_the_same_joints(tmp_path):
         posfb.tune(scenario, study=THREE_LINK_STUDY, out=tmp_path / "t.yaml")
     assert not (tmp_path / "t.yaml").exists()
     # a study given as a loaded Study is refused the same way (where the plants are drawn)
-    study = config.load_study(THREE_LINK_STUDY)
+    study = study_file.load_study(THREE_LINK_STUDY)
     with pytest.raises(ValueError, match="planar_arm_3.urdf"):
         posfb.tune(scenario, study=study)

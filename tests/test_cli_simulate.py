@@ -11,7 +11,7 @@ import xml.etree.ElementTree as ET
 import pytest
 
 from posfb.analysis.cli import EXIT_BAD_INPUT, EXIT_INTERNAL_ERROR, main
-from posfb.analysis.errors import EXIT_DIVERGED, EXIT_NOT_TRACKED, run_exit_code
+from posfb.analysis.common.errors import EXIT_DIVERGED, EXIT_NOT_TRACKED, run_exit_code
 from posfb.diagrams import graph
 
 CLI = [sys.executable, "-m", "posfb.analysis.cli"]

@@ -9,8 +9,8 @@ import numpy as np
 import pytest
 from loop_checks import assert_position_only
 
-from posfb.analysis.experiment import case_parameters, payload_mass
-from posfb.analysis.metrics import run_metrics
+from posfb.analysis.common.metrics import run_metrics
+from posfb.analysis.paper.experiment import case_parameters, payload_mass
 from posfb.diagrams.closed_loop import ClosedLoopConfig, ClosedLoopRunner
 from posfb.diagrams.sections import Actuator, Sensor, Timing
 from posfb.models.controllers import kinds

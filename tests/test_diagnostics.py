@@ -1,4 +1,4 @@
-"""``analysis.diagnostics`` against independent computations."""
+"""``analysis.paper.diagnostics`` against independent computations."""
 
 from __future__ import annotations
 
@@ -7,7 +7,7 @@ import math
 import numpy as np
 import pytest
 
-from posfb.analysis.diagnostics import (
+from posfb.analysis.paper.diagnostics import (
     LoopEigen,
     ScanRow,
     band_rms,

@@ -1,4 +1,4 @@
-"""``analysis.export``: a run's time series as CSV / Parquet / NPZ."""
+"""``analysis.common.export``: a run's time series as CSV / Parquet / NPZ."""
 
 from __future__ import annotations
 
@@ -6,14 +6,14 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from posfb.analysis.export import (
+from posfb.analysis.common.export import (
     EXPORT_FORMATS,
     export_run,
     leading_columns,
     read_run,
     run_table,
 )
-from posfb.analysis.metrics import rms
+from posfb.analysis.common.metrics import rms
 from posfb.diagrams.closed_loop import ClosedLoopConfig, ClosedLoopRunner
 from posfb.diagrams.sections import Timing
 from posfb.models.controllers import (

@@ -17,8 +17,8 @@ from pydrake.systems.primitives import ConstantVectorSource, PassThrough
 import posfb
 from posfb.analysis.cli import main
 from posfb.analysis.montecarlo.store import ResultStore
-from posfb.analysis.montecarlo.worker import structure_key
 from posfb.diagrams.scenario import Scenario, apply_setting
+from posfb.diagrams.structure import structure_key
 from posfb.models.friction import REGISTRY
 from posfb.models.friction.block import SymbolicFriction
 from posfb.models.friction.lugre import LuGre

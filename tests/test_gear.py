@@ -11,10 +11,10 @@ from loop_checks import assert_position_only
 from pydrake.systems.analysis import Simulator
 from pydrake.systems.primitives import FirstOrderTaylorApproximation
 
-from posfb.analysis.montecarlo.worker import structure_key
 from posfb.diagrams.closed_loop import ClosedLoopConfig, ClosedLoopRunner
 from posfb.diagrams.scenario import Scenario
 from posfb.diagrams.sections import Sensor
+from posfb.diagrams.structure import structure_key
 from posfb.models.gear import GearConfig, _gear_system
 from posfb.models.plant import (
     PlantConfig,

@@ -12,7 +12,7 @@ import yaml
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from posfb.analysis.montecarlo.config import study_from_text
+from posfb.analysis.uncertainty.study import study_from_text
 from posfb.diagrams.resolve import load_scenario
 from posfb.diagrams.scenario import Scenario, apply_setting, dump_scenario
 

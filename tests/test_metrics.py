@@ -1,4 +1,4 @@
-"""``analysis.metrics``: the paper's RMS and the run metrics."""
+"""``analysis.common.metrics``: the paper's RMS and the run metrics."""
 
 from __future__ import annotations
 
@@ -7,7 +7,7 @@ import math
 import numpy as np
 import pytest
 
-from posfb.analysis.metrics import (
+from posfb.analysis.common.metrics import (
     RunMetrics,
     Verdict,
     compute_metrics,

@@ -109,7 +109,7 @@ SIX_JOINT = str(SCENARIOS / "six_joint_nominal.yaml")
 STUDIES = SCENARIOS.parent / "studies"
 
 CASES = {
-    # shipped files by name (analysis.shipped)
+    # shipped files by name (analysis.common.shipped)
     "unknown shipped study": Case(
         ("montecarlo", "run", "paper_uncertanty", "--db", "{tmp}/x.sqlite"),
         "neither a file nor a shipped study",

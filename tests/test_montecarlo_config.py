@@ -11,7 +11,7 @@ import pytest
 from montecarlo_helpers import TINY_STUDY, write_study
 
 from posfb.analysis.cli import main
-from posfb.analysis.montecarlo.config import (
+from posfb.analysis.uncertainty.study import (
     Deterministic,
     Gaussian,
     Uniform,

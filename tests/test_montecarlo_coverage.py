@@ -7,7 +7,7 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from posfb.analysis.montecarlo.coverage import BOUND_NAMES, coverage, uncertainty_norms
+from posfb.analysis.uncertainty.coverage import BOUND_NAMES, coverage, uncertainty_norms
 from posfb.models.design import UncertaintyBounds
 from posfb.models.design.bounds import resolve_bounds
 from posfb.models.lumped import TABLE1, LumpedModel

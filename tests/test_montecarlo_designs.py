@@ -9,15 +9,15 @@ import numpy as np
 import pytest
 from montecarlo_helpers import deterministic_rows
 
-from posfb.analysis.montecarlo.config import (
+from posfb.analysis.montecarlo.scheduler import run_study
+from posfb.analysis.montecarlo.store import ResultStore
+from posfb.analysis.uncertainty.sampling import sample_plant
+from posfb.analysis.uncertainty.study import (
     identity,
     saltelli_rows,
     study_from_text,
     varied_scalars,
 )
-from posfb.analysis.montecarlo.sampling import sample_plant
-from posfb.analysis.montecarlo.scheduler import run_study
-from posfb.analysis.montecarlo.store import ResultStore
 from posfb.models.plant import build_arm_diagram
 
 #: Two varied parameters: a uniform payload and a truncated normal joint-1 Coulomb level.

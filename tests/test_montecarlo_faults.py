@@ -19,15 +19,15 @@ from montecarlo_helpers import (
 )
 
 from posfb.analysis.cli import main
-from posfb.analysis.errors import (
+from posfb.analysis.common.errors import (
     EXIT_DAMAGED_STORE,
     EXIT_DISK_FULL,
     EXIT_WORKER_DIED,
     DamagedStoreError,
 )
-from posfb.analysis.montecarlo.config import MAX_SAMPLES, study_from_text
 from posfb.analysis.montecarlo.scheduler import WORKER_DIED, run_study
 from posfb.analysis.montecarlo.store import ResultStore
+from posfb.analysis.uncertainty.study import MAX_SAMPLES, study_from_text
 
 
 @pytest.fixture()
@@ -183,8 +183,8 @@ def test_a_full_disk_is_one_line_keeps_what_finished_and_resumes(tmp_path, disk)
 
 
 def test_a_killed_worker_is_retried_once_then_its_sample_is_an_error(tmp_path, disk):
-    from posfb.analysis.montecarlo.config import load_study
-    from posfb.analysis.montecarlo.sampling import sample_scenario
+    from posfb.analysis.uncertainty.sampling import sample_scenario
+    from posfb.analysis.uncertainty.study import load_study
 
     study, log = write_killer_study(tmp_path)
     samples = load_study(study).samples

@@ -13,16 +13,16 @@ from figure_checks import legend_labels, legends_over_axes, suptitle
 from matplotlib.colors import to_rgba
 from montecarlo_helpers import TINY_STUDY
 
+from posfb.analysis.common.plots import MAX_DOTS
 from posfb.analysis.montecarlo import convergence, stability
-from posfb.analysis.montecarlo.config import study_from_text
-from posfb.analysis.montecarlo.coverage import BOUND_NAMES
 from posfb.analysis.montecarlo.report import (
     plot_against_payload,
     plot_distributions,
     plot_inside_outside,
 )
 from posfb.analysis.montecarlo.results import StudyData
-from posfb.analysis.plots import MAX_DOTS
+from posfb.analysis.uncertainty.coverage import BOUND_NAMES
+from posfb.analysis.uncertainty.study import study_from_text
 
 SAMPLES = 2000
 CONTROLLERS = ("proposed", "lin_lc", "pid")

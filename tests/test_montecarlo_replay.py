@@ -11,8 +11,8 @@ import pytest
 from montecarlo_helpers import TINY_STUDY, run_into_store
 
 from posfb.analysis.cli import main
-from posfb.analysis.export import read_run
-from posfb.analysis.metrics import rms
+from posfb.analysis.common.export import read_run
+from posfb.analysis.common.metrics import rms
 from posfb.analysis.montecarlo.records import ControllerRun, SampleResult
 from posfb.analysis.montecarlo.replay import compare, index_ranges, same
 from posfb.analysis.montecarlo.store import ResultStore

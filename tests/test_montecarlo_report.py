@@ -7,12 +7,12 @@ import pytest
 from montecarlo_helpers import TINY_STUDY, make_result, run_into_store
 
 from posfb.analysis.cli import main
-from posfb.analysis.montecarlo.config import study_from_text
-from posfb.analysis.montecarlo.coverage import BOUND_NAMES
 from posfb.analysis.montecarlo.records import STATUSES, ControllerRun, SampleResult, metric_columns
 from posfb.analysis.montecarlo.report import FIGURES, markdown
 from posfb.analysis.montecarlo.results import beats, joint_stats, load, status_counts
 from posfb.analysis.montecarlo.store import ResultStore
+from posfb.analysis.uncertainty.coverage import BOUND_NAMES
+from posfb.analysis.uncertainty.study import study_from_text
 
 #: rms_q per sample: (proposed joint 1, joint 2), (pid joint 1, joint 2); None: diverged.
 TABLE = [
@@ -149,7 +149,7 @@ def test_report_of_a_missing_store_is_one_line(tmp_path, capsys):
 def _synthetic_store(path, study, error_of):
     """A store whose sampled plants are the study's own draws and whose RMS errors are
     ``error_of(plant parameters)`` (no simulation)."""
-    from posfb.analysis.montecarlo.sampling import sample_plant
+    from posfb.analysis.uncertainty.sampling import sample_plant
     from posfb.models.plant import build_arm_diagram
 
     nominal = build_arm_diagram()[1].default_parameters

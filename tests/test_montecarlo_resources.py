@@ -143,8 +143,8 @@ def test_the_calibration_pays_a_fresh_workers_first_sample():
     has evaluated the study's first sample before, so an in-process calibration would
     find nothing left to build; the worker's first sample still pays its build."""
     from posfb.analysis.montecarlo import worker
-    from posfb.analysis.montecarlo.config import canonical_text, study_from_text
     from posfb.analysis.montecarlo.cost import calibrate
+    from posfb.analysis.uncertainty.study import canonical_text, study_from_text
 
     study = study_from_text(RANDOM_STUDY)
     worker.evaluate(canonical_text(study), 0)  # this process: diagrams and designs built

@@ -23,10 +23,10 @@ from montecarlo_helpers import (
 
 from posfb.analysis.cli import main
 from posfb.analysis.montecarlo import scheduler
-from posfb.analysis.montecarlo.config import study_from_text
 from posfb.analysis.montecarlo.scheduler import run_study
 from posfb.analysis.montecarlo.store import ResultStore
 from posfb.analysis.montecarlo.worker import ClosedLoopEvaluator
+from posfb.analysis.uncertainty.study import study_from_text
 from posfb.models.plant import build_arm_diagram
 
 CLI = [sys.executable, "-m", "posfb.analysis.cli"]

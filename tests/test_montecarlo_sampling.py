@@ -8,8 +8,8 @@ import numpy as np
 import pytest
 from montecarlo_helpers import TINY_STUDY
 
-from posfb.analysis.montecarlo.config import study_from_text
-from posfb.analysis.montecarlo.sampling import sample_plant
+from posfb.analysis.uncertainty.sampling import sample_plant
+from posfb.analysis.uncertainty.study import study_from_text
 from posfb.models.plant import build_arm_diagram
 
 

@@ -12,8 +12,8 @@ import pytest
 from montecarlo_helpers import run_into_store
 
 from posfb.analysis.cli import main
-from posfb.analysis.montecarlo.coverage import BOUND_NAMES, serial_coverage
 from posfb.analysis.montecarlo.table import study_table
+from posfb.analysis.uncertainty.coverage import BOUND_NAMES, serial_coverage
 from posfb.diagrams.resolve import load_scenario, resolve
 from posfb.models.controllers import cached_design
 from posfb.models.design import plant_spectral_radii

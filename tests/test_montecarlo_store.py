@@ -8,11 +8,11 @@ from dataclasses import replace
 import pytest
 from montecarlo_helpers import EARLIER_STORE, TINY_STUDY, make_result
 
-from posfb.analysis.errors import UsageError
-from posfb.analysis.montecarlo.config import study_from_text
+from posfb.analysis.common.errors import UsageError
 from posfb.analysis.montecarlo.records import STATUSES, ControllerRun
 from posfb.analysis.montecarlo.results import load, status_counts
 from posfb.analysis.montecarlo.store import ResultStore
+from posfb.analysis.uncertainty.study import study_from_text
 
 
 @pytest.fixture()

@@ -11,7 +11,6 @@ import pytest
 from montecarlo_helpers import TINY_STUDY, run_into_store
 
 from posfb.analysis.cli import main
-from posfb.analysis.montecarlo.config import study_from_text
 from posfb.analysis.montecarlo.store import ResultStore
 from posfb.analysis.montecarlo.table import (
     RATIO_COLUMNS,
@@ -19,6 +18,7 @@ from posfb.analysis.montecarlo.table import (
     plant_columns,
     study_table,
 )
+from posfb.analysis.uncertainty.study import study_from_text
 from posfb.models.controllers import cached_design
 from posfb.models.design import ControllerConfig, plant_spectral_radii
 from posfb.models.lumped import LumpedParameters

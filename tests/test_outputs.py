@@ -1,6 +1,6 @@
 """Every ``--out`` (issue 27, item 11): an existing file, or the command's own input, is
 refused before the work without ``--force`` and left byte for byte; with ``--force`` it is
-replaced. Files are written atomically and folders staged (``analysis.outputs``): a write
+replaced. Files are written atomically and folders staged (``analysis.common.outputs``): a write
 that the disk refuses half-way (a real full disk: a tmpfs, or a file-size limit) leaves
 the old file, or the old folder, as it was, and no partial file or folder beside it."""
 
@@ -14,8 +14,8 @@ from montecarlo_helpers import TINY_STUDY, SmallDisk, run_into_store
 from output_checks import read_only_folder, tree_digest
 
 from posfb.analysis.cli import main
-from posfb.analysis.errors import EXIT_DISK_FULL, UsageError
-from posfb.analysis.outputs import atomic_file, output_file, staged_folder
+from posfb.analysis.common.errors import EXIT_DISK_FULL, UsageError
+from posfb.analysis.common.outputs import atomic_file, output_file, staged_folder
 from posfb.models.plant import DEFAULT_URDF
 
 SCENARIOS = Path(__file__).resolve().parent.parent / "analysis" / "scenarios"

@@ -13,7 +13,7 @@ from pathlib import Path
 import pytest
 
 import posfb
-from posfb.analysis import shipped
+from posfb.analysis.common import shipped
 from posfb.analysis.montecarlo import provenance
 
 ROOT = Path(__file__).resolve().parents[1]

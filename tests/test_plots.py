@@ -1,4 +1,4 @@
-"""The run figures (``analysis.plots``): every controller's error readable beside one a
+"""The run figures (``analysis.common.plots``): every controller's error readable beside one a
 hundred times worse, the legend outside the data, one colour per line (a plug-in's
 and a named entry's none of a built-in's), "(paper)" only for the paper's settings.
 The runs are made up (no simulation): the figures only read a run's logs and config."""
@@ -12,8 +12,9 @@ import pytest
 from figure_checks import legend_labels, legends_over_axes, line_colours
 from matplotlib.colors import to_hex
 
-from posfb.analysis.api import SCENARIO_DIR, load_scenario, resolve
-from posfb.analysis.plots import positions_and_voltages, tracking_errors
+from posfb.analysis.api import load_scenario, resolve
+from posfb.analysis.common.plots import positions_and_voltages, tracking_errors
+from posfb.analysis.common.shipped import SCENARIO_DIR
 from posfb.diagrams.closed_loop import ClosedLoopConfig, ClosedLoopResult
 from posfb.models.controllers.plugin import load_plugin
 from posfb.models.controllers.registry import registered_colours

@@ -14,12 +14,12 @@ import yaml
 
 import posfb
 from posfb.analysis.cli import main
-from posfb.analysis.commands.realism import DEFAULT_STUDY
-from posfb.analysis.montecarlo.config import Gaussian, UniformDiscrete
+from posfb.analysis.cli.commands.realism import DEFAULT_STUDY
+from posfb.analysis.common.tables import PAPER_TABLE3
 from posfb.analysis.realism.findings import gap_share, paper_pairs, ranking_agreement
 from posfb.analysis.realism.report import _draws_text
 from posfb.analysis.realism.spec import COMBINED, IDEAL, load_realism
-from posfb.analysis.tables import PAPER_TABLE3
+from posfb.analysis.uncertainty.study import Gaussian, UniformDiscrete
 from posfb.diagrams.scenario import get_setting
 
 

@@ -17,7 +17,7 @@ import pytest
 from matplotlib.image import imread
 
 from posfb.analysis.cli import main
-from posfb.analysis.experiment import ResultsFile
+from posfb.analysis.paper.experiment import ResultsFile
 from posfb.models.controllers import PAPER_CONTROLLERS
 
 FIGURES = [f"fig{n}{suffix}" for n in (4, 5, 6, 7) for suffix in ("", "_alpha_star")]
@@ -108,7 +108,7 @@ def test_results_file_is_rewritten_after_every_entry(tmp_path):
 
 
 def test_experiment_script_runs_directly(tmp_path):
-    script = Path(__file__).resolve().parent.parent / "analysis" / "payload_experiment.py"
+    script = Path(__file__).resolve().parent.parent / "analysis" / "paper" / "payload_experiment.py"
     result = subprocess.run(
         [sys.executable, str(script), "--out", str(tmp_path), "--duration", "0.5"],
         capture_output=True,

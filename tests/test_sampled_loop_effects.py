@@ -1,6 +1,6 @@
 """The sampled-loop analyses include the scenario's linear effects (issue 27, item 8):
 compute delay, sensor delay, armature lag and a compliant gear
-(``models.design.closed_loop.LoopEffects``, ``analysis.loop_effects``).
+(``models.design.closed_loop.LoopEffects``, ``analysis.common.loop_effects``).
 
 Per effect, a sweep across the value where the analysed rho crosses 1, each value also
 simulated (3 s, Lin+LC near a fixed posture with ``q2 = pi/2``, where ``M(q) = M0*``;
@@ -18,10 +18,10 @@ import pytest
 import scipy.linalg
 from loop_checks import residual_oscillation
 
-from posfb.analysis.commands.design import scenario_design
-from posfb.analysis.loop_effects import left_out, loop_effects, nominal_effects
-from posfb.analysis.stability_map import evaluate_point, map_setup
-from posfb.analysis.tuning.problem import TuningProblem
+from posfb.analysis.cli.commands.design import scenario_design
+from posfb.analysis.common.loop_effects import left_out, loop_effects, nominal_effects
+from posfb.analysis.design.problem import TuningProblem
+from posfb.analysis.design.stability_map import evaluate_point, map_setup
 from posfb.diagrams.resolve import load_scenario, resolve, run_resolved
 from posfb.models.design import (
     LOOP_CONTROLLERS,

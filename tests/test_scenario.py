@@ -10,10 +10,10 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from posfb.analysis.cases import SCENARIO_DIR
 from posfb.analysis.cli import main
-from posfb.analysis.experiment import CASE_FILES, case_scenario
-from posfb.analysis.metrics import rms
+from posfb.analysis.common.cases import SCENARIO_DIR
+from posfb.analysis.common.metrics import rms
+from posfb.analysis.paper.experiment import CASE_FILES, case_scenario
 from posfb.diagrams.closed_loop import ClosedLoopConfig, ClosedLoopRunner
 from posfb.diagrams.encoder import quantise
 from posfb.diagrams.resolve import load_scenario, resolve, run_scenario

@@ -1,4 +1,4 @@
-"""``posfb scenario init`` (``analysis.scenario_init``) and its rules
+"""``posfb scenario init`` (``analysis.design.scenario_init``) and its rules
 (``models.design.initial``): a generated 4-link arm gets a complete scenario that loads,
 passes ``scenario check`` without warnings, stays within its voltage and joint limits
 (recomputed here), and runs all three controllers; the rules have the properties they
@@ -271,10 +271,28 @@ def test_the_rules_work_at_5_khz(tmp_path: Path) -> None:
 
 def test_a_shipped_arm_is_named_as_a_scenario_names_it(tmp_path):
     # argparse's type=Path folds package://posfb/ to package:/posfb/; both name the file
-    from posfb.analysis.scenario_init import InitOptions, settings_of
+    from posfb.analysis.design.scenario_init import InitOptions, settings_of
     from posfb.models.plant import DEFAULT_URDF
 
     shipped = DEFAULT_URDF.parent / "three_link_arm.urdf"
     for urdf in ("package://posfb/three_link_arm.urdf", Path("package://posfb/three_link_arm.urdf")):
         settings = settings_of(InitOptions(urdf=urdf, out=tmp_path / "three.yaml"))
         assert settings.urdf == shipped
+
+
+def test_the_written_rules_follow_the_rules_constants(monkeypatch):
+    """``scenario init``'s comments are written by the rules of
+    ``models.design.initial`` from their own constants: another integrator pole ratio or
+    alpha* grid changes the text with the numbers, so the two cannot drift apart."""
+    from posfb.models.design import initial
+
+    monkeypatch.setattr(initial, "INTEGRATOR_POLE_RATIO", 0.2)
+    kp, kv, ki = initial._pid_coefficients(1.0)
+    pid = initial.pid_gains(0.01, np.eye(2), 4096, 24.0)
+    text = " ".join(pid.rule())
+    assert f"Kp = {kp:g} omega_j^2, Kv = {kv:g} omega_j, KI = 0.2 omega_j^3" in text
+    assert pid.Kp[0] == pytest.approx(kp * pid.bandwidth[0] ** 2, rel=1e-5)  # the same rule
+    monkeypatch.setattr(initial, "ALPHA_GRID_POINTS", 7)
+    choice = initial.largest_alpha_star(lambda alpha: 2.0)  # no alpha* reaches the target
+    assert not choice.met
+    assert "7-point grid" in " ".join(choice.rule(2.0, 0.9))

@@ -14,8 +14,8 @@ import pytest
 from pydrake.multibody.parsing import Parser
 from pydrake.multibody.plant import MultibodyPlant
 
-from posfb.analysis.export import run_table
-from posfb.analysis.plots import positions_and_voltages, tracking_errors
+from posfb.analysis.common.export import run_table
+from posfb.analysis.common.plots import positions_and_voltages, tracking_errors
 from posfb.diagrams.resolve import load_scenario, run_scenario
 from posfb.models.controllers import PAPER_CONTROLLERS
 from posfb.models.controllers.feedforward import nominal_torques

@@ -1,4 +1,4 @@
-"""``posfb design --map`` (``analysis.stability_map``): the map's numbers against
+"""``posfb design --map`` (``analysis.design.stability_map``): the map's numbers against
 independent computations (the design report's radius, a brentq root, the bound filter's
 closed-form refusal, plant radii rebuilt from the ``ControllerConfig``), the largest
 robust sample time against the map, and the files. Coarse grids and few plants."""
@@ -14,14 +14,14 @@ import pytest
 from matplotlib.collections import QuadMesh
 from scipy.optimize import brentq
 
-from posfb.analysis import stability_map as sm
-from posfb.analysis.cases import CASE_FILES, SCENARIO_DIR
 from posfb.analysis.cli import main
-from posfb.analysis.commands.design import relevant_checks
-from posfb.analysis.errors import UsageError
-from posfb.analysis.montecarlo.config import load_study
-from posfb.analysis.tuning.plants import linear_plants, plant_family
-from posfb.analysis.tuning.settings import DEFAULT_MARGIN, TuneSettings
+from posfb.analysis.common.cases import CASE_FILES, SCENARIO_DIR
+from posfb.analysis.common.errors import UsageError
+from posfb.analysis.design import stability_map as sm
+from posfb.analysis.design.report import relevant_checks
+from posfb.analysis.design.settings import DEFAULT_MARGIN, TuneSettings
+from posfb.analysis.uncertainty.plants import linear_plants, plant_family
+from posfb.analysis.uncertainty.study import load_study
 from posfb.diagrams.resolve import load_scenario, resolve
 from posfb.models.design import compute_design, design_loop
 from posfb.models.design.closed_loop import spectral_radius

@@ -1,4 +1,4 @@
-"""Tests of the Monte-Carlo report's statistics helpers (``analysis/montecarlo/statistics.py``).
+"""Tests of the Monte-Carlo report's statistics helpers (``analysis/uncertainty/statistics.py``).
 
 Coverage tests are seeded simulations: they check that an interval method covers the true value
 in a fraction of synthetic data sets that lies inside a binomial acceptance band around the
@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 from scipy import stats
 
-from posfb.analysis.montecarlo.statistics import (
+from posfb.analysis.uncertainty.statistics import (
     Interval,
     ecdf,
     median_interval,
@@ -371,7 +371,7 @@ def test_large_samples_get_a_fisher_interval_that_covers_the_population_rho():
     """Above BOOTSTRAP_ROWS rows the interval is Fisher-z with Bonett & Wright's variance:
     on bivariate normal data (population Spearman 6/pi asin(r/2)) it covers the truth at
     about its nominal rate (seeded, 200 data sets), in milliseconds."""
-    from posfb.analysis.montecarlo.statistics import BOOTSTRAP_ROWS
+    from posfb.analysis.uncertainty.statistics import BOOTSTRAP_ROWS
 
     r, n = 0.6, BOOTSTRAP_ROWS + 500
     truth = 6 / np.pi * np.arcsin(r / 2)

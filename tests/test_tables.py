@@ -1,8 +1,8 @@
-"""``analysis.tables``: the side-by-side Markdown tables."""
+"""``analysis.common.tables``: the side-by-side Markdown tables."""
 
 from __future__ import annotations
 
-from posfb.analysis.tables import PAPER_TABLE3, ranking, ratios, side_by_side
+from posfb.analysis.common.tables import PAPER_TABLE3, ranking, ratios, side_by_side
 
 
 def _entry(q1, q2, u1, u2):

@@ -1,4 +1,4 @@
-"""Robust tuning (``posfb tune``, ``analysis.tuning``): the guarantee holds at its stated
+"""Robust tuning (``posfb tune``, ``analysis.design``): the guarantee holds at its stated
 confidence on a family whose violation probability is known, the predicted error is
 the loop's stationary variance (checked against an independent sum), and on an arm that
 no file of the repository describes, ``scenario init`` + ``tune --budget 120`` give a
@@ -23,19 +23,19 @@ import scipy.stats
 from planar_arm import planar_arm_urdf
 
 import posfb
-from posfb.analysis.cases import SCENARIO_DIR
-from posfb.analysis.tuning.budget import BudgetError, Deadline
-from posfb.analysis.tuning.guarantee import (
+from posfb.analysis.common.cases import SCENARIO_DIR
+from posfb.analysis.design.budget import BudgetError, Deadline
+from posfb.analysis.design.guarantee import (
     scenario_confidence,
     verification_plants,
     verify,
     violation_bound,
 )
-from posfb.analysis.tuning.plants import linear_plants, plant_family
-from posfb.analysis.tuning.problem import TuningProblem, apply_knobs, knobs, torque_bandwidth
-from posfb.analysis.tuning.search import search
-from posfb.analysis.tuning.settings import MAX_DESIGN_PLANTS, MAX_VERIFICATION_PLANTS
-from posfb.analysis.tuning.tune import EDGE_SHARE, _entry, _simulate, edge_values
+from posfb.analysis.design.problem import TuningProblem, apply_knobs, knobs, torque_bandwidth
+from posfb.analysis.design.search import search
+from posfb.analysis.design.settings import MAX_DESIGN_PLANTS, MAX_VERIFICATION_PLANTS
+from posfb.analysis.design.tune import EDGE_SHARE, _entry, _simulate, edge_values
+from posfb.analysis.uncertainty.plants import linear_plants, plant_family
 from posfb.diagrams.resolve import resolve
 from posfb.models.design import ControllerConfig, compute_design, design_loop
 from posfb.models.design.closed_loop import spectral_radius, stationary_deviations

@@ -20,9 +20,14 @@ from pathlib import Path
 import numpy as np
 from matplotlib.figure import Figure
 
+from posfb.analysis.common.plots import (
+    joint_panels,
+    label_joint_panel,
+    legend_below,
+    save_report_figure,
+)
 from posfb.analysis.montecarlo.results import JointStats, StudyData
-from posfb.analysis.montecarlo.statistics import Interval, ecdf, running_quantiles
-from posfb.analysis.plots import joint_panels, label_joint_panel, legend_below, save_report_figure
+from posfb.analysis.uncertainty.statistics import Interval, ecdf, running_quantiles
 
 #: N is "enough" for a statistic whose 95 % interval half-width is at most this share of it.
 PRECISION = 0.10

@@ -25,8 +25,8 @@ from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass
 
 from posfb.analysis.montecarlo import worker
-from posfb.analysis.montecarlo.config import Study, canonical_text
 from posfb.analysis.montecarlo.scheduler import FORKSERVER_INIT
+from posfb.analysis.uncertainty.study import Study, canonical_text
 
 #: Samples the calibration evaluates (the first is the warm-up).
 CALIBRATION_SAMPLES = 3

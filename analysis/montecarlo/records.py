@@ -5,10 +5,10 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from posfb.analysis.metrics import FINISHED_STATUSES, RUN_STATUSES
+from posfb.analysis.common.metrics import FINISHED_STATUSES, RUN_STATUSES
 
 #: Outcomes of one controller on one sample: a run's verdict
-#: (``analysis.metrics.run_verdict``: ``ok``, ``saturated``, ``lost``, ``diverged``), or
+#: (``analysis.common.metrics.run_verdict``: ``ok``, ``saturated``, ``lost``, ``diverged``), or
 #: ``error`` where it raised. The store keeps them as text; ``saturated`` and ``lost``
 #: are absent from a store written before posfb judged them (its runs that reached
 #: their end all read ``ok``).
@@ -27,7 +27,7 @@ def measured_columns(joints: int) -> tuple[str, ...]:
 
 def metric_columns(joints: int) -> tuple[str, ...]:
     """The per-controller numbers the store keeps for an arm of ``joints`` joints (from
-    ``analysis.metrics.RunMetrics``): ``rms_q1 .. rms_qn``, ``rms_u1 .. rms_un``, the
+    ``analysis.common.metrics.RunMetrics``): ``rms_q1 .. rms_qn``, ``rms_u1 .. rms_un``, the
     scalars, then ``measured_columns``."""
     per_joint = tuple(f"rms_{x}{j + 1}" for x in ("q", "u") for j in range(joints))
     scalars = ("max_abs_q_err", "saturated_fraction", "wall_time_s")

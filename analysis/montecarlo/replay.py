@@ -1,6 +1,6 @@
 """``posfb montecarlo replay``: rebuild one stored sample, check it, keep its time series.
 
-A sample is a pure function of the study and its index (``sampling``), so the
+A sample is a pure function of the study and its index (``uncertainty.sampling``), so the
 store alone (its canonical study YAML, which holds the seed, and the sample
 index) is enough to run the sample again. ``ClosedLoopEvaluator.evaluate``
 (``worker``) is the one code path of a study's samples and of a replay: the
@@ -25,7 +25,7 @@ store never recorded for the sample (``ResultStore.unrecorded``: a version-1 sto
 radius, a version-1 or 2 store's measured error).
 
 Written (``write_outputs``): per controller the time series
-``sample_<I>_<controller>.csv`` (``analysis.export.export_run``, the format of
+``sample_<I>_<controller>.csv`` (``analysis.common.export.export_run``, the format of
 ``simulate --out``), the figures ``sample_<I>_positions`` and ``sample_<I>_errors``
 (PNG and SVG, every replayed controller in one figure, as ``simulate --figure``
 writes them) and, where asked, the HTML animation ``sample_<I>_<controller>.html``
@@ -40,12 +40,12 @@ from collections.abc import Collection, Iterable, Mapping
 from dataclasses import dataclass
 from pathlib import Path
 
-from posfb.analysis import plots
-from posfb.analysis.errors import UsageError
-from posfb.analysis.export import export_run
-from posfb.analysis.montecarlo.config import Study
+from posfb.analysis.common import plots
+from posfb.analysis.common.errors import UsageError
+from posfb.analysis.common.export import export_run
 from posfb.analysis.montecarlo.records import ControllerRun, SampleResult, metric_columns
 from posfb.analysis.montecarlo.store import RADIUS_COLUMN
+from posfb.analysis.uncertainty.study import Study
 from posfb.diagrams.animate import animation_html
 from posfb.diagrams.closed_loop import ClosedLoopResult
 
@@ -282,7 +282,7 @@ def output_stem(index: int, name: str) -> str:
 
 
 def write_time_series(index: int, results: Mapping[str, ClosedLoopResult], out: Path) -> list[Path]:
-    """``sample_<index>_<controller>.csv`` per run (``analysis.export.export_run``)."""
+    """``sample_<index>_<controller>.csv`` per run (``analysis.common.export.export_run``)."""
     return [
         export_run(result, out / f"{output_stem(index, controller)}.csv")
         for controller, result in results.items()

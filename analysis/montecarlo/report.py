@@ -3,10 +3,10 @@
 The data and its conventions (which runs enter the RMS statistics, what "beats
 PID" means) are ``analysis.montecarlo.results``. Every median and 95th
 percentile comes with a percentile-bootstrap 95 % interval and every share with
-a Wilson 95 % interval (``analysis.montecarlo.statistics``, seeded, so the same
+a Wilson 95 % interval (``analysis.uncertainty.statistics``, seeded, so the same
 store writes the same report). Inside/outside: the sample's identified plant
 against the Assumption-1 bounds of the controller design
-(``analysis.montecarlo.coverage``). The answers come in sections of their own:
+(``analysis.uncertainty.coverage``). The answers come in sections of their own:
 per-sample sampled-data stability (``stability``), sensitivity
 (``sensitivity``) and whether N was enough (``convergence``).
 """
@@ -19,6 +19,14 @@ from pathlib import Path
 import numpy as np
 from matplotlib.figure import Figure
 
+from posfb.analysis.common.plots import (
+    dot_alpha,
+    joint_panels,
+    label_joint_panel,
+    legend_below,
+    save_report_figure,
+    thinned,
+)
 from posfb.analysis.montecarlo import convergence, sensitivity, stability
 from posfb.analysis.montecarlo.records import FINISHED, STATUSES
 from posfb.analysis.montecarlo.results import (
@@ -30,19 +38,11 @@ from posfb.analysis.montecarlo.results import (
     ok_values,
     status_counts,
 )
-from posfb.analysis.montecarlo.statistics import (
+from posfb.analysis.montecarlo.store import ResultStore
+from posfb.analysis.uncertainty.statistics import (
     MIN_INFERENCE_ROWS,
     Interval,
     proportion_interval,
-)
-from posfb.analysis.montecarlo.store import ResultStore
-from posfb.analysis.plots import (
-    dot_alpha,
-    joint_panels,
-    label_joint_panel,
-    legend_below,
-    save_report_figure,
-    thinned,
 )
 from posfb.diagrams.scenario import IdentifiedFromUrdf, Scenario, Theta, UrdfModel, Wave
 

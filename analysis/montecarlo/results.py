@@ -21,11 +21,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from posfb.analysis.montecarlo.config import Study, VariedScalar, study_joints, varied_scalars
-from posfb.analysis.montecarlo.coverage import BOUND_NAMES
 from posfb.analysis.montecarlo.records import FINISHED, STATUSES, measured_columns
-from posfb.analysis.montecarlo.statistics import Interval, median_interval, quantile_interval
 from posfb.analysis.montecarlo.store import RADIUS_COLUMN, ResultStore
+from posfb.analysis.uncertainty.coverage import BOUND_NAMES
+from posfb.analysis.uncertainty.statistics import Interval, median_interval, quantile_interval
+from posfb.analysis.uncertainty.study import Study, VariedScalar, study_joints, varied_scalars
 
 
 @dataclass(frozen=True)
@@ -140,7 +140,7 @@ def _drawn(sample: dict[str, object], scalar: VariedScalar) -> float:
 def joint_stats(data: StudyData) -> list[JointStats]:
     """Mean, median, 95th percentile and max of the RMS error per controller and joint,
     with percentile-bootstrap 95 % intervals of the median and the 95th percentile
-    (``analysis.montecarlo.statistics``, seeded: the same store gives the same report)."""
+    (``analysis.uncertainty.statistics``, seeded: the same store gives the same report)."""
     stats = []
     for controller in data.controllers:
         for joint in range(data.joints):

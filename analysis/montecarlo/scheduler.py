@@ -41,12 +41,12 @@ from dataclasses import dataclass
 
 from tqdm import tqdm
 
-from posfb.analysis.errors import InterruptedRunError, UsageError, WorkerDiedError
+from posfb.analysis.common.errors import InterruptedRunError, UsageError, WorkerDiedError
 from posfb.analysis.montecarlo import worker
-from posfb.analysis.montecarlo.config import Study, canonical_text, identity
 from posfb.analysis.montecarlo.records import SampleResult
 from posfb.analysis.montecarlo.store import ResultStore
 from posfb.analysis.montecarlo.watchdog import watch_run
+from posfb.analysis.uncertainty.study import Study, canonical_text, identity
 
 #: Samples in flight per worker (one running, one queued so no worker idles).
 IN_FLIGHT_PER_WORKER = 2

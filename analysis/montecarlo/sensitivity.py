@@ -3,7 +3,7 @@
 For every controller and joint, the RMS tracking error of the finished runs is
 ranked against every parameter the study varies (``varied_scalars``) by
 Spearman's rank correlation, with its p-value and a bootstrap 95 % interval
-(``statistics.spearman_ranking``). A rank correlation measures a monotone
+(``uncertainty.statistics.spearman_ranking``). A rank correlation measures a monotone
 association, one parameter at a time: two parameters that act together, or a
 parameter whose effect is not monotone, are better read from Sobol' indices,
 which the report adds when the study is a Saltelli design
@@ -24,15 +24,15 @@ from pathlib import Path
 import numpy as np
 from matplotlib.figure import Figure
 
+from posfb.analysis.common.plots import save_report_figure
 from posfb.analysis.montecarlo.results import StudyData
-from posfb.analysis.montecarlo.statistics import (
+from posfb.analysis.uncertainty.statistics import (
     MIN_INFERENCE_ROWS,
     RankCorrelation,
     SobolIndex,
     sobol_indices,
     spearman_ranking,
 )
-from posfb.analysis.plots import save_report_figure
 
 #: Parameters shown per (controller, joint) in the table and the figure.
 TOP = 6

@@ -5,7 +5,7 @@ Each sample stores, per controller with a loop of Sec. 3 (the proposed
 controller and Lin+LC), the spectral radius ``rho`` of that loop closed around
 the sample's own linear part ``M0, B`` with the filters as designed on the
 nominal model and the sample's linear effects (compute and sensor delay, lag,
-compliant gear: ``analysis.loop_effects``; ``models.design.plant_spectral_radii``;
+compliant gear: ``analysis.common.loop_effects``; ``models.design.plant_spectral_radii``;
 on the nominal model it is the design report's number). ``rho >= 1``: the held,
 sampled linear loop is unstable on that plant, and the nonlinear run typically oscillates (a limit
 cycle bounded by friction and saturation) rather than diverging.
@@ -24,22 +24,22 @@ from pathlib import Path
 import numpy as np
 from matplotlib.figure import Figure
 
-from posfb.analysis.montecarlo.results import StudyData, ok_values
-from posfb.analysis.montecarlo.statistics import (
-    MIN_INFERENCE_ROWS,
-    Interval,
-    RankCorrelation,
-    median_interval,
-    proportion_interval,
-    spearman_ranking,
-)
-from posfb.analysis.plots import (
+from posfb.analysis.common.plots import (
     dot_alpha,
     joint_panels,
     label_joint_panel,
     legend_below,
     save_report_figure,
     thinned,
+)
+from posfb.analysis.montecarlo.results import StudyData, ok_values
+from posfb.analysis.uncertainty.statistics import (
+    MIN_INFERENCE_ROWS,
+    Interval,
+    RankCorrelation,
+    median_interval,
+    proportion_interval,
+    spearman_ranking,
 )
 
 
@@ -142,7 +142,7 @@ def markdown(found: list[LoopStability]) -> list[str]:
 
 def plot(data: StudyData, found: list[LoopStability], out: Path) -> Figure:
     """RMS error against the loop's spectral radius, per joint, one colour per controller
-    (up to ``MAX_DOTS`` samples each, ``analysis.plots.thinned``); saved as
+    (up to ``MAX_DOTS`` samples each, ``analysis.common.plots.thinned``); saved as
     ``rms_vs_radius`` into ``out`` and returned."""
     figure, axes = joint_panels(data.joints, width=11.0)
     for joint, axis in enumerate(axes):

@@ -18,7 +18,7 @@ paper's arm, as every earlier store).
 Version 2 added ``sampled_data_spectral_radius`` (NULL for PID); a version-1 store
 is read (the radius reads as missing) but not resumed. Version 3 added
 ``rms_measured_q1 .. n``, the RMS of the error the encoder reads
-(``analysis.metrics``). A version-2 store is read (the measured error reads as
+(``analysis.common.metrics``). A version-2 store is read (the measured error reads as
 missing) and, when a run resumes it, migrated in place: the columns are added (NULL in
 the rows already there) and ``meta.unmeasured_samples`` lists the samples stored before
 (``ResultStore.unrecorded``: a replay does not compare what was never recorded).
@@ -65,8 +65,19 @@ from dataclasses import fields, is_dataclass
 from datetime import UTC, datetime
 from pathlib import Path
 
-from posfb.analysis.errors import DISK_FULL_ERRNOS, DamagedStoreError, DiskFullError, UsageError
-from posfb.analysis.montecarlo.config import (
+from posfb.analysis.common.errors import (
+    DISK_FULL_ERRNOS,
+    DamagedStoreError,
+    DiskFullError,
+    UsageError,
+)
+from posfb.analysis.montecarlo.records import (
+    STATUSES,
+    SampleResult,
+    measured_columns,
+    metric_columns,
+)
+from posfb.analysis.uncertainty.study import (
     SIZED_DESIGNS,
     Study,
     canonical_text,
@@ -74,12 +85,6 @@ from posfb.analysis.montecarlo.config import (
     study_arm,
     study_from_text,
     study_joints,
-)
-from posfb.analysis.montecarlo.records import (
-    STATUSES,
-    SampleResult,
-    measured_columns,
-    metric_columns,
 )
 
 SCHEMA_VERSION = "3"

@@ -3,7 +3,7 @@
 ``study_table`` reads a store (``analysis.montecarlo.store``) into a pandas
 DataFrame that R, a spreadsheet or pandas take as it is; ``posfb montecarlo
 export --db STORE --out FILE.parquet|.csv`` writes it
-(``analysis.export.write_table``: atomic, CSV floats round-trip exactly). Columns,
+(``analysis.common.export.write_table``: atomic, CSV floats round-trip exactly). Columns,
 in this order:
 
 * ``sample``, ``controller``, ``status`` (``records.STATUSES``: ``ok | saturated | lost |
@@ -22,7 +22,7 @@ in this order:
   ``theta1`` ... ``theta11`` and ``l1_m`` (``models.identify``; the theta in the
   units of Table 1);
 * the Assumption-1 ratios ``delta_M0_ratio`` ... ``delta_F_ratio`` (``||dX|| /
-  D_X``, ``analysis.montecarlo.coverage``) and ``inside_bounds``;
+  D_X``, ``analysis.uncertainty.coverage``) and ``inside_bounds``;
 * ``sampled_data_spectral_radius``: the controller's designed loop on this plant
   (NaN for PID, which has none);
 * ``message``, ``wall_time_s``, ``code_version``.
@@ -38,11 +38,11 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from posfb.analysis.export import write_table
-from posfb.analysis.montecarlo.config import study_joints
-from posfb.analysis.montecarlo.coverage import BOUND_NAMES
+from posfb.analysis.common.export import write_table
 from posfb.analysis.montecarlo.records import measured_columns
 from posfb.analysis.montecarlo.store import RADIUS_COLUMN, ResultStore
+from posfb.analysis.uncertainty.coverage import BOUND_NAMES
+from posfb.analysis.uncertainty.study import study_joints
 from posfb.models.plant import JOINT_PARAMETERS, PARAMETER_UNITS
 
 

@@ -25,12 +25,12 @@ from pathlib import Path
 
 from pydrake.systems.framework import Context
 
-from posfb.analysis.loop_effects import loop_effects
-from posfb.analysis.metrics import RunMetrics, run_metrics, run_verdict
-from posfb.analysis.montecarlo.config import Study, study_from_text
-from posfb.analysis.montecarlo.coverage import Coverage, coverage, serial_coverage
+from posfb.analysis.common.loop_effects import loop_effects
+from posfb.analysis.common.metrics import RunMetrics, run_metrics, run_verdict
 from posfb.analysis.montecarlo.records import ControllerRun, SampleResult, metric_columns
-from posfb.analysis.montecarlo.sampling import SampledPlant, sample_plant, sample_scenario
+from posfb.analysis.uncertainty.coverage import Coverage, coverage, serial_coverage
+from posfb.analysis.uncertainty.sampling import SampledPlant, sample_plant, sample_scenario
+from posfb.analysis.uncertainty.study import Study, study_from_text
 from posfb.diagrams.actuator import ActuatorState
 from posfb.diagrams.closed_loop import (
     ClosedLoopConfig,
@@ -40,11 +40,10 @@ from posfb.diagrams.closed_loop import (
 )
 from posfb.diagrams.resolve import LoadedScenario, resolve
 from posfb.diagrams.scenario import (
-    ParameterOverrides,
     Scenario,
-    dump_scenario,
     with_controller,
 )
+from posfb.diagrams.structure import structure_key
 from posfb.models.controllers import cached_design
 from posfb.models.design import (
     LOOP_CONTROLLERS,
@@ -76,26 +75,8 @@ def _one_line(error: BaseException) -> str:
 #: noise or none, voltage limit, design, trajectory, controller, friction law kind, a
 #: gear, a lag, a DAC or none, compute delay). Draws that only change Context values
 #: (plant parameters, the friction law's and the gear's, encoder counts, offsets, noise
-#: levels, electrical time constants, DAC bits) reuse one.
+#: levels, electrical time constants, DAC bits) reuse one (``diagrams.structure``).
 RUNNER_CACHE_SIZE = 16
-
-
-def structure_key(scenario: Scenario, controller: str) -> str:
-    """What a diagram is built from: the scenario without the values a Context holds."""
-    shape = with_controller(scenario, controller)
-    shape.plant.payload_mass = 0.0
-    shape.plant.parameters = ParameterOverrides()
-    shape.plant.friction = type(shape.plant.friction)()  # its kind, not its values
-    compliant = any(k > 0.0 for k in shape.plant.gear_stiffness)  # a gear block or none
-    shape.plant.gear_stiffness = [1.0 if compliant else 0.0]
-    shape.plant.gear_damping, shape.plant.backlash = [0.0], [0.0]
-    lagged = any(tau > 0.0 for tau in shape.actuator.electrical_time_constant)  # a lag or none
-    shape.actuator.electrical_time_constant = [1.0 if lagged else 0.0]
-    shape.actuator.dac_bits = min(shape.actuator.dac_bits, 1)  # a DAC block or none
-    noisy = any(std > 0.0 for std in shape.sensor.noise_std)
-    shape.sensor.encoder_counts, shape.sensor.zero_offset = [0], [0.0]
-    shape.sensor.noise_std, shape.sensor.noise_seed = [1.0 if noisy else 0.0], 0
-    return dump_scenario(shape)
 
 
 def rigid_twin(scenario: Scenario) -> Scenario:
@@ -230,7 +211,7 @@ class ClosedLoopEvaluator:
     ) -> dict[str, float]:
         """The sampled-data spectral radius of each controller's designed loop (its own
         design) closed around the sampled plant's linear part with the sample's linear
-        ``effects`` (``analysis.loop_effects``); none for a controller without one (PID,
+        ``effects`` (``analysis.common.loop_effects``); none for a controller without one (PID,
         the plug-ins)."""
         radii, by_design = {}, {}
         for name, config in configs.items():

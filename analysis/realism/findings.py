@@ -17,13 +17,13 @@ from pathlib import Path
 
 import numpy as np
 
-from posfb.analysis.montecarlo.config import identity
+from posfb.analysis.common.tables import PAPER_TABLES
 from posfb.analysis.montecarlo.records import FINISHED
 from posfb.analysis.montecarlo.results import StudyData, load
 from posfb.analysis.montecarlo.store import ResultStore
 from posfb.analysis.realism.run import store_path
 from posfb.analysis.realism.spec import IDEAL, RealismStudies
-from posfb.analysis.tables import PAPER_TABLES
+from posfb.analysis.uncertainty.study import identity
 
 #: Two controllers are ranked by the paper when its values differ by more than this
 #: factor (Table 3's joint 2 has Lin+LC 0.0059 and PID 0.0060 rad: a tie within the
@@ -76,7 +76,7 @@ def _finite_median(values: np.ndarray) -> float:
 @dataclass(frozen=True)
 class ControllerErrors:
     """One controller in one study: its true RMS errors (rad) per sample and joint (NaN
-    where the run did not finish), the measured ones (``analysis.metrics``; NaN also
+    where the run did not finish), the measured ones (``analysis.common.metrics``; NaN also
     where the store did not record them), and the count of runs that did not finish."""
 
     rms: np.ndarray

@@ -17,10 +17,9 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from posfb.analysis.common.plots import joint_panels, legend_below, save_report_figure
 from posfb.analysis.montecarlo.provenance import code_version
 from posfb.analysis.montecarlo.sensitivity import sensitivities
-from posfb.analysis.montecarlo.statistics import MIN_INFERENCE_ROWS
-from posfb.analysis.plots import joint_panels, legend_below, save_report_figure
 from posfb.analysis.realism.findings import (
     CLEAR_RATIO,
     EXPLAINS,
@@ -31,6 +30,7 @@ from posfb.analysis.realism.findings import (
     findings,
 )
 from posfb.analysis.realism.spec import COMBINED, IDEAL, RealismStudies
+from posfb.analysis.uncertainty.statistics import MIN_INFERENCE_ROWS
 from posfb.diagrams.scenario import yaml_value
 
 if TYPE_CHECKING:

@@ -5,7 +5,7 @@ from __future__ import annotations
 import sys
 from pathlib import Path
 
-from posfb.analysis.errors import UsageError
+from posfb.analysis.common.errors import UsageError
 from posfb.analysis.montecarlo.provenance import code_version
 from posfb.analysis.montecarlo.scheduler import interrupted, run_study
 from posfb.analysis.montecarlo.store import ResultStore

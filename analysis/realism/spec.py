@@ -2,7 +2,7 @@
 
 ::
 
-    study:               # a Monte-Carlo study without draws (analysis.montecarlo.config)
+    study:               # a Monte-Carlo study without draws (analysis.uncertainty.study)
       seed: 2013
       sampling: latin_hypercube
       scenario: ../scenarios/paper_nominal.yaml
@@ -37,8 +37,8 @@ import re
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 
-from posfb.analysis.montecarlo.config import Distribution, Study, complete_study
-from posfb.analysis.tables import PAPER_TABLES
+from posfb.analysis.common.tables import PAPER_TABLES
+from posfb.analysis.uncertainty.study import Distribution, Study, complete_study
 from posfb.diagrams.yaml_schema import load_typed, read_text
 
 #: The name of the study of the ideal arm (no effect) and of all effects together.

@@ -1,0 +1,169 @@
+"""The report of ``posfb tune``: each tuned value beside the one it replaced, the
+objective and the constraints before and after, the cross-check runs and the guarantee
+with its formula and source (text, and a JSON-ready dict)."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from posfb.analysis.design.problem import VOLTAGE_SIGMAS, Evaluation
+from posfb.analysis.design.tune import SHOWN_SETTINGS, SimulatedCheck, TunedController, TuneResult
+
+#: The violation the guarantee bounds.
+UNSTABLE = "the sampled loop unstable (rho >= 1)"
+
+
+def _value(entry: object, name: str) -> object:
+    """A setting as the report shows it: a matrix by its diagonal."""
+    value = getattr(entry, name)
+    if isinstance(value, list) and value and isinstance(value[0], list):
+        return [float(v) for v in np.diag(np.asarray(value, dtype=float))]
+    if isinstance(value, list):
+        return [float(v) for v in value]
+    return float(value)
+
+
+def _text(value: object) -> str:
+    if isinstance(value, list):
+        return "[" + ", ".join(f"{v:.4g}" for v in value) + "]"
+    return f"{value:.4g}"
+
+
+def _radius(value: float) -> str:
+    return "-" if not math.isfinite(value) else f"{value:.4f}"
+
+
+def _objective(evaluation: Evaluation) -> str:
+    if evaluation.refused:
+        return "refused"
+    if not math.isfinite(evaluation.predicted_rms):
+        return "inf (nominal loop unstable)"
+    return f"{evaluation.predicted_rms:.4g} rad"
+
+
+def _run(check: SimulatedCheck) -> str:
+    if not check.rms_q:
+        return check.status
+    rms = ", ".join(f"{v:.3g}" for v in check.rms_q)
+    return f"({rms}) rad, {100 * check.saturated_fraction:.0f} % saturated, {check.status}"
+
+
+def _controller_lines(entry: TunedController, result: TuneResult) -> list[str]:
+    settings = result.settings
+    limit = 1.0 - settings.margin
+    error = ", ".join(f"{v:.3g}" for v in entry.disturbance_std)
+    lines = [
+        f"{entry.controller}: {entry.generations} generations, {entry.evaluations} designs; "
+        f"model error of the {entry.design_plants} design plants RMS ({error}) V, bandwidth "
+        f"{entry.disturbance_bandwidth:.3g} rad/s"
+    ]
+    for name in SHOWN_SETTINGS[entry.controller]:
+        shown = "diagonal of " if name in ("Q1", "R") else ""
+        lines.append(
+            f"  {shown}controller.{name}: {_text(_value(entry.before, name))} -> "
+            f"{_text(_value(entry.after, name))}"
+        )
+    start, best = entry.start, entry.best
+    lines += [
+        f"  predicted RMS tracking error: {_objective(start)} -> {_objective(best)}",
+        f"  nominal rho: {_radius(start.nominal_radius)} -> {_radius(best.nominal_radius)} "
+        f"(required <= {limit:g})",
+        f"  worst rho on the {entry.design_plants} design plants: "
+        f"{_radius(start.worst_radius)} -> {_radius(best.worst_radius)}",
+        f"  peak voltage / limit (feed-forward + {VOLTAGE_SIGMAS:g} sigma of the feedback): "
+        f"{start.voltage_ratio:.3g} -> {best.voltage_ratio:.3g}",
+        f"  simulated RMS error ({result.check_duration:g} s, scenario's arm): "
+        f"{_run(entry.simulated_before)} -> {_run(entry.simulated_after)}",
+        f"  round {entry.rounds} of at most {settings.rounds}: designed on "
+        f"{entry.design_plants} plants, verified on {entry.guarantee.plants} fresh ones",
+        f"  guarantee: {entry.guarantee.sentence(UNSTABLE)}",
+        f"  largest rho on the fresh plants: {max(entry.verified_radii, default=math.nan):.4f}",
+        f"  (for reference, not claimed: the scenario approach for a convex design with "
+        f"d = {entry.decisions} variables on N = {entry.design_plants} plants would give "
+        f"beta = {entry.scenario_beta:.3g} for epsilon = {settings.epsilon:g}, Calafiore "
+        "and Campi 2006; this search is not convex)",
+    ]
+    lines += [f"  warning: {edge.sentence()}" for edge in entry.at_edge]
+    if entry.worse:
+        lines.append(f"  worse than the scenario's own: {', '.join(entry.worse)}")
+    return lines
+
+
+def text_report(result: TuneResult) -> str:
+    """The readable report (also the tuned file's header)."""
+    settings = result.settings
+    lines = [
+        f"posfb tune {result.source}: seed {settings.seed}, {settings.plants} design "
+        f"plants drawn i.i.d. from {result.family}, margin {settings.margin:g}, "
+        f"epsilon {settings.epsilon:g}, beta {settings.beta:g}",
+        "objective: predicted RMS tracking error of the nominal sampled-data loop driven by "
+        "the design plants' model error along the trajectory and the encoder's quantisation "
+        "(analysis/tuning/problem.py)",
+    ]
+    for entry in result.controllers.values():
+        lines += _controller_lines(entry, result)
+    return "\n".join(lines)
+
+
+def _evaluation_dict(evaluation: Evaluation) -> dict[str, object]:
+    def finite(value: float) -> float | None:
+        return value if math.isfinite(value) else None
+
+    return {
+        "predicted_rms": finite(evaluation.predicted_rms),
+        "nominal_radius": finite(evaluation.nominal_radius),
+        "worst_radius": finite(evaluation.worst_radius),
+        "voltage": list(evaluation.voltage),
+        "voltage_ratio": finite(evaluation.voltage_ratio),
+        "feasible": evaluation.feasible,
+    }
+
+
+def result_dict(result: TuneResult) -> dict[str, object]:
+    """``posfb tune --json``."""
+    settings = result.settings
+    controllers = {}
+    for name, entry in result.controllers.items():
+        guarantee = entry.guarantee
+        controllers[name] = {
+            "settings": {
+                key: {"before": _value(entry.before, key), "after": _value(entry.after, key)}
+                for key in SHOWN_SETTINGS[name]
+            },
+            "before": _evaluation_dict(entry.start),
+            "after": _evaluation_dict(entry.best),
+            "simulated_before": vars(entry.simulated_before) | {
+                "rms_q": list(entry.simulated_before.rms_q)},
+            "simulated_after": vars(entry.simulated_after) | {
+                "rms_q": list(entry.simulated_after.rms_q)},
+            "guarantee": {
+                "epsilon": guarantee.epsilon,
+                "beta": guarantee.beta,
+                "plants": guarantee.plants,
+                "failures": guarantee.failures,
+                "epsilon_bound": guarantee.epsilon_bound,
+                "holds": guarantee.holds,
+                "rounds": entry.rounds,
+                "statement": guarantee.sentence(UNSTABLE),
+            },
+            "design_plants": entry.design_plants,
+            "model_error_rms": list(entry.disturbance_std),
+            "model_error_bandwidth": entry.disturbance_bandwidth,
+            "largest_verified_radius": max(entry.verified_radii, default=None),
+            "scenario_approach_beta": entry.scenario_beta,
+            "generations": entry.generations,
+            "evaluations": entry.evaluations,
+            "worse": list(entry.worse),
+            "at_edge": [vars(edge) for edge in entry.at_edge],
+        }  # fmt: skip
+    return {
+        "scenario": result.source,
+        "seed": settings.seed,
+        "margin": settings.margin,
+        "design_plants": settings.plants,
+        "family": result.family,
+        "controllers": controllers,
+        "wall_time_s": result.wall_time_s,
+    }
