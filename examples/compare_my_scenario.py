@@ -1,5 +1,8 @@
-"""Compare controllers on your own scenario: a point-to-point move of the paper's arm
-with a payload, written as a scenario file, run by ``posfb.compare`` (the same as
+"""Compare controllers on your own scenario
+==========================================
+
+A point-to-point move of the paper's arm with a payload, written as a scenario file,
+run by ``posfb.compare`` (the same as
 ``posfb compare --scenario my_move.yaml --controllers pid,lin_lc --out DIR``).
 
 Run it: ``.venv/bin/python examples/compare_my_scenario.py [--duration 4] [--out DIR]``.

@@ -1,4 +1,7 @@
-"""A disturbance torque added to posfb's closed loop: a script that wires more.
+"""A disturbance torque added to the closed loop
+===============================================
+
+A script that wires more into posfb's Drake diagram.
 
 ``posfb.build`` gives the scenario's Drake diagram before it is built (``extend``):
 here a step torque of ``TORQUE`` N m acts on one joint from ``ONSET`` s on, as equal

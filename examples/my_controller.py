@@ -1,6 +1,9 @@
-"""Your own controller: a proportional law with gravity compensation, written against
-``posfb.Controller`` only, named in a scenario as ``!Python {file, class, settings}`` and
-run by ``posfb.simulate`` and ``posfb.compare`` beside the built-in controllers.
+"""Your own controller
+====================
+
+A proportional law with gravity compensation, written against ``posfb.Controller``
+only, named in a scenario as ``!Python {file, class, settings}`` and run by
+``posfb.simulate`` and ``posfb.compare`` beside the built-in controllers.
 
 Run it: ``.venv/bin/python examples/my_controller.py [--duration 5]``; or from the
 command line, with a scenario that names this file::

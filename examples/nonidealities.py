@@ -1,6 +1,9 @@
-"""What each non-ideality does to one run: the paper's arm and trajectory under a
-controller, each effect switched on alone (README, "Non-idealities"), the joint-2
-tracking error of each run against the ideal one, and a table of RMS errors.
+"""What each non-ideality does to one run
+=======================================
+
+The paper's arm and trajectory under a controller, each effect switched on alone (user
+guide, "Non-idealities"), the joint-2 tracking error of each run against the ideal one,
+and a table of RMS errors.
 
 Each effect is one scenario setting (``EFFECTS``), run with ``posfb.simulate``. Run it:
 ``.venv/bin/python examples/nonidealities.py [--controller lin_lc] [--duration 5]

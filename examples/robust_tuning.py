@@ -1,8 +1,11 @@
-"""Robust tuning from a script: ``posfb.tune`` designs the paper's controller and Lin+LC
-for the scenario's arm on sampled plants, verifies the design on fresh plants (the
-guarantee it states), and returns the tuned scenario; ``posfb.simulate`` then runs the
-paper's settings and the tuned ones on the nominal arm and on one with a payload the
-nominal model lacks (Sec. 4.3).
+"""Robust tuning from a script
+============================
+
+``posfb.tune`` designs the paper's controller and Lin+LC for the scenario's arm on
+sampled plants, verifies the design on fresh plants (the guarantee it states), and
+returns the tuned scenario; ``posfb.simulate`` then runs the paper's settings and the
+tuned ones on the nominal arm and on one with a payload the nominal model lacks
+(Sec. 4.3).
 
 Run it: ``.venv/bin/python examples/robust_tuning.py [--plants 50] [--out tuned.yaml]``
 (the defaults take about a minute; the test suite runs it with fewer plants).

@@ -1,5 +1,8 @@
-"""A sample-time sweep: one controller at several ``T_s``, the paper's RMS metrics in a
-pandas table and a plot of RMS(q~) against ``T_s``.
+"""A sample-time sweep
+====================
+
+One controller at several ``T_s``, the paper's RMS metrics in a pandas table and a plot
+of RMS(q~) against ``T_s``.
 
 Each point is ``posfb.simulate`` with ``timing.sample_time`` set; a run that diverges
 stays in the table with its status. Run it:

@@ -1,4 +1,4 @@
-"""The "Describe your arm" page (docs/describe_your_arm.md) and its template URDF
+"""The "Describe your arm" page (docs/guide/describe_your_arm.md) and its template URDF
 (urdf/template_arm.urdf) say what posfb reads, and the template runs (issue 27)."""
 
 from __future__ import annotations
@@ -15,7 +15,7 @@ from posfb.models.plant import DEFAULT_URDF
 from posfb.models.serial_model import SerialArmModel
 
 ROOT = Path(__file__).resolve().parent.parent
-PAGE = ROOT / "docs" / "describe_your_arm.md"
+PAGE = ROOT / "docs" / "guide" / "describe_your_arm.md"
 TEMPLATE = DEFAULT_URDF.with_name("template_arm.urdf")
 CLI = [sys.executable, "-m", "posfb.analysis.cli"]
 
