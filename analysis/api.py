@@ -56,6 +56,8 @@ if TYPE_CHECKING:
 
     from posfb.analysis.design.settings import TuneSettings
     from posfb.analysis.design.tune import TuneResult
+    from posfb.analysis.identification.identify import Identification
+    from posfb.analysis.identification.plan import PlannedExcitation
     from posfb.analysis.uncertainty.study import Study
 
 #: The paper's nominal experiment (Sec. 4.2): the scenario when none is given.
@@ -637,3 +639,118 @@ def tune(
         study = load_study(name, arm=arm_identity(loaded.scenario, loaded.base_dir))
     target = None if out is None else Path(out)
     return tune_loaded(loaded, study, settings, target, name, accept_worse=accept_worse)
+
+
+def identify(
+    log: str | Path,
+    scenario: ScenarioSource = None,
+    *,
+    validate: str | Path | None = None,
+    cutoff_hz: float | None = None,
+    stiction_velocity: float | None = None,
+    window: float | None = None,
+    set: Settings | None = None,  # noqa: A002
+) -> Identification:
+    """Identify the scenario's arm from an encoder log, as ``posfb identify --log`` does
+    (``analysis.identification``; the estimator is ``models.identification``).
+
+    Parameters
+    ----------
+    log
+        CSV or Parquet with ``time_s``, ``q<j>_measured_rad`` (or ``q<j>_counts``) and
+        ``u<j>_applied_V`` per joint (``posfb simulate --out`` writes one).
+    scenario
+        Anything ``load_scenario`` takes: its arm's nominal model says what is
+        identified (theta of Sec. 4.1 for the paper's arm), its ``sensor.encoder_counts``
+        the encoder's step.
+    validate
+        A second log of the same arm: the model's voltage and windowed output error
+        against it (NRMSE per joint).
+    cutoff_hz, stiction_velocity, window
+        The filters' cutoff (default: a tenth of the log's Nyquist frequency), the
+        velocity below which rows stay out of the fit (rad/s, default 0.3), the output
+        error's window (s, default 1).
+    set
+        Scenario settings applied first, as in ``load_scenario``.
+
+    Returns
+    -------
+    Identification
+        ``.theta`` (the estimate, its covariance, the model values), ``.validation``,
+        ``.warnings``, ``.as_dict()``, ``.report()``, ``.save(path)`` (the file
+        ``nominal_model: !Identified {file: ...}`` reads), ``.figure(path)``.
+
+    Raises
+    ------
+    ValueError
+        A log that cannot be identified from (missing columns, uneven or non-monotonic
+        time, NaN, too short, another arm's), or a bad setting (one line).
+    """
+    from posfb.analysis.identification.identify import identify_log
+    from posfb.models.identification.estimate import FilterSettings
+    from posfb.models.identification.validation import DEFAULT_WINDOW
+
+    defaults = FilterSettings()
+    settings = FilterSettings(
+        cutoff_hz=cutoff_hz,
+        stiction_velocity=defaults.stiction_velocity
+        if stiction_velocity is None
+        else stiction_velocity,
+    )
+    return identify_log(
+        load_scenario(scenario, set),
+        log,
+        validation_log=validate,
+        settings=settings,
+        window=DEFAULT_WINDOW if window is None else window,
+    )
+
+
+def plan_excitation(
+    scenario: ScenarioSource = None,
+    *,
+    duration: float = 60.0,
+    harmonics: int = 5,
+    period: float | None = 10.0,
+    seed: int = 0,
+    excursion: float | None = None,
+    velocity_limit: float | None = None,
+    set: Settings | None = None,  # noqa: A002
+) -> PlannedExcitation:
+    """An exciting trajectory for the scenario's arm, as ``posfb identify plan`` writes
+    (finite Fourier series, Swevers et al. 1997; ``analysis.identification.plan``).
+
+    Parameters
+    ----------
+    scenario
+        Anything ``load_scenario`` takes: the arm, its rest position (the trajectory's
+        start), sample time and voltage limit.
+    duration, harmonics, period, seed
+        The plan's length (s), harmonics per joint, the series' period (s, dividing
+        ``duration``; ``None``: the duration) and the optimiser's random start.
+    excursion, velocity_limit
+        The largest excursion from rest (rad, default pi/2) and ``|q'|`` limit (rad/s,
+        default: the URDF's, else 2).
+
+    Returns
+    -------
+    PlannedExcitation
+        ``.plan`` (coefficients, condition numbers before and after, peaks),
+        ``.save(path)`` (a ``!CsvFile`` trajectory), ``.as_dict()``, ``.report()``.
+
+    Raises
+    ------
+    ValueError
+        Limits the plan cannot meet, or a bad argument (one line).
+    """
+    from posfb.analysis.identification.plan import plan_for_scenario
+
+    return plan_for_scenario(
+        load_scenario(scenario, set),
+        duration=duration,
+        harmonics=harmonics,
+        period=period,
+        seed=seed,
+        excursion=excursion,
+        velocity_limit=velocity_limit,
+    )

@@ -54,7 +54,7 @@ Models (``T_s`` the sample time, ``V`` the voltage limit of a joint):
   brushed motors a few ms). A joint with ``tau = 0`` passes its voltage through
   unfiltered (exactly, not a tiny time constant).
   An explicit integrator must take steps of about ``tau`` or shorter on a lagged run,
-  so a short ``tau`` costs integrator steps (README, "Non-idealities").
+  so a short ``tau`` costs integrator steps (user guide, ``docs/guide/nonidealities.md``).
 
 Per Context or per diagram: the lag's ``tau`` (per joint) and the DAC's ``b`` are
 parameters of their blocks' Contexts (``ActuatorState``, ``ActuatorBlocks.set_state``), so

@@ -347,10 +347,10 @@ class ClosedLoopResult:
     runner's: ``"ok"`` (the run reached ``duration``) or ``"diverged"`` (stopped early);
     ``message`` says why a run stopped early (empty if it did not). Whether a run that
     reached its end tracked its path (``saturated``, ``lost``) is judged from these logs
-    by ``analysis.metrics.run_verdict``, which every report of a run uses;
+    by ``analysis.common.metrics.run_verdict``, which every report of a run uses;
     ``wall_time_s`` is the simulation's wall time (build excluded); ``derivative_evaluations`` and
     ``integrator_steps`` are the integrator's counts over the run. Metrics are
-    computed from these logs in ``analysis.metrics``.
+    computed from these logs in ``analysis.common.metrics``.
     """
 
     config: ClosedLoopConfig

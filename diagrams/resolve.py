@@ -2,9 +2,9 @@
 settings, validate it into the frozen ``ClosedLoopConfig`` the runner builds from
 (every error names the dotted scenario key), and run it on its true arm.
 
-Relative paths (``plant.urdf``, ``nominal_model.urdf``, ``trajectory.path``) are
-read from the scenario file's folder (the working directory when there is no
-file); ``package://posfb/two_link_arm.urdf`` is the shipped arm.
+Relative paths (``plant.urdf``, ``nominal_model.urdf``, ``nominal_model.file``,
+``trajectory.path``) are read from the scenario file's folder (the working directory
+when there is no file); ``package://posfb/two_link_arm.urdf`` is the shipped arm.
 """
 
 from __future__ import annotations
@@ -30,6 +30,7 @@ from posfb.diagrams.encoder import per_joint_counts
 from posfb.diagrams.scenario import (
     SHIPPED_PREFIX,
     CsvFile,
+    Identified,
     IdentifiedFromUrdf,
     NominalModel,
     ParameterOverrides,
@@ -57,6 +58,7 @@ from posfb.models.design import ControllerConfig
 from posfb.models.design.settings import ArmInputs
 from posfb.models.friction import law_spec, law_values, tag
 from posfb.models.gear import GearConfig, require_motor_inertia
+from posfb.models.identification.model_file import load_model
 from posfb.models.identify import identify_urdf
 from posfb.models.lumped import TABLE1, LumpedParameters
 from posfb.models.nominal import NominalModel as NominalForm
@@ -168,6 +170,8 @@ def with_absolute_paths(loaded: LoadedScenario) -> Scenario:
     scenario.plant.urdf = absolute(scenario.plant.urdf)
     if isinstance(scenario.nominal_model, IdentifiedFromUrdf | UrdfModel):
         scenario.nominal_model.urdf = absolute(scenario.nominal_model.urdf)
+    if isinstance(scenario.nominal_model, Identified):
+        scenario.nominal_model.file = absolute(scenario.nominal_model.file)
     if isinstance(scenario.trajectory, CsvFile):
         scenario.trajectory.path = absolute(scenario.trajectory.path)
     for entry in python_entries(scenario):
@@ -338,6 +342,11 @@ def make_nominal(settings: NominalModel, base_dir: Path) -> NominalForm:
         return UrdfNominal(str(resolve_path(settings.urdf, base_dir)))
     if isinstance(settings, Theta):
         return LumpedParameters(**dataclasses.asdict(settings))
+    if isinstance(settings, Identified):
+        if not settings.file:
+            raise ValueError("!Identified needs file: the model posfb identify --out wrote")
+        model = load_model(resolve_path(settings.file, base_dir))
+        return LumpedParameters.from_theta(np.asarray(model.values), l1=model.l1, g=model.g)
     return identify_urdf(str(resolve_path(settings.urdf, base_dir)), settings.payload_mass)
 
 

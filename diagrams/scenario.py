@@ -12,7 +12,7 @@ the code defines it (``ControllerConfig``, ``PlantConfig``, ``diagrams.sections`
                     !TanhCoulomb {}, !Stribeck, !LuGre (``models.friction``), gear
                     compliance and backlash (``models.gear``)
     nominal_model:  what the controllers believe: !Table1 {}, !IdentifiedFromUrdf, !Theta,
-                    !UrdfModel (any serial arm, computed by Drake)
+                    !UrdfModel (any serial arm, computed by Drake), !Identified (from a log)
     trajectory:     !Wave {joints: [...]}, !Waypoints {times, positions}, !CsvFile {path}
     timing:         sample_time, duration, divergence_bound, simulator (SimulatorConfig)
     sensor:         encoder_counts, zero_offset, noise_std, noise_seed, delay_samples,
@@ -185,6 +185,15 @@ class Theta:
 
 
 @dataclass
+class Identified:
+    """A model identified from an encoder log (``posfb identify --log ... --out FILE``):
+    ``file`` (relative to the scenario's folder) holds theta_1..theta_11 of Sec. 4.1 and
+    ``l1`` with their uncertainty (``models.identification.model_file``)."""
+
+    file: str = ""
+
+
+@dataclass
 class UrdfModel:
     """``M*, C*, G*, B*, F*`` computed by Drake from a nominal URDF (any serial arm,
     ``models.serial_model``); ``M0*`` is the mean of ``M*(q)`` over the joint angles."""
@@ -192,7 +201,7 @@ class UrdfModel:
     urdf: str = SHIPPED_URDF
 
 
-NominalModel = Table1 | IdentifiedFromUrdf | Theta | UrdfModel
+NominalModel = Table1 | IdentifiedFromUrdf | Theta | UrdfModel | Identified
 
 
 # --- trajectory --------------------------------------------------------------------

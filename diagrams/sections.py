@@ -38,7 +38,7 @@ VOLTAGE_LIMIT = 24.0
 DIVERGENCE_BOUND = 1.0
 
 #: Default bound (rad) on a joint's RMS tracking error over the second half of a run
-#: above which a run that finished counts as ``lost`` (``analysis.metrics.run_verdict``):
+#: above which a run that finished counts as ``lost`` (``analysis.common.metrics.run_verdict``):
 #: about 14 deg, a quarter of ``DIVERGENCE_BOUND`` and twice the largest such error of
 #: any registered controller on a shipped scenario (PD + gravity's 0.117 rad, joint 2
 #: of the paper's payload case, a baseline that trails its path): an arm that far from
@@ -47,7 +47,7 @@ LOST_BOUND = 0.25
 
 #: Default share of the second half's control samples with a commanded voltage beyond
 #: the limit above which a run that finished counts as ``saturated``
-#: (``analysis.metrics.run_verdict``): saturated most of the time, the loop no longer
+#: (``analysis.common.metrics.run_verdict``): saturated most of the time, the loop no longer
 #: acts on the error it sees. No designed shipped scenario's run saturates at all; the
 #: untuned, labelled ``three_link_nominal.yaml``'s paper controller does, 65 % of the time.
 SATURATED_SHARE = 0.5
@@ -128,7 +128,7 @@ class Timing:
     as diverged, the verdict's bounds on a run that finished (``lost_bound``: a
     joint's RMS ``|q~|`` (rad) over the run's second half; ``saturated_share``: the
     share of the second half's samples with a commanded voltage beyond the limit;
-    ``analysis.metrics.run_verdict``), and Drake's integrator settings."""
+    ``analysis.common.metrics.run_verdict``), and Drake's integrator settings."""
 
     sample_time: float = field(default_factory=default_of(ControllerConfig, "sample_time"))
     duration: float = DURATION

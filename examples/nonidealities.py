@@ -20,10 +20,10 @@ from matplotlib.figure import Figure
 
 import posfb
 
-#: Group -> effect label -> scenario settings. Values from the README's sources: a
-#: 1 ms armature L/R, a 12-bit DAC, half a period of computation; Stribeck and LuGre
-#: at their entries' defaults; a 5000 N m/rad gear, with 0.5 mrad of backlash and the
-#: encoder on the motor shaft.
+#: Group -> effect label -> scenario settings. Values from the sources cited in the
+#: user guide's "Non-idealities" page: a 1 ms armature L/R, a 12-bit DAC, half a period
+#: of computation; Stribeck and LuGre at their entries' defaults; a 5000 N m/rad gear,
+#: with 0.5 mrad of backlash and the encoder on the motor shaft.
 EFFECTS = {
     "electronics": {
         "L/R = 1 ms": {"actuator.electrical_time_constant": 0.001},

@@ -19,7 +19,7 @@ so one diagram serves every Monte-Carlo sample. Two implementations, picked by
 * ``"perceptron"`` (the default law only): two ``MultilayerPerceptron``s, ``kappa``
   as a one-layer identity network and the friction as a tanh layer (weights
   ``I / v_s``) followed by a linear one (``-diag(f_c)``). About 12-24 % faster per run
-  (``README.md``, "Performance"), with no energy states (``energy`` refuses) and
+  (user guide, ``docs/guide/performance.md``), with no energy states (``energy`` refuses) and
   round-off differences: it computes ``v (1 / v_s)`` where the symbolic block computes
   ``v / v_s``, and without the energy states the integrator's steps can differ. Its
   parameters default to 0 (Drake's), so a Context that never got them runs with no

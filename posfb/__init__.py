@@ -1,7 +1,7 @@
 """posfb: robust joint-position-feedback control of robot manipulators on Drake.
 
-The public API (``__all__``; reference in ``docs/api``, a tour in the README's
-"Python diagram scripts")::
+The public API (``__all__``; its reference is generated into the user guide,
+``docs/reference/api.rst``, and ``docs/guide/python.md`` is the tour)::
 
     scenario = posfb.load_scenario("my_arm.yaml", set={"timing.duration": 5})
     run = posfb.simulate(scenario, controller="lin_lc")     # what `posfb simulate` runs
@@ -38,6 +38,10 @@ _EXPORTS = {
     "build": "posfb.analysis.api",
     "compare": "posfb.analysis.api",
     "tune": "posfb.analysis.api",
+    "identify": "posfb.analysis.api",
+    "plan_excitation": "posfb.analysis.api",
+    "Identification": "posfb.analysis.identification.identify",
+    "PlannedExcitation": "posfb.analysis.identification.plan",
     "TuneSettings": "posfb.analysis.design.settings",
     "TuneResult": "posfb.analysis.design.tune",
     "TuneError": "posfb.analysis.design.search",
@@ -58,8 +62,10 @@ __all__ = [
     "Comparison",
     "Controller",
     "ControllerSetup",
+    "Identification",
     "LoadedScenario",
     "NominalDynamics",
+    "PlannedExcitation",
     "PluginError",
     "Run",
     "ScenarioWarning",
@@ -69,7 +75,9 @@ __all__ = [
     "__version__",
     "build",
     "compare",
+    "identify",
     "load_scenario",
+    "plan_excitation",
     "shipped_scenarios",
     "simulate",
     "tune",
@@ -83,7 +91,9 @@ if TYPE_CHECKING:
         ScenarioWarning,
         build,
         compare,
+        identify,
         load_scenario,
+        plan_excitation,
         shipped_scenarios,
         simulate,
         tune,
@@ -91,6 +101,8 @@ if TYPE_CHECKING:
     from posfb.analysis.design.search import TuneError
     from posfb.analysis.design.settings import TuneSettings
     from posfb.analysis.design.tune import TuneResult
+    from posfb.analysis.identification.identify import Identification
+    from posfb.analysis.identification.plan import PlannedExcitation
     from posfb.diagrams.resolve import LoadedScenario
     from posfb.models.controllers.plugin import (
         Controller,

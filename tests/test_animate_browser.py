@@ -68,6 +68,7 @@ def coloured_pixels(image: np.ndarray) -> int:
     return int(np.count_nonzero(saturation > 0.5))
 
 
+@pytest.mark.slow
 def test_the_animation_draws_the_arm_and_requests_nothing(tmp_path, capsys):
     page = tmp_path / "arm.html"
     assert main(["animate", "--controller", "lin_lc", "--duration", "0.5", "--out", str(page),

@@ -40,6 +40,7 @@ def _without_timing(summary: dict) -> dict:
     return {key: value for key, value in summary.items() if key != "wall_time_s"}
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(("name", "settings"), CASES)
 def test_simulate_equals_the_command_bit_for_bit(name, settings, capsys):
     path = str(posfb.shipped_scenarios()[name])
@@ -107,6 +108,7 @@ def test_compare_runs_each_controller_as_simulate_does():
         assert (row["rms_q1_rad"], row["rms_q2_rad"]) == alone.rms_q
 
 
+@pytest.mark.slow
 def test_compare_writes_its_table_summaries_and_figures(tmp_path):
     comparison = posfb.compare(posfb.load_scenario(set={"timing.duration": 0.5}), ["lin_lc"])
     names = {path.name for path in comparison.save(tmp_path)}

@@ -8,9 +8,9 @@ import re
 from pathlib import Path
 
 import pytest
-from planar_arm import planar_arm_urdf
 
 import posfb
+from helpers.planar_arm import planar_arm_urdf
 from posfb.analysis.uncertainty import study as study_file
 from posfb.diagrams.arm import arm_identity
 from posfb.diagrams.scenario import PlantSettings, Scenario

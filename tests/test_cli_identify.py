@@ -17,6 +17,7 @@ def _run(*args: str) -> subprocess.CompletedProcess:
     return subprocess.run([*CLI, *args], capture_output=True, text=True, timeout=120)
 
 
+@pytest.mark.slow
 def test_json_has_exactly_the_documented_keys():
     result = _run("identify", "--json")
     assert result.returncode == 0, result.stderr
@@ -25,6 +26,7 @@ def test_json_has_exactly_the_documented_keys():
     assert data["theta1"] == pytest.approx(TABLE1.theta1, rel=0.02)
 
 
+@pytest.mark.slow
 def test_table_lists_every_theta_beside_table1():
     result = _run("identify")
     assert result.returncode == 0, result.stderr
@@ -41,6 +43,7 @@ def test_table_lists_every_theta_beside_table1():
         (["identify", "--payload", "heavy"], "payload"),
     ],
 )
+@pytest.mark.slow
 def test_bad_input_gives_one_line_and_nonzero_exit(args, needle):
     result = _run(*args)
     assert result.returncode != 0

@@ -21,6 +21,7 @@ def _run(*args: str) -> subprocess.CompletedProcess:
     return subprocess.run([*CLI, *args], capture_output=True, text=True, timeout=120)
 
 
+@pytest.mark.slow
 def test_simulate_json_has_the_documented_keys():
     result = _run(
         "simulate", "--controller", "pid", "--case", "payload", "--duration", "1", "--json"
@@ -115,6 +116,7 @@ def _run_warnings(stderr: str) -> list[str]:
     return [line for line in stderr.splitlines() if ": warning: the " in line and " run " in line]
 
 
+@pytest.mark.slow
 def test_a_collapsed_arm_is_lost_with_one_warning_line_and_exit_5(weak_shoulder):
     # Issue 27, item 5: under the divergence bound all along, yet far from its path.
     result = _run("simulate", "--duration", "4", "--json", "--set", weak_shoulder)
@@ -126,6 +128,7 @@ def test_a_collapsed_arm_is_lost_with_one_warning_line_and_exit_5(weak_shoulder)
     assert warning.startswith("posfb simulate: warning: ") and "lost its path" in warning
 
 
+@pytest.mark.slow
 def test_a_nominal_run_stays_ok_with_no_verdict_warning():
     result = _run("simulate", "--controller", "lin_lc", "--duration", "4", "--json")
     assert result.returncode == 0, result.stderr
@@ -133,6 +136,7 @@ def test_a_nominal_run_stays_ok_with_no_verdict_warning():
     assert _run_warnings(result.stderr) == []
 
 
+@pytest.mark.slow
 def test_compare_warns_about_the_lost_run_and_exits_with_the_worst_runs_code(weak_shoulder):
     result = _run("compare", "--controllers", "lin_lc,pid", "--duration", "4", "--json",
                   "--set", weak_shoulder)  # fmt: skip

@@ -7,8 +7,8 @@ import math
 
 import numpy as np
 import pytest
-from loop_checks import assert_position_only
 
+from helpers.loop_checks import assert_position_only
 from posfb.analysis.common.metrics import run_metrics
 from posfb.analysis.paper.experiment import case_parameters, payload_mass
 from posfb.diagrams.closed_loop import ClosedLoopConfig, ClosedLoopRunner

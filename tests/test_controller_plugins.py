@@ -10,11 +10,11 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from loop_checks import assert_position_only
-from plugin_helpers import P_GRAVITY, write_plugin
 from pydrake.multibody.tree import MultibodyForces
 
 import posfb
+from helpers.loop_checks import assert_position_only
+from helpers.plugin_helpers import P_GRAVITY, write_plugin
 from posfb.analysis.cli import main
 from posfb.models.controllers import ControllerSetup, PluginError
 from posfb.models.controllers.adrc import AdrcController
@@ -205,6 +205,7 @@ def test_pd_gravity_holds_a_pose_with_zero_error_when_its_gravity_is_exact():
     np.testing.assert_allclose(run.result.q_error[-1], 0.0, atol=1e-9)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("kind", ["pd_gravity", "adrc"])
 @pytest.mark.parametrize("case", ["paper_nominal", "paper_payload"])
 def test_the_baselines_stay_bounded_on_the_papers_cases(kind, case):
@@ -230,6 +231,7 @@ def test_bad_baseline_settings_are_refused_naming_the_key(settings, needle):
         posfb.load_scenario(set=settings)
 
 
+@pytest.mark.slow
 def test_a_user_controller_runs_in_a_study_export_and_replay(tmp_path, capsys):
     write_plugin(tmp_path)
     study = tmp_path / "study.yaml"

@@ -7,9 +7,9 @@ import math
 
 import numpy as np
 import pytest
-from lumped_plant import exact_model_config, simulate
 from pydrake.systems.analysis import Simulator
 
+from helpers.lumped_plant import exact_model_config, simulate
 from posfb.models.controllers import PAPER_CONTROLLERS, internals_names, make_controller
 from posfb.models.design import ControllerConfig, NonlinearTorqueConfig
 from posfb.models.lumped import LumpedModel

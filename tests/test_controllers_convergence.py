@@ -13,7 +13,8 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from lumped_plant import exact_model_config, simulate
+
+from helpers.lumped_plant import exact_model_config, simulate
 
 SAMPLE_TIMES = (0.004, 0.002, 0.001)
 INITIAL_ERROR = (0.05, -0.05)

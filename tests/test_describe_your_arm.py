@@ -9,6 +9,7 @@ import sys
 from pathlib import Path
 
 import numpy as np
+import pytest
 
 from posfb.models import urdf_check
 from posfb.models.plant import DEFAULT_URDF
@@ -55,6 +56,7 @@ def test_the_template_is_a_spatial_arm_posfb_accepts() -> None:
         assert abs(model.G(q)[1]) > 0.0
 
 
+@pytest.mark.slow
 def test_the_template_runs_from_scenario_init(tmp_path: Path) -> None:
     """The page's route: ``scenario init`` on a copy of the template, then a short
     ``simulate`` of Lin+LC, which ends ``ok`` (exit 0, no warning)."""

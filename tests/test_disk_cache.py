@@ -122,6 +122,7 @@ def test_a_changed_urdf_is_searched_again(cache: Path, tmp_path: Path) -> None:
     assert after.delta_G != before.delta_G
 
 
+@pytest.mark.slow
 def test_a_design_resolves_its_bounds_only_when_read(
     cache: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:

@@ -67,6 +67,7 @@ def test_counts_offset_and_noise_are_per_joint():
     counts=st.lists(st.sampled_from([0, 1, 7, 1000, 4096, 20000, 2**20]), min_size=2, max_size=2),
     offset=st.lists(st.floats(-0.1, 0.1), min_size=2, max_size=2),
 )
+@pytest.mark.slow
 def test_the_encoder_system_equals_the_vectorised_quantiser_bit_for_bit(q, counts, offset):
     """The system quantises joint by joint with Python floats (its per-sample fast path);
     it must give exactly the bits of the vectorised ``quantise`` (half to even in both)."""

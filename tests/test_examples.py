@@ -8,6 +8,7 @@ from pathlib import Path
 from types import ModuleType
 
 import numpy as np
+import pytest
 
 import posfb
 from posfb.models.lumped import TABLE1, LumpedModel
@@ -29,6 +30,7 @@ def test_every_example_is_tested_here():
     assert {path.stem for path in EXAMPLES.glob("*.py")} == tested
 
 
+@pytest.mark.slow
 def test_disturbance_torque_acts_only_through_the_added_system(capsys):
     example = load_example("disturbance_torque")
     scenario = posfb.load_scenario(set={"timing.duration": 2.0})
@@ -86,6 +88,7 @@ def test_my_controller_runs_as_a_scenario_plugin_and_its_gravity_is_the_nominal_
         )
 
 
+@pytest.mark.slow
 def test_robust_tuning_beats_the_paper_settings_under_a_payload(capsys, tmp_path):
     example = load_example("robust_tuning")
     table = example.main(plants=20, generations=10, out=str(tmp_path / "tuned.yaml"))
@@ -100,6 +103,7 @@ def test_robust_tuning_beats_the_paper_settings_under_a_payload(capsys, tmp_path
     assert posfb.load_scenario(tmp_path / "tuned.yaml").get("controller.alpha_star") < 4.0
 
 
+@pytest.mark.slow
 def test_nonidealities_runs_each_effect_alone(tmp_path, capsys):
     example = load_example("nonidealities")
     runs = example.run_effects("lin_lc", duration=0.5)

@@ -9,12 +9,12 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from montecarlo_helpers import run_into_store
 from pydrake.systems.analysis import ApplySimulatorConfig, Simulator, SimulatorConfig
 from pydrake.systems.framework import DiagramBuilder
 from pydrake.systems.primitives import ConstantVectorSource, PassThrough
 
 import posfb
+from helpers.montecarlo_helpers import run_into_store
 from posfb.analysis.cli import main
 from posfb.analysis.montecarlo.store import ResultStore
 from posfb.diagrams.scenario import Scenario, apply_setting
@@ -179,6 +179,7 @@ def test_energy_balance_holds_with_the_new_laws(law):
     "law",
     ["!TanhCoulomb {}", "!Stribeck {static_ratio: 1.5, stribeck_velocity: 0.05}", "!LuGre {}"],
 )
+@pytest.mark.slow
 def test_a_closed_loop_run_finishes_with_each_law(law):
     scenario = posfb.load_scenario(set={"plant.friction": law, "timing.duration": 2})
     run = posfb.simulate(scenario, "pid")
@@ -210,6 +211,7 @@ draws:
 """
 
 
+@pytest.mark.slow
 def test_a_study_draws_a_law_parameter_and_replays(tmp_path: Path, capsys):
     db = run_into_store(tmp_path / "study.sqlite", STUDY)
     with ResultStore.open_existing(db) as store:

@@ -7,10 +7,10 @@ import dataclasses
 
 import numpy as np
 import pytest
-from loop_checks import assert_position_only
 from pydrake.systems.analysis import Simulator
 from pydrake.systems.primitives import FirstOrderTaylorApproximation
 
+from helpers.loop_checks import assert_position_only
 from posfb.diagrams.closed_loop import ClosedLoopConfig, ClosedLoopRunner
 from posfb.diagrams.scenario import Scenario
 from posfb.diagrams.sections import Sensor

@@ -11,6 +11,8 @@ import sys
 import time
 from pathlib import Path
 
+import pytest
+
 from posfb.analysis.cli import main
 from posfb.models.controllers import design_checks, spec
 
@@ -63,6 +65,7 @@ def _stored(db: Path) -> list[tuple]:
         ).fetchall()
 
 
+@pytest.mark.slow
 def test_ctrl_c_keeps_finished_samples_says_so_and_the_same_command_resumes(tmp_path):
     study, db = tmp_path / "study.yaml", tmp_path / "store.sqlite"
     study.write_text(STUDY)
@@ -119,6 +122,7 @@ def _running(pid: int) -> bool:
         return False
 
 
+@pytest.mark.slow
 def test_a_run_killed_by_sigterm_leaves_no_worker_behind(tmp_path):
     """The forkserver's workers are not the run's children: killed outright, the run
     cannot stop them, so they end themselves (``analysis.montecarlo.watchdog``)."""

@@ -8,6 +8,7 @@ import math
 import tempfile
 from pathlib import Path
 
+import pytest
 import yaml
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
@@ -68,6 +69,7 @@ def _loads_or_refuses(text: str) -> None:
         dump_scenario(loaded.scenario)  # an accepted scenario can be written back
 
 
+@pytest.mark.slow
 @settings(max_examples=150, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(st.text(max_size=200))
 def test_any_text_is_loaded_or_refused_in_one_line(text):
@@ -85,12 +87,14 @@ SECTIONS = st.dictionaries(
 )  # fmt: skip
 
 
+@pytest.mark.slow
 @settings(max_examples=150, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(SECTIONS)
 def test_any_structured_document_is_loaded_or_refused(document):
     _loads_or_refuses(yaml.safe_dump(document))
 
 
+@pytest.mark.slow
 @settings(max_examples=200, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(st.sampled_from(KEYS), VALUES)
 def test_any_setting_is_applied_or_refused(key, value):

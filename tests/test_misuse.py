@@ -15,8 +15,8 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import pytest
-from planar_arm import planar_arm_text
 
+from helpers.planar_arm import planar_arm_text
 from posfb.analysis.montecarlo.store import APPLICATION_ID
 from posfb.models.plant import DEFAULT_URDF
 
@@ -102,6 +102,38 @@ FILES = {
     "draws:\n  plant.friction.static_ratio: !Uniform {min: 0.5, max: 2.0}\n",
 }
 BINARY = bytes(range(256)) * 4
+
+
+def _log(rows: int = 400, *, time=None, header="time_s,q1_measured_rad,q2_measured_rad,"
+         "u1_applied_V,u2_applied_V", joints: int = 2, missing: int | None = None) -> str:
+    """A log of ``rows`` samples at 10 ms (``time`` replaces the instants), each joint
+    swinging 0.5 rad at 0.5 Hz with a voltage to match, joint 1's position NaN at row
+    ``missing``: the columns are the only fault."""
+    import math
+
+    lines = [header]
+    for k in range(rows):
+        instant = k * 0.01 if time is None else time(k)
+        q = [0.5 * math.sin(math.pi * instant + j) for j in range(joints)]
+        if k == missing:
+            q[0] = math.nan
+        u = [2.0 * math.cos(math.pi * instant + j) for j in range(joints)]
+        lines.append(",".join(f"{x:.6g}" for x in (instant, *q, *u)))
+    return "\n".join(lines) + "\n"
+
+
+LOGS = {
+    "log_missing.csv": _log(header="time_s,q1_measured_rad,u1_applied_V,q9,u2_applied_V"),
+    "log_backwards.csv": _log(time=lambda k: 0.01 * k if k != 200 else 0.0),
+    "log_uneven.csv": _log(time=lambda k: 0.01 * k + (0.004 if k % 7 == 0 else 0.0)),
+    "log_nan.csv": _log(missing=50),
+    "log_short.csv": _log(rows=150),
+    "log_three.csv": _log(
+        header="time_s,q1_measured_rad,q2_measured_rad,q3_measured_rad,u1_applied_V,"
+        "u2_applied_V,u3_applied_V", joints=3,
+    ),
+}  # fmt: skip
+FILES.update(LOGS)
 
 SCENARIOS = Path(__file__).resolve().parent.parent / "analysis" / "scenarios"
 THREE_LINK = str(SCENARIOS / "three_link_nominal.yaml")
@@ -412,6 +444,28 @@ CASES = {
     "prismatic joint": Case(("identify", "--urdf", "{tmp}/prismatic.urdf"), "prismatic"),
     "URDF is a folder": Case(("identify", "--urdf", "{tmp}"), "is a directory"),
     "huge payload": Case(("identify", "--payload", "1e308"), "payload_mass"),
+    # identification from logs (issue 29)
+    "log without a joint's positions": Case(
+        ("identify", "--log", "{tmp}/log_missing.csv"), "lacks q2_measured_rad"
+    ),
+    "log time backwards": Case(
+        ("identify", "--log", "{tmp}/log_backwards.csv"), "does not increase"
+    ),
+    "log time uneven": Case(("identify", "--log", "{tmp}/log_uneven.csv"), "unevenly spaced"),
+    "log with NaN": Case(("identify", "--log", "{tmp}/log_nan.csv"), "is not finite at row"),
+    "log too short": Case(("identify", "--log", "{tmp}/log_short.csv"), "too short"),
+    "log of another arm": Case(
+        ("identify", "--log", "{tmp}/log_three.csv"), "voltages for 3 joints and the arm has 2"
+    ),
+    "log that does not exist": Case(("identify", "--log", "{tmp}/gone.csv"), "does not exist"),
+    "identify output without a log": Case(("identify", "--out", "{tmp}/m.yaml"), "needs --log"),
+    "plan under the gravity voltage": Case(
+        ("identify", "plan", "--out", "{tmp}/p.csv", "--set", "actuator.voltage_limit=0.5"),
+        "voltage_limit",
+    ),
+    "plan with one harmonic": Case(
+        ("identify", "plan", "--out", "{tmp}/p.csv", "--harmonics", "1"), "harmonics"
+    ),
     # outputs
     "export suffix": Case(("simulate", "--out", "{tmp}/run.txt"), ".csv, .parquet, .npz"),
     "export under a file": Case(("simulate", "--out", "{tmp}/a_file/run.csv"), "is a file"),

@@ -8,8 +8,8 @@ import sys
 from pathlib import Path
 
 import pytest
-from montecarlo_helpers import TINY_STUDY, write_study
 
+from helpers.montecarlo_helpers import TINY_STUDY, write_study
 from posfb.analysis.cli import main
 from posfb.analysis.uncertainty.study import (
     Deterministic,

@@ -7,8 +7,8 @@ from dataclasses import replace
 
 import numpy as np
 import pytest
-from montecarlo_helpers import deterministic_rows
 
+from helpers.montecarlo_helpers import deterministic_rows
 from posfb.analysis.montecarlo.scheduler import run_study
 from posfb.analysis.montecarlo.store import ResultStore
 from posfb.analysis.uncertainty.sampling import sample_plant
@@ -113,6 +113,7 @@ def test_bad_designs_are_refused_naming_the_key(sampling, samples, needle):
         )
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("sampling", ["random", "latin_hypercube", "sobol", "saltelli"])
 def test_every_design_stores_the_same_rows_for_any_worker_count(sampling, tmp_path):
     study = _study(sampling, samples=saltelli_rows(2))  # one Saltelli block: 4 samples

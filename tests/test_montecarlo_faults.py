@@ -8,7 +8,8 @@ from __future__ import annotations
 import sqlite3
 
 import pytest
-from montecarlo_helpers import (
+
+from helpers.montecarlo_helpers import (
     TINY_STUDY,
     SmallDisk,
     all_rows,
@@ -17,7 +18,6 @@ from montecarlo_helpers import (
     write_killer_study,
     write_study,
 )
-
 from posfb.analysis.cli import main
 from posfb.analysis.common.errors import (
     EXIT_DAMAGED_STORE,
@@ -103,6 +103,7 @@ def test_a_store_missing_its_meta_or_a_table_is_refused_untouched(tmp_path, stud
     assert path.read_bytes() == before
 
 
+@pytest.mark.slow
 def test_damaged_stores_are_one_line_and_their_own_exit_code_in_every_command(tmp_path, capsys):
     study = study_from_text(TINY_STUDY)
     path = tmp_path / "r.sqlite"
@@ -151,6 +152,7 @@ def _one_line(result) -> str:
     return lines[0]
 
 
+@pytest.mark.slow
 def test_a_full_disk_is_one_line_keeps_what_finished_and_resumes(tmp_path, disk):
     study = write_study(tmp_path, TINY_STUDY.replace("samples: 4", "samples: 2"))
     db = disk.folder / "s.sqlite"
@@ -182,6 +184,7 @@ def test_a_full_disk_is_one_line_keeps_what_finished_and_resumes(tmp_path, disk)
     assert again.returncode == 0 and "2 of 2 samples (2 new" in again.stdout
 
 
+@pytest.mark.slow
 def test_a_killed_worker_is_retried_once_then_its_sample_is_an_error(tmp_path, disk):
     from posfb.analysis.uncertainty.sampling import sample_scenario
     from posfb.analysis.uncertainty.study import load_study
@@ -222,6 +225,7 @@ def test_a_sample_count_beyond_the_ceiling_is_refused_before_any_work():
     assert study_from_text(TINY_STUDY.replace("samples: 4", f"samples: {10**12}"))
 
 
+@pytest.mark.slow
 def test_a_sample_that_kills_its_dask_workers_is_an_error_and_the_run_goes_on(tmp_path):
     """On a Dask cluster (real worker processes under nannies), the sample whose plug-in
     SIGKILLs its worker is re-run by Dask itself (``allowed-failures``, here 1), then

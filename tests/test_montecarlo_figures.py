@@ -9,10 +9,10 @@ from dataclasses import replace
 
 import numpy as np
 import pytest
-from figure_checks import legend_labels, legends_over_axes, suptitle
 from matplotlib.colors import to_rgba
-from montecarlo_helpers import TINY_STUDY
 
+from helpers.figure_checks import legend_labels, legends_over_axes, suptitle
+from helpers.montecarlo_helpers import TINY_STUDY
 from posfb.analysis.common.plots import MAX_DOTS
 from posfb.analysis.montecarlo import convergence, stability
 from posfb.analysis.montecarlo.report import (
@@ -58,6 +58,7 @@ DRAW = {
 }
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("name", DRAW)
 def test_every_figure_has_a_title_and_no_legend_over_a_panel(data, tmp_path, name):
     figure = DRAW[name](data, tmp_path)
@@ -71,6 +72,7 @@ def _dots(axis) -> list:
     return [line for line in axis.get_lines() if line.get_marker() == "."]
 
 
+@pytest.mark.slow
 def test_the_distributions_thin_the_dots_and_keep_every_samples_median(data, tmp_path):
     figure = plot_distributions(data, tmp_path)
     for joint, axis in enumerate(figure.axes):
@@ -96,6 +98,7 @@ def _median_lines(axis) -> list:
     ]
 
 
+@pytest.mark.slow
 def test_rms_against_payload_draws_a_median_line_per_controller(data, tmp_path):
     figure = plot_against_payload(data, tmp_path)
     assert legend_labels(figure) == [f"{c} (median)" for c in CONTROLLERS]
@@ -112,6 +115,7 @@ def test_rms_against_payload_draws_a_median_line_per_controller(data, tmp_path):
             assert values.min() <= ys.min() and ys.max() <= values.max()
 
 
+@pytest.mark.slow
 def test_the_inside_outside_medians_contrast_with_their_boxes_and_lie_above_them(data, tmp_path):
     figure = plot_inside_outside(data, tmp_path)
     for axis in figure.axes:

@@ -8,8 +8,8 @@ import sqlite3
 from pathlib import Path
 
 import pytest
-from montecarlo_helpers import TINY_STUDY, run_into_store
 
+from helpers.montecarlo_helpers import TINY_STUDY, run_into_store
 from posfb.analysis.cli import main
 from posfb.analysis.common.export import read_run
 from posfb.analysis.common.metrics import rms
@@ -82,6 +82,7 @@ def test_a_replay_matches_the_store_and_writes_the_runs(db, tmp_path, capsys):
             assert rms(error[:, joint]) == pytest.approx(expected, rel=1e-12), (controller, joint)
 
 
+@pytest.mark.slow
 def test_a_tampered_row_differs_and_is_named(db, tmp_path, capsys):
     tampered = tmp_path / "tampered.sqlite"
     shutil.copy(db, tampered)

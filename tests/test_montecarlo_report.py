@@ -4,8 +4,8 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from montecarlo_helpers import TINY_STUDY, make_result, run_into_store
 
+from helpers.montecarlo_helpers import TINY_STUDY, make_result, run_into_store
 from posfb.analysis.cli import main
 from posfb.analysis.montecarlo.records import STATUSES, ControllerRun, SampleResult, metric_columns
 from posfb.analysis.montecarlo.report import FIGURES, markdown
@@ -233,6 +233,7 @@ def test_the_report_has_the_answer_sections_and_every_figure(store, tmp_path):
         assert (out / f"{name}.png").is_file(), name
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("samples", [1, 3])
 def test_a_study_where_no_run_finished_still_reports(tmp_path, samples):
     from posfb.analysis.montecarlo.report import write_report

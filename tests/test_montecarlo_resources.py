@@ -12,6 +12,8 @@ import sys
 import time
 from pathlib import Path
 
+import pytest
+
 CLI = [sys.executable, "-m", "posfb.analysis.cli"]
 
 RANDOM_STUDY = """\
@@ -39,6 +41,7 @@ def _rows(db: Path) -> list[tuple]:
         ).fetchall()
 
 
+@pytest.mark.slow
 def test_a_trillion_samples_keep_memory_flat(tmp_path):
     study, db = tmp_path / "study.yaml", tmp_path / "store.sqlite"
     study.write_text(RANDOM_STUDY)
@@ -82,6 +85,7 @@ raise SystemExit(main(sys.argv[2:]))
 """
 
 
+@pytest.mark.slow
 def test_two_runs_on_one_store_give_the_rows_of_one_run(tmp_path):
     study, shared, alone = tmp_path / "study.yaml", tmp_path / "a.sqlite", tmp_path / "b.sqlite"
     study.write_text(RANDOM_STUDY)
@@ -115,6 +119,7 @@ def test_two_runs_on_one_store_give_the_rows_of_one_run(tmp_path):
     assert _rows(shared) == _rows(alone)
 
 
+@pytest.mark.slow
 def test_dry_run_predicts_without_storing(tmp_path):
     study, db = tmp_path / "study.yaml", tmp_path / "store.sqlite"
     study.write_text(RANDOM_STUDY)

@@ -13,14 +13,14 @@ import time
 from pathlib import Path
 
 import pytest
-from montecarlo_helpers import (
+
+from helpers.montecarlo_helpers import (
     TINY_STUDY,
     all_rows,
     deterministic_rows,
     fake_evaluate,
     write_study,
 )
-
 from posfb.analysis.cli import main
 from posfb.analysis.montecarlo import scheduler
 from posfb.analysis.montecarlo.scheduler import run_study
@@ -68,6 +68,7 @@ def test_stored_samples_follow_the_study(reference):
     assert all(0.0 < r["rms_q1"] < 0.05 and 0.0 < r["rms_q2"] < 0.2 for r in runs)
 
 
+@pytest.mark.slow
 def test_dask_cluster_stores_the_same_rows_as_the_local_pool(reference, tmp_path, capsys):
     from dask.distributed import LocalCluster
 
@@ -162,6 +163,7 @@ overrides: [{sample: 1, values: {motor_constant: [0.001, 0.001]}}]
 """
 
 
+@pytest.mark.slow
 def test_a_diverging_sample_is_recorded_and_the_others_complete(tmp_path):
     db = tmp_path / "diverge.sqlite"
     _run(DEAD_MOTORS, db, workers=1)

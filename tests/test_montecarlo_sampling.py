@@ -6,8 +6,8 @@ from dataclasses import replace
 
 import numpy as np
 import pytest
-from montecarlo_helpers import TINY_STUDY
 
+from helpers.montecarlo_helpers import TINY_STUDY
 from posfb.analysis.uncertainty.sampling import sample_plant
 from posfb.analysis.uncertainty.study import study_from_text
 from posfb.models.plant import build_arm_diagram

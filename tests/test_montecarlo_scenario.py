@@ -23,6 +23,7 @@ draws:
 """
 
 
+@pytest.mark.slow
 def test_a_study_varying_sample_time_and_encoder_counts_matches_direct_runs():
     study = study_from_text(TIMING_AND_SENSOR)
     evaluator = ClosedLoopEvaluator(study)

@@ -9,8 +9,8 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from montecarlo_helpers import run_into_store
 
+from helpers.montecarlo_helpers import run_into_store
 from posfb.analysis.cli import main
 from posfb.analysis.montecarlo.table import study_table
 from posfb.analysis.uncertainty.coverage import BOUND_NAMES, serial_coverage
@@ -56,6 +56,7 @@ def test_a_three_link_study_stores_one_column_per_joint(db):
     assert radius.isna().all()
 
 
+@pytest.mark.slow
 def test_a_three_link_sample_replays_bit_for_bit(db, tmp_path, capsys):
     code = main(["montecarlo", "replay", "--db", str(db), "--sample", "1", "--out", str(tmp_path)])
     out = capsys.readouterr().out

@@ -6,8 +6,8 @@ import sqlite3
 from dataclasses import replace
 
 import pytest
-from montecarlo_helpers import EARLIER_STORE, TINY_STUDY, make_result
 
+from helpers.montecarlo_helpers import EARLIER_STORE, TINY_STUDY, make_result
 from posfb.analysis.common.errors import UsageError
 from posfb.analysis.montecarlo.records import STATUSES, ControllerRun
 from posfb.analysis.montecarlo.results import load, status_counts

@@ -8,8 +8,8 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 import pytest
-from montecarlo_helpers import TINY_STUDY, run_into_store
 
+from helpers.montecarlo_helpers import TINY_STUDY, run_into_store
 from posfb.analysis.cli import main
 from posfb.analysis.montecarlo.store import ResultStore
 from posfb.analysis.montecarlo.table import (

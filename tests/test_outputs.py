@@ -10,9 +10,9 @@ import hashlib
 from pathlib import Path
 
 import pytest
-from montecarlo_helpers import TINY_STUDY, SmallDisk, run_into_store
-from output_checks import read_only_folder, tree_digest
 
+from helpers.montecarlo_helpers import TINY_STUDY, SmallDisk, run_into_store
+from helpers.output_checks import read_only_folder, tree_digest
 from posfb.analysis.cli import main
 from posfb.analysis.common.errors import EXIT_DISK_FULL, UsageError
 from posfb.analysis.common.outputs import atomic_file, output_file, staged_folder
@@ -134,6 +134,7 @@ FILE_COMMANDS = {
 }  # fmt: skip
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("command", list(FILE_COMMANDS))
 def test_an_existing_out_is_refused_without_force_and_replaced_with_it(
     command, tmp_path, capsys, store
@@ -151,6 +152,7 @@ def test_an_existing_out_is_refused_without_force_and_replaced_with_it(
     assert sorted(tmp_path.iterdir()) == [out]  # no temporary left beside it
 
 
+@pytest.mark.slow
 def test_tune_refuses_its_own_input_and_replaces_it_only_with_force(tmp_path, capsys, monkeypatch):
     scenario = tmp_path / "arm.yaml"
     scenario.write_text(Path(NOMINAL).read_text())
@@ -186,6 +188,7 @@ def test_a_tuned_file_is_kept_whole_when_the_disk_fills(tmp_path, disk):
     assert result.returncode == EXIT_DISK_FULL and str(out) in line, result.stderr
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("command", ["compare", "design --map"])
 def test_a_folder_is_left_as_it_was_when_the_disk_fills(command, tmp_path, disk):
     args = {
@@ -215,6 +218,7 @@ def test_scenario_init_refuses_an_unwritable_out_before_the_work(tmp_path, capsy
         assert not list(folder.iterdir())
 
 
+@pytest.mark.slow
 def test_scenario_init_on_a_full_disk_leaves_nothing_behind(tmp_path, disk):
     disk.fill()
     out = disk.folder / "arm.yaml"

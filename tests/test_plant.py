@@ -61,6 +61,7 @@ def test_energy_is_conserved_without_damping_and_friction(arm_diagram):
     assert drift <= 1e-6
 
 
+@pytest.mark.slow
 def test_energy_balance_with_motor_work_and_friction_loss(arm_diagram):
     """E(t) - E(0) = motor work - friction loss when there is no viscous damping."""
     _, arm, _ = arm_diagram

@@ -9,9 +9,9 @@ from dataclasses import replace
 
 import numpy as np
 import pytest
-from figure_checks import legend_labels, legends_over_axes, line_colours
 from matplotlib.colors import to_hex
 
+from helpers.figure_checks import legend_labels, legends_over_axes, line_colours
 from posfb.analysis.api import load_scenario, resolve
 from posfb.analysis.common.plots import positions_and_voltages, tracking_errors
 from posfb.analysis.common.shipped import SCENARIO_DIR
@@ -88,6 +88,7 @@ def test_the_papers_signed_linear_errors_remain_on_request(runs):
         tracking_errors(runs, "made up", scale="loglog")  # type: ignore[arg-type]
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("draw", [tracking_errors, positions_and_voltages])
 def test_the_legend_covers_no_panel(runs, draw):
     figure = draw(runs, "made up")
@@ -95,6 +96,7 @@ def test_the_legend_covers_no_panel(runs, draw):
     assert legends_over_axes(figure) == []
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("draw", [tracking_errors, positions_and_voltages])
 def test_every_line_has_its_own_colour_and_a_plugin_none_of_a_builtins(runs, draw):
     figure = draw(runs, "made up")

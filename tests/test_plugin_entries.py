@@ -8,9 +8,9 @@ from __future__ import annotations
 from pathlib import Path
 
 import pytest
-from plugin_helpers import P_GRAVITY, write_plugin
 
 import posfb
+from helpers.plugin_helpers import P_GRAVITY, write_plugin
 from posfb.models.controllers import PluginError
 
 

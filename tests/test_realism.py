@@ -75,6 +75,7 @@ def test_the_shipped_study_has_a_source_per_effect_and_changes_no_default():
     ]
 
 
+@pytest.mark.slow
 def test_the_table_4_study_is_the_table_3_study_on_the_payload_arm():
     table4 = load_realism(DEFAULT_STUDY.with_name("paper_table4.yaml"))
     table3 = load_realism(DEFAULT_STUDY)
@@ -179,6 +180,7 @@ def test_the_ideal_arm_of_the_study_is_an_independent_simulate_run(small_study):
 @pytest.mark.parametrize(
     ("study", "key"), [("gear", "plant.backlash"), ("delay", "actuator.compute_delay")]
 )
+@pytest.mark.slow
 def test_the_draws_reach_the_runs_and_replay(small_study, tmp_path, study, key):
     _, out = small_study
     store = out / "stores" / f"{study}.sqlite"
@@ -190,6 +192,7 @@ def test_the_draws_reach_the_runs_and_replay(small_study, tmp_path, study, key):
                  "--controller", "pid", "--out", str(tmp_path)]) == 0  # fmt: skip
 
 
+@pytest.mark.slow
 def test_a_second_run_resumes_and_runs_nothing(small_study, capsys):
     spec, out = small_study
     assert main(["realism", str(spec), "--out", str(out), "--no-progress"]) == 0
@@ -213,11 +216,11 @@ def test_the_report_writes_any_distribution_as_the_study_file_does():
         assert all(read[k] == v for k, v in vars(distribution).items() if v not in (None, False))
 
 
+@pytest.mark.slow
 def test_the_error_figure_has_a_title_and_its_legend_below_the_data(small_study, tmp_path):
     """Issue 27's figures: the realism report's error figure is titled and its legend
     covers no panel (read back from the drawn figure)."""
-    from figure_checks import legend_labels, legends_over_axes, suptitle
-
+    from helpers.figure_checks import legend_labels, legends_over_axes, suptitle
     from posfb.analysis.realism.findings import findings
     from posfb.analysis.realism.report import plot_errors
     from posfb.analysis.realism.spec import load_realism
@@ -229,6 +232,7 @@ def test_the_error_figure_has_a_title_and_its_legend_below_the_data(small_study,
     assert legend_labels(figure)
 
 
+@pytest.mark.slow
 def test_a_store_of_an_earlier_posfb_is_reported_as_not_resumable(small_study, tmp_path):
     """An unfinished study whose store holds another identity (written by an earlier
     posfb) is not offered ``--only NAME`` as the way to complete it, since a resume into

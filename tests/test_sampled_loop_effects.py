@@ -16,8 +16,8 @@ import math
 import numpy as np
 import pytest
 import scipy.linalg
-from loop_checks import residual_oscillation
 
+from helpers.loop_checks import residual_oscillation
 from posfb.analysis.cli.commands.design import scenario_design
 from posfb.analysis.common.loop_effects import left_out, loop_effects, nominal_effects
 from posfb.analysis.design.problem import TuningProblem

@@ -15,9 +15,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 import scipy.linalg
-from planar_arm import planar_arm_urdf
 
 import posfb
+from helpers.planar_arm import planar_arm_urdf
 from posfb.models.design import initial
 from posfb.models.design.config import LqrWeights
 from posfb.models.lumped import TABLE1, LumpedModel
@@ -128,6 +128,7 @@ def test_written_scenario_runs_with_bounded_error(written, controller):
     assert run.metrics.saturated_fraction < 0.05
 
 
+@pytest.mark.slow
 def test_existing_file_needs_force(written, tmp_path):
     urdf, _, _ = written
     out = tmp_path / "taken.yaml"
@@ -242,6 +243,7 @@ def test_gamma_and_frequencies_follow_the_paper():
     assert initial.wave_frequencies(3)[:2] == (4.0, 3.0)
 
 
+@pytest.mark.slow
 def test_too_low_voltage_limit_names_the_option_and_the_voltage(written, tmp_path):
     urdf, _, _ = written
     result = _cli("scenario", "init", "--urdf", str(urdf), "--out", str(tmp_path / "x.yaml"),
@@ -252,6 +254,7 @@ def test_too_low_voltage_limit_names_the_option_and_the_voltage(written, tmp_pat
     assert not (tmp_path / "x.yaml").exists()
 
 
+@pytest.mark.slow
 def test_the_rules_work_at_5_khz(tmp_path: Path) -> None:
     """At ``T_s = 0.2 ms`` the LQR rule's weights span 14 decades, which scipy's Schur
     method failed on ("Q1, Q2, R: the Riccati equation has no stabilising solution", on

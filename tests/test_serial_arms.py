@@ -86,6 +86,7 @@ def _zero_coulomb_urdf(tmp_path: Path) -> Path:
     return path
 
 
+@pytest.mark.slow
 def test_three_link_proposed_converges_below_lin_lc(tmp_path):
     """Sec. 3 on three joints: exact nominal model (the same frictionless URDF), ideal
     encoders, no saturation, T_s = 2 ms, a T_s = 1: over the last 5 s of 10 s the
@@ -110,6 +111,7 @@ def test_three_link_proposed_converges_below_lin_lc(tmp_path):
     assert worst["proposed"] < 0.5 * worst["lin_lc"], worst
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("kind", PAPER_CONTROLLERS)
 def test_every_controller_tracks_the_three_link_scenario(kind):
     """Quantised encoders and saturated voltages, the shipped scenario: each run

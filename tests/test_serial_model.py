@@ -171,6 +171,7 @@ def test_the_christoffel_matrix_is_table_1s_and_gives_the_bias_term(three_link):
                                    atol=1e-12)  # fmt: skip
 
 
+@pytest.mark.slow
 def test_sampled_assumption_1_norms_equal_the_two_link_closed_forms(tmp_path):
     from posfb.analysis.uncertainty.coverage import uncertainty_norms as closed_form
     from posfb.models.serial_bounds import BOUND_NAMES, uncertainty_norms

@@ -23,6 +23,7 @@ def test_every_arm_has_a_tuned_scenario_beside_its_carried_over_one():
         assert name.replace("_nominal", "_tuned") in SHIPPED, name
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("name", DESIGNED)
 def test_the_proposed_controller_tracks_within_a_tenth_of_a_radian(name):
     scenario = posfb.load_scenario(SHIPPED[name], set={"timing.duration": 5.0})
@@ -31,10 +32,11 @@ def test_the_proposed_controller_tracks_within_a_tenth_of_a_radian(name):
     assert run.metrics.max_abs_q_err < 0.1, run.metrics.max_abs_q_err
 
 
+@pytest.mark.slow
 def test_the_carried_over_three_link_design_is_judged_saturated():
-    """README, "Any serial arm": the paper's weights on the three-link arm give an
-    unstable sampled loop whose run chatters at the voltage limit; it finishes under the
-    divergence bound, and its verdict says it is not ok."""
+    """User guide, "Serial arms" (docs/guide/serial_arms.md): the paper's weights on the
+    three-link arm give an unstable sampled loop whose run chatters at the voltage limit;
+    it finishes under the divergence bound, and its verdict says it is not ok."""
     scenario = posfb.load_scenario(SHIPPED["three_link_nominal"], set={"timing.duration": 5.0})
     with pytest.warns(posfb.ScenarioWarning, match="run saturated"):
         run = posfb.simulate(scenario, "proposed")

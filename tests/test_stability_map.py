@@ -177,6 +177,7 @@ def test_a_per_joint_list_of_one_value_is_a_key():
     assert sm.key_value(load_scenario(CASE_FILES["nominal"]), "controller.lambdas") == 10.0
 
 
+@pytest.mark.slow
 def test_out_writes_the_figure_and_the_json(tmp_path, capsys):
     mark = tmp_path / "tuned.yaml"
     mark.write_text("controller: !Proposed {alpha_star: 2.5}\ntiming: {sample_time: 0.008}\n")
@@ -293,6 +294,7 @@ def _drawn_cell(axis, name: str) -> tuple[tuple[float, float], float]:
     return (x, y), float(values[j, i])
 
 
+@pytest.mark.slow
 def test_the_drawn_cells_are_the_printed_verdicts(tmp_path, monkeypatch, capsys):
     """The tuned scenario (star) and a marked design (diamond) on a 5-point map: the cell
     the figure draws under each marker, the JSON and the printed line all give the share
@@ -334,6 +336,7 @@ def test_the_drawn_cells_are_the_printed_verdicts(tmp_path, monkeypatch, capsys)
     assert data["points"]["scenario"]["robust"] != data["points"]["marked"]["robust"]
 
 
+@pytest.mark.slow
 def test_a_robust_scenario_gives_a_robust_sample_time(capsys):
     """The issue's map (4 points, T_s x lambdas) of the tuned design: the scenario's own
     cell is robust exactly when its loop is on every plant (computed here), so the largest

@@ -34,6 +34,7 @@ def _binomial_sd(p: float, trials: int) -> float:
 # --- quantile intervals -------------------------------------------------------------------------
 
 
+@pytest.mark.slow
 def test_bootstrap_quantile_intervals_cover_the_true_quantiles() -> None:
     data_sets, size, nominal = 400, 100, 0.95
     true_median = 1.0  # lognormal(0, 1): median exp(0)

@@ -20,9 +20,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 import scipy.stats
-from planar_arm import planar_arm_urdf
 
 import posfb
+from helpers.planar_arm import planar_arm_urdf
 from posfb.analysis.common.cases import SCENARIO_DIR
 from posfb.analysis.design.budget import BudgetError, Deadline
 from posfb.analysis.design.guarantee import (
@@ -161,6 +161,7 @@ def four_link(tmp_path_factory):
     return tuned, run.stdout
 
 
+@pytest.mark.slow
 def test_tuned_four_link_arm_is_stable_and_checked(four_link):
     tuned, output = four_link
     import json
@@ -177,6 +178,7 @@ def test_tuned_four_link_arm_is_stable_and_checked(four_link):
     assert "warning" not in check.stdout
 
 
+@pytest.mark.slow
 def test_tuned_four_link_arm_runs_and_beats_lin_lc_under_model_error(four_link):
     tuned, _ = four_link
     one_count = 2 * math.pi / 20000  # the scenario's encoder (init's default counts)
@@ -199,6 +201,7 @@ def test_tuned_four_link_arm_runs_and_beats_lin_lc_under_model_error(four_link):
     assert errors["proposed"] < errors["lin_lc"], errors
 
 
+@pytest.mark.slow
 def test_tuning_is_a_pure_function_of_scenario_study_and_seed():
     small = {"plants": 4, "generations": 2, "epsilon": 0.5, "beta": 0.5, "rounds": 1}
     runs = [
@@ -245,6 +248,7 @@ def low_voltage(tmp_path_factory):
     return folder, initial, command
 
 
+@pytest.mark.slow
 def test_a_design_worse_than_the_start_is_refused_and_written_only_when_accepted(low_voltage):
     folder, initial, command = low_voltage
     out = folder / "tuned.yaml"

@@ -100,7 +100,7 @@ def text_report(result: TuneResult) -> str:
         f"epsilon {settings.epsilon:g}, beta {settings.beta:g}",
         "objective: predicted RMS tracking error of the nominal sampled-data loop driven by "
         "the design plants' model error along the trajectory and the encoder's quantisation "
-        "(analysis/tuning/problem.py)",
+        "(analysis/design/problem.py)",
     ]
     for entry in result.controllers.values():
         lines += _controller_lines(entry, result)

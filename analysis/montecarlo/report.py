@@ -44,7 +44,14 @@ from posfb.analysis.uncertainty.statistics import (
     Interval,
     proportion_interval,
 )
-from posfb.diagrams.scenario import IdentifiedFromUrdf, Scenario, Theta, UrdfModel, Wave
+from posfb.diagrams.scenario import (
+    Identified,
+    IdentifiedFromUrdf,
+    Scenario,
+    Theta,
+    UrdfModel,
+    Wave,
+)
 
 #: A run "saturates often" when more than this share of its control samples
 #: command a voltage beyond the limit.
@@ -73,6 +80,8 @@ def _nominal_text(base: Scenario) -> str:
         return f"the theta model identified from {Path(nominal.urdf).name}"
     if isinstance(nominal, Theta):
         return "the given nominal theta model"
+    if isinstance(nominal, Identified):
+        return f"the theta model identified from a log ({Path(nominal.file).name})"
     return "the nominal Table 1 model"
 
 

@@ -141,7 +141,7 @@ def _measured_section(found: Findings) -> list[str]:
         "## The error the encoder reads",
         "",
         f"Median over the samples of RMS(q_m,j - q_d,j) in mrad, with `q_m` the encoder's "
-        f"reading (`analysis.metrics`): the error a hardware experiment computes, as the "
+        f"reading (`analysis.common.metrics`): the error a hardware experiment computes, as the "
         f"paper's {table} was. It is the true error plus the encoder's quantisation where "
         "the encoder reads the link, and the error of the motor angle where it reads the "
         "motor. `m/N` gives the samples that recorded it where not every finished one did "

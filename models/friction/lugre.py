@@ -22,7 +22,7 @@ bristles, ``sum_j sigma0_j z_j^2 / 2``, which presliding motion gives back, so i
 decrease for a moment; the energy balance of the arm holds with it as it stands. The
 paper's literature values (a unit mass, SI units) are ``sigma0 = 1e5``, ``sigma1 =
 sqrt(1e5)``, ``f_s / f_c = 1.5``, ``v_st = 0.001``; ``sigma0 ~ 1e4..1e5`` N m/rad makes the
-integrator's job stiff (README, "Non-idealities").
+integrator's job stiff (user guide, ``docs/guide/nonidealities.md``).
 """
 
 # No "from __future__ import annotations": Drake's YAML reads the field types at runtime.

@@ -1,22 +1,83 @@
-"""``posfb identify``: theta_1..theta_11 of Sec. 4.1 identified from the URDF
-plant, printed beside Table 1 (or as JSON)."""
+"""``posfb identify``: theta_1..theta_11 of Sec. 4.1, computed exactly from a URDF plant
+(``--urdf``, no log) or identified from an encoder log with its uncertainty (``--log``,
+``analysis.identification``), and ``posfb identify plan``: an exciting trajectory
+for a scenario's arm."""
 
 from __future__ import annotations
 
 import argparse
 import json
+import math
+from pathlib import Path
+
+from posfb.analysis.cli.commands.scenario_args import add_scenario_arguments, scenario_from_args
+from posfb.analysis.common.errors import UsageError
+
+
+def _positive(text: str) -> float:
+    value = float(text)
+    if not (math.isfinite(value) and value > 0.0):
+        raise argparse.ArgumentTypeError(f"{text!r}: a finite number > 0 is required")
+    return value
+
+
+def _nonnegative(text: str) -> float:
+    value = float(text)
+    if not (math.isfinite(value) and value >= 0.0):
+        raise argparse.ArgumentTypeError(f"{text!r}: a finite number >= 0 is required")
+    return value
 
 
 def configure(parser: argparse.ArgumentParser) -> None:
     # No default here: the shipped URDF's path is ``models.plant.DEFAULT_URDF``, which
     # imports Drake; ``run`` reads it.
-    parser.add_argument("--urdf", help="arm URDF (default: the shipped two-link arm)")
+    parser.add_argument(
+        "--urdf", help="arm URDF whose theta is computed exactly (default: the shipped "
+        "two-link arm); not with --log",
+    )  # fmt: skip
     parser.add_argument("--payload", type=float, default=0.0, help="tip payload mass in kg")
+    parser.add_argument(
+        "--log", type=Path, metavar="LOG", help="identify from this log (CSV or Parquet: "
+        "time_s, q<j>_measured_rad or q<j>_counts, u<j>_applied_V; posfb simulate --out "
+        "writes one)",
+    )  # fmt: skip
+    add_scenario_arguments(parser, ())
+    parser.add_argument("--validate", type=Path, metavar="LOG2",
+                        help="a second log of the same arm to validate the model on")
+    parser.add_argument("--out", type=Path, metavar="MODEL.yaml",
+                        help="write the model (nominal_model: !Identified {file: ...})")
+    parser.add_argument("--figure", type=Path, metavar="FILE",
+                        help="with --validate: measured against predicted (.svg or .png)")
+    parser.add_argument("--cutoff", type=_positive, metavar="HZ",
+                        help="the filters' cutoff in Hz (default: a tenth of the log's "
+                        "Nyquist frequency)")
+    parser.add_argument("--stiction-velocity", type=_nonnegative, metavar="RAD_PER_S",
+                        help="rows slower than this stay out of the fit (default 0.3)")
+    parser.add_argument("--window", type=_positive, metavar="S",
+                        help="output-error window of --validate in s (default 1)")
     parser.add_argument("--json", action="store_true", help="print one JSON object")
     parser.set_defaults(handler=run)
+    actions = parser.add_subparsers(dest="action", parser_class=type(parser))
+    plan = actions.add_parser(
+        "plan", help="an exciting trajectory (finite Fourier series, Swevers 1997) as a "
+        "CSV that trajectory: !CsvFile runs",
+    )  # fmt: skip
+    add_scenario_arguments(plan, ())
+    plan.add_argument("--out", type=Path, required=True, metavar="TRAJ.csv")
+    plan.add_argument("--duration", type=_positive, default=60.0, help="seconds (default 60)")
+    plan.add_argument("--harmonics", type=int, default=5, help="per joint (default 5)")
+    plan.add_argument("--period", type=_positive, default=10.0,
+                      help="period of the series in s, dividing --duration (default 10)")
+    plan.add_argument("--seed", type=int, default=0, help="the optimiser's random start")
+    plan.add_argument("--excursion", type=_positive, metavar="RAD",
+                      help="largest excursion from the rest position (default pi/2)")
+    plan.add_argument("--velocity-limit", type=_positive, metavar="RAD_PER_S",
+                      help="default: the URDF's joint velocity limits, else 2 rad/s")
+    plan.add_argument("--json", action="store_true", help="print one JSON object")
+    plan.set_defaults(handler=run_plan)  # fmt: skip
 
 
-def run(args: argparse.Namespace) -> int:
+def _exact(args: argparse.Namespace) -> int:
     from posfb.analysis.common.tables import theta_table
     from posfb.models.identify import identify_urdf
     from posfb.models.plant import DEFAULT_URDF
@@ -28,4 +89,62 @@ def run(args: argparse.Namespace) -> int:
     else:
         print(f"theta identified from {urdf} with a {args.payload:g} kg tip payload")
         print(theta_table({"identified": identified}))
+    return 0
+
+
+def run(args: argparse.Namespace) -> int:
+    if args.log is None:
+        given = [f for f in ("validate", "out", "figure", "cutoff", "stiction_velocity",
+                             "window") if getattr(args, f) is not None]  # fmt: skip
+        if given:
+            raise UsageError(f"--{given[0].replace('_', '-')} needs --log")
+        return _exact(args)
+    if args.urdf is not None:
+        raise UsageError(
+            "--urdf and --log both given; the log's arm is the scenario's (--scenario)"
+        )
+    if args.figure is not None and args.validate is None:
+        raise UsageError("--figure needs --validate (it draws the validation)")
+    from posfb.analysis.api import identify
+
+    result = identify(
+        args.log,
+        scenario_from_args(args),
+        validate=args.validate,
+        cutoff_hz=args.cutoff,
+        stiction_velocity=args.stiction_velocity,
+        window=args.window,
+    )
+    if args.out is not None:
+        result.save(args.out)
+    if args.figure is not None:
+        result.figure(args.figure)
+    if args.json:
+        print(json.dumps(result.as_dict()))
+        return 0
+    print(result.report())
+    for path in (args.out, args.figure):
+        if path is not None:
+            print(f"wrote {path}")
+    return 0
+
+
+def run_plan(args: argparse.Namespace) -> int:
+    from posfb.analysis.api import plan_excitation
+
+    plan = plan_excitation(
+        scenario_from_args(args),
+        duration=args.duration,
+        harmonics=args.harmonics,
+        period=args.period,
+        seed=args.seed,
+        excursion=args.excursion,
+        velocity_limit=args.velocity_limit,
+    )
+    plan.save(args.out)
+    if args.json:
+        print(json.dumps(plan.as_dict()))
+        return 0
+    print(plan.report())
+    print(f"wrote {args.out}")
     return 0

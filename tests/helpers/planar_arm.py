@@ -50,7 +50,7 @@ def planar_arm_text(links: int, limits: Limits | Sequence[Limits] = None,
     name = name or f"planar_arm_{links}"
     parts = [
         '<?xml version="1.0"?>',
-        f"<!-- A generated {links}-link planar arm (tests/planar_arm.py). -->",
+        f"<!-- A generated {links}-link planar arm (tests/helpers/planar_arm.py). -->",
         f'<robot name="{name}" xmlns:drake="http://drake.mit.edu" '
         'xmlns:posfb="urn:posfb:urdf">',
         '  <link name="base"/>',

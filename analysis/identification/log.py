@@ -1,0 +1,165 @@
+"""A log is a table (issue 29): the columns ``posfb simulate --out`` writes, so a
+simulated run is a valid log. Identification reads only
+
+* ``time_s``: the sample instants (s), increasing and evenly spaced;
+* ``q{j}_measured_rad`` per joint ``j = 1..n`` (the encoder's reading, rad), or
+  ``q{j}_counts`` (whole encoder counts; ``counts_per_revolution`` converts them:
+  ``q = 2 pi counts / N``);
+* ``u{j}_applied_V`` per joint: the voltage the drive applied from that instant to the
+  next (held, as a sampled controller's is).
+
+CSV (``.csv``) or Parquet (``.parquet``); any other column (a simulated log's true
+positions included) is ignored. ``TEMPLATE`` is a two-joint example a user fills from
+a drive's record.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+#: Relative spread of the sample intervals a log may have (clock jitter, round-off).
+EVEN_TOLERANCE = 1e-3
+
+#: The fewest samples a log must hold.
+MIN_SAMPLES = 100
+
+TEMPLATE = """\
+time_s,q1_measured_rad,q2_measured_rad,u1_applied_V,u2_applied_V
+0.00,0.000000,0.000000,0.512,-0.210
+0.01,0.000314,0.000000,0.530,-0.198
+0.02,0.000942,0.000314,0.561,-0.170
+"""
+
+
+@dataclass(frozen=True)
+class EncoderLog:
+    """What identification reads from a log: ``time`` (N,), the measured positions
+    ``q`` and applied voltages ``u`` (N, n), the encoder's step per joint where the log
+    gave counts (else ``None``) and the file it came from."""
+
+    time: np.ndarray
+    q: np.ndarray
+    u: np.ndarray
+    source: str
+    quantisation_step: np.ndarray | None = None
+
+    @property
+    def joints(self) -> int:
+        return self.q.shape[1]
+
+    @property
+    def sample_time(self) -> float:
+        return float(self.time[1] - self.time[0])
+
+
+def _table(path: Path):
+    import pandas as pd
+
+    if not path.is_file():
+        raise ValueError(f"log {path} does not exist")
+    suffix = path.suffix.lower()
+    try:
+        if suffix == ".csv":
+            return pd.read_csv(path)
+        if suffix == ".parquet":
+            return pd.read_parquet(path)
+    except Exception as error:  # pandas raises many kinds; the file is the user's
+        first = str(error).splitlines()[0] if str(error) else type(error).__name__
+        raise ValueError(f"log {path} cannot be read as {suffix[1:]}: {first}") from None
+    raise ValueError(f"log {path}: suffix {suffix!r}; .csv or .parquet is required")
+
+
+def _joint_count(columns: list[str], source: str) -> int:
+    joints = 0
+    while f"u{joints + 1}_applied_V" in columns:
+        joints += 1
+    if joints == 0:
+        raise ValueError(
+            f"log {source} has no column u1_applied_V; time_s, q<j>_measured_rad (or "
+            "q<j>_counts) and u<j>_applied_V per joint are required"
+        )
+    return joints
+
+
+def read_log(
+    path: str | Path, *, joints: int | None = None, counts_per_revolution=None
+) -> EncoderLog:
+    """The log in ``path``, checked: the columns the module docstring lists, finite,
+    at least ``MIN_SAMPLES`` rows, ``time_s`` increasing and evenly spaced (within
+    ``EVEN_TOLERANCE`` of its median step). ``joints`` (the arm's) must match the log's;
+    ``counts_per_revolution`` (one per joint, or one for all) converts ``q<j>_counts``."""
+    path = Path(path)
+    table = _table(path)
+    columns = [str(c) for c in table.columns]
+    n = _joint_count(columns, str(path))
+    if joints is not None and n != joints:
+        raise ValueError(
+            f"log {path} has voltages for {n} joints and the arm has {joints}; a log of "
+            "the same arm is required"
+        )
+    measured = [f"q{j}_measured_rad" for j in range(1, n + 1)]
+    counted = [f"q{j}_counts" for j in range(1, n + 1)]
+    voltages = [f"u{j}_applied_V" for j in range(1, n + 1)]
+    if all(c in columns for c in measured):
+        position_columns, step = measured, None
+    elif all(c in columns for c in counted):
+        if counts_per_revolution is None:
+            raise ValueError(
+                f"log {path} gives q<j>_counts; the encoder's counts per revolution "
+                "(sensor.encoder_counts) are required to read them"
+            )
+        per_joint = np.broadcast_to(np.asarray(counts_per_revolution, dtype=float), (n,))
+        if np.any(per_joint <= 0):
+            raise ValueError(
+                f"sensor.encoder_counts = {list(per_joint)}; counts per revolution > 0 are "
+                "required to read q<j>_counts"
+            )
+        position_columns, step = counted, 2.0 * np.pi / per_joint
+    else:
+        missing = [c for c in ["time_s", *measured] if c not in columns]
+        raise ValueError(
+            f"log {path} lacks {', '.join(missing)}; time_s, q<j>_measured_rad (or q<j>_counts) "
+            "and u<j>_applied_V per joint are required"
+        )
+    if "time_s" not in columns:
+        raise ValueError(f"log {path} lacks time_s; the sample instants in s are required")
+    try:
+        data = table[["time_s", *position_columns, *voltages]].to_numpy(dtype=float)
+    except ValueError:
+        raise ValueError(f"log {path}: every column read must hold numbers") from None
+    bad = ~np.isfinite(data)
+    if bad.any():
+        row, column = np.argwhere(bad)[0]
+        name = ["time_s", *position_columns, *voltages][column]
+        raise ValueError(
+            f"log {path}: {name} is not finite at row {row + 1} ({data[row, column]!r}); "
+            "finite numbers are required"
+        )
+    if data.shape[0] < MIN_SAMPLES:
+        raise ValueError(
+            f"log {path} has {data.shape[0]} samples; at least {MIN_SAMPLES} are required"
+        )
+    time = data[:, 0]
+    steps = np.diff(time)
+    if np.any(steps <= 0.0):
+        row = int(np.flatnonzero(steps <= 0.0)[0])
+        raise ValueError(
+            f"log {path}: time_s does not increase at row {row + 2} ({time[row]!r} then "
+            f"{time[row + 1]!r}); increasing sample instants are required"
+        )
+    median = float(np.median(steps))
+    spread = float(np.max(np.abs(steps - median)) / median)
+    if spread > EVEN_TOLERANCE:
+        raise ValueError(
+            f"log {path}: time_s is unevenly spaced (steps from {steps.min():g} to "
+            f"{steps.max():g} s); evenly spaced samples (within {EVEN_TOLERANCE:g} of the "
+            "median step) are required"
+        )
+    q = data[:, 1 : n + 1]
+    if step is not None:
+        q = q * step
+    even_time = time[0] + median * np.arange(time.size)
+    return EncoderLog(even_time, q, data[:, n + 1 :], str(path), step)

@@ -1,0 +1,143 @@
+"""``posfb identify plan``: an exciting trajectory for a scenario's arm
+(``models.identification.excitation``, Swevers et al. 1997), written as a CSV that
+``trajectory: !CsvFile`` runs and a drive can play.
+
+The limits come from the scenario: at rest at its trajectory's start ``q_d(0)``; each
+joint within ``excursion`` rad of it and inside the plant URDF's position limits where
+it has finite ones; ``|q'|`` under ``velocity_limit`` (default: the URDF's velocity
+limit where finite, else ``DEFAULT_VELOCITY_LIMIT``); ``|u|`` of the nominal model's
+inverse dynamics under ``actuator.voltage_limit``; sampled at ``timing.sample_time``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from posfb.analysis.identification.identify import theta_nominal
+from posfb.diagrams.resolve import LoadedScenario
+from posfb.models.identification.excitation import (
+    ExcitationPlan,
+    per_sample,
+    plan_excitation,
+    write_trajectory_csv,
+)
+from posfb.models.identification.theta_regressor import theta_regressor
+from posfb.models.lumped import LumpedModel
+
+#: Velocity limit (rad/s) where the URDF gives none.
+DEFAULT_VELOCITY_LIMIT = 2.0
+
+#: Default largest excursion from the rest position (rad).
+DEFAULT_EXCURSION = np.pi / 2
+
+#: Defaults of the plan's length, harmonics and period (s): six 10 s periods.
+DEFAULT_DURATION = 60.0
+DEFAULT_HARMONICS = 5
+DEFAULT_PERIOD = 10.0
+
+
+def _urdf_limits(urdf: str, joints: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The plant URDF's position limits and velocity limits (``inf`` where none)."""
+    from posfb.models.plant import PlantConfig, build_arm_diagram
+
+    _, arm, _ = build_arm_diagram(PlantConfig(urdf=urdf))
+    plant = arm.plant
+    lower, upper, velocity = (np.full(joints, np.inf) * s for s in (-1.0, 1.0, 1.0))
+    for j, name in enumerate(arm.layout.joints):
+        joint = plant.GetJointByName(name)
+        lower[j] = joint.position_lower_limits()[0]
+        upper[j] = joint.position_upper_limits()[0]
+        velocity[j] = joint.velocity_upper_limits()[0]
+    return lower, upper, velocity
+
+
+@dataclass(frozen=True)
+class PlannedExcitation:
+    """A plan for a scenario's arm: the optimiser's ``plan`` and the scenario's name."""
+
+    plan: ExcitationPlan
+    source: str
+
+    def save(self, path: str | Path) -> Path:
+        """Write the plan as a ``!CsvFile`` trajectory (``time_s, q1_rad, ..``)."""
+        return write_trajectory_csv(self.plan, path)
+
+    def as_dict(self) -> dict[str, object]:
+        """What ``posfb identify plan --json`` prints."""
+        plan = self.plan
+        return {
+            "condition_number_start": plan.condition_start,
+            "condition_number": plan.condition,
+            "limits_met": plan.limits_met,
+            "duration_s": plan.duration,
+            "period_s": plan.trajectory.period,
+            "harmonics": plan.trajectory.harmonics,
+            "rest_rad": list(plan.rest),
+            "position_margin_rad": list(plan.position_margin),
+            "peak_velocity_rad_per_s": list(plan.peak_velocity),
+            "peak_voltage_V": list(plan.peak_voltage),
+        }
+
+    def report(self) -> str:
+        """The plan in a few lines: condition number before and after, peaks."""
+        plan = self.plan
+        joints = range(len(plan.rest))
+        lines = [
+            f"excitation for {self.source}: {plan.duration:g} s, {plan.trajectory.harmonics} "
+            f"harmonics of a {plan.trajectory.period:g} s period (Swevers et al. 1997)",
+            f"condition number of the scaled regressor: {plan.condition_start:.3g} at the "
+            f"random start -> {plan.condition:.3g}",
+            "limits " + ("met" if plan.limits_met else "NOT met") + " at every sample:",
+        ]
+        for j in joints:
+            lines.append(
+                f"  joint {j + 1}: max |q'| {plan.peak_velocity[j]:.3g} rad/s, max |u| "
+                f"{plan.peak_voltage[j]:.3g} V, closest to a joint limit "
+                f"{plan.position_margin[j]:.3g} rad"
+            )
+        return "\n".join(lines)
+
+
+def plan_for_scenario(
+    loaded: LoadedScenario,
+    *,
+    duration: float = DEFAULT_DURATION,
+    harmonics: int = DEFAULT_HARMONICS,
+    period: float | None = DEFAULT_PERIOD,
+    seed: int = 0,
+    excursion: float | None = None,
+    velocity_limit: float | None = None,
+) -> PlannedExcitation:
+    """The exciting trajectory for the scenario's arm (module docstring)."""
+    nominal, config = theta_nominal(loaded)
+    excursion = DEFAULT_EXCURSION if excursion is None else excursion
+    if not (np.isfinite(excursion) and excursion > 0.0):
+        raise ValueError(f"excursion = {excursion!r} rad; a finite value > 0 is required")
+    joints = config.joints
+    rest = np.asarray(config.trajectory.evaluate(0.0)[0], dtype=float)
+    lower, upper, urdf_velocity = _urdf_limits(config.plant.urdf, joints)
+    lower = np.maximum(lower, rest - excursion)
+    upper = np.minimum(upper, rest + excursion)
+    if velocity_limit is None:
+        velocity = np.where(np.isfinite(urdf_velocity), urdf_velocity, DEFAULT_VELOCITY_LIMIT)
+    else:
+        velocity = np.full(joints, velocity_limit, dtype=float)
+    model = LumpedModel(nominal)
+    plan = plan_excitation(
+        lambda q, v, a: theta_regressor(q, v, a, nominal.l1, nominal.g),
+        per_sample(model.inverse_dynamics),
+        joints=joints,
+        rest=rest,
+        duration=duration,
+        harmonics=harmonics,
+        base_period=period,
+        sample_time=config.sample_time,
+        joint_limits=(lower, upper),
+        velocity_limit=velocity,
+        voltage_limit=np.asarray(config.voltage_limit, dtype=float),
+        seed=seed,
+    )
+    return PlannedExcitation(plan, loaded.source)
