@@ -345,7 +345,10 @@ def make_nominal(settings: NominalModel, base_dir: Path) -> NominalForm:
     if isinstance(settings, Identified):
         if not settings.file:
             raise ValueError("!Identified needs file: the model posfb identify --out wrote")
-        model = load_model(resolve_path(settings.file, base_dir))
+        path = resolve_path(settings.file, base_dir)
+        model = load_model(path)
+        if model.kind == "urdf":
+            return UrdfNominal(str(path.parent / model.urdf))
         return LumpedParameters.from_theta(np.asarray(model.values), l1=model.l1, g=model.g)
     return identify_urdf(str(resolve_path(settings.urdf, base_dir)), settings.payload_mass)
 

@@ -16,13 +16,10 @@ from scipy.interpolate import CubicSpline
 import posfb
 from helpers.identification_logs import perturbed_parameters, simulated_log, true_theta
 from posfb.analysis.identification.log import read_log
+from posfb.models.identification.checks import IDENTIFIABLE_RELATIVE_STD
 from posfb.models.identification.estimate import Estimate
 from posfb.models.identification.model_file import load_model
-from posfb.models.identification.theta import (
-    IDENTIFIABLE_RELATIVE_STD,
-    bounded_model_values,
-    identify_theta,
-)
+from posfb.models.identification.theta import bounded_model_values, identify_theta
 from posfb.models.identification.theta_regressor import THETA_NAMES, theta_regressor
 from posfb.models.lumped import TABLE1, LumpedModel
 
@@ -218,3 +215,39 @@ def test_a_broken_model_file_is_one_line(tmp_path):
     scenario.write_text("nominal_model: !Identified {file: model.yaml}\n")
     with pytest.raises(ValueError, match="model.yaml: names, values and std"):
         posfb.load_scenario(scenario)
+
+
+@pytest.mark.slow
+def test_a_study_out_runs_a_montecarlo_study_and_tunes(plan_csv, tmp_path):
+    """``identify --study-out`` -> ``montecarlo run`` -> ``tune --study`` end to end
+    (issue 29): the study's plants are drawn from the identification's uncertainty,
+    its controllers use the identified model."""
+    parameters = perturbed_parameters(12)
+    log = simulated_log(tmp_path, "experiment", plan_csv, parameters, duration=30.0)
+    model, study = tmp_path / "model.yaml", tmp_path / "study.yaml"
+    identified = subprocess.run(
+        [*CLI, "identify", "--log", str(log), "--scenario", str(tmp_path / "experiment.yaml"),
+         "--out", str(model), "--study-out", str(study), "--study-samples", "2"],
+        capture_output=True, text=True, timeout=300,
+    )  # fmt: skip
+    assert identified.returncode == 0, identified.stderr
+    study.write_text(study.read_text() + "duration: 1.0\n")
+    run = subprocess.run(
+        [*CLI, "montecarlo", "run", str(study), "--db", str(tmp_path / "mc.sqlite"),
+         "--workers", "1", "--no-progress"],
+        capture_output=True, text=True, timeout=300,
+    )  # fmt: skip
+    assert run.returncode == 0, run.stderr
+    assert "2 of 2 samples" in run.stdout + run.stderr
+    scenario = tmp_path / "tune_me.yaml"
+    scenario.write_text(
+        f"nominal_model: !Identified {{file: {model}}}\ntiming: {{duration: 2}}\nplant:\n"
+        + (tmp_path / "experiment.yaml").read_text().split("plant:\n")[1]
+    )
+    tuned = subprocess.run(
+        [*CLI, "tune", str(scenario), "--study", str(study), "--plants", "5", "--rounds", "1",
+         "--epsilon", "0.2", "--beta", "0.01", "--out", str(tmp_path / "tuned.yaml")],
+        capture_output=True, text=True, timeout=600,
+    )  # fmt: skip
+    assert tuned.returncode == 0, tuned.stderr
+    assert (tmp_path / "tuned.yaml").is_file()

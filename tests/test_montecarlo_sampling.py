@@ -88,3 +88,61 @@ def test_overrides_pin_one_sample(nominal):
     assert pinned.parameters.motor_constant == (0.5, 0.25) and pinned.encoder_counts == 0
     assert pinned.parameters.link_mass == sample_plant(base, nominal, 2).parameters.link_mass
     assert sample_plant(study, nominal, 1) == sample_plant(base, nominal, 1)
+
+
+POSTERIOR_STUDY = """\
+seed: 3
+samples: 4000
+duration: 1.0
+controllers: [pid]
+posterior:
+  keys: ['link_mass[0]', 'damping[1]', 'motor_constant[1]']
+  mean: [0.1, -0.05, 0.0]
+  covariance:
+  - [0.04, 0.012, 0.0]
+  - [0.012, 0.01, -0.003]
+  - [0.0, -0.003, 0.0025]
+"""
+
+
+def test_a_posterior_draws_correlated_log_normal_plants(nominal):
+    """``posterior``: ``log(p / p_base)`` of 4000 samples has the stated mean and
+    covariance (within 5 standard errors of the sample estimates; standard error of a
+    covariance entry ``sqrt((s_ii s_jj + s_ij^2) / N)``), every other entry stays."""
+    study = study_from_text(POSTERIOR_STUDY)
+    plants = [sample_plant(study, nominal, i).parameters for i in range(study.samples)]
+    logs = np.array(
+        [
+            [
+                np.log(p.link_mass[0] / nominal.link_mass[0]),
+                np.log(p.damping[1] / nominal.damping[1]),
+                np.log(p.motor_constant[1] / nominal.motor_constant[1]),
+            ]
+            for p in plants
+        ]
+    )
+    mean = np.array(study.posterior.mean)
+    covariance = np.array(study.posterior.covariance)
+    n = logs.shape[0]
+    assert np.all(np.abs(logs.mean(axis=0) - mean) < 5 * np.sqrt(np.diag(covariance) / n))
+    error = np.sqrt((np.outer(np.diag(covariance), np.diag(covariance)) + covariance**2) / n)
+    assert np.all(np.abs(np.cov(logs.T) - covariance) < 5 * error)
+    assert all(p.link_mass[1] == nominal.link_mass[1] for p in plants)
+    assert all(p.coulomb == nominal.coulomb for p in plants)
+
+
+@pytest.mark.parametrize(
+    ("change", "needle"),
+    [
+        ("keys: ['link_mass[0]', 'damping[1]', 'motor_constant[1]']",
+         "keys: ['link_mass[0]', 'damping[7]', 'motor_constant[1]']"),
+        ("mean: [0.1, -0.05, 0.0]", "mean: [0.1, -0.05]"),
+        ("  - [0.0, -0.003, 0.0025]", "  - [0.0, -0.003, -1.0]"),
+    ],
+)  # fmt: skip
+def test_a_bad_posterior_is_refused_naming_its_key(change, needle):
+    text = POSTERIOR_STUDY.replace(change, needle)
+    with pytest.raises(ValueError, match="posterior"):
+        study_from_text(text)
+    with pytest.raises(ValueError, match="sampling: random"):
+        study_from_text(POSTERIOR_STUDY + "sampling: sobol\n")

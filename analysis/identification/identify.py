@@ -2,15 +2,19 @@
 uncertainty, warnings and (given a second log) its validation (issue 29).
 
 The arm is the scenario's: where its nominal model is theta of Sec. 4.1 (``!Table1``,
-``!Theta``, ``!IdentifiedFromUrdf``, ``!Identified``) the log identifies theta_1..theta_11
-of Eq. 4 in volts (``models.identification.theta``) with the nominal model's ``l1`` and
-``g``. The encoder's step for the coarse-encoder check comes from the log's counts
-where it gives them, else from the scenario's ``sensor.encoder_counts``.
+``!Theta``, ``!IdentifiedFromUrdf``, ``!Identified`` of theta) the log identifies
+theta_1..theta_11 of Eq. 4 in volts (``models.identification.theta``) with the nominal
+model's ``l1`` and ``g``; where it is a URDF (``!UrdfModel``, ``!Identified`` of a URDF)
+the base parameters of that arm in torque units, with its motor constants, and the
+closest physically consistent arm (``models.identification.serial``), which ``save``
+writes as a URDF beside the model file. The encoder's step for the coarse-encoder check
+comes from the log's counts where it gives them, else from the scenario's
+``sensor.encoder_counts``.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
@@ -18,8 +22,14 @@ import numpy as np
 from posfb.analysis.identification.log import EncoderLog, read_log
 from posfb.diagrams.closed_loop import ClosedLoopConfig
 from posfb.diagrams.resolve import LoadedScenario, resolve
-from posfb.models.identification.estimate import FilterSettings
-from posfb.models.identification.model_file import save_model
+from posfb.models.identification.consistent import write_urdf
+from posfb.models.identification.estimate import Estimate, FilterSettings
+from posfb.models.identification.model_file import IdentifiedModelFile, save_model
+from posfb.models.identification.serial import (
+    SerialIdentification,
+    SerialModel,
+    identify_serial,
+)
 from posfb.models.identification.theta import ThetaIdentification, identify_theta
 from posfb.models.identification.theta_regressor import theta_regressor
 from posfb.models.identification.validation import DEFAULT_WINDOW, Validation, validate
@@ -28,24 +38,44 @@ from posfb.models.lumped import LumpedParameters
 
 @dataclass(frozen=True)
 class Identification:
-    """The outcome of ``identify_log``: the log, the theta identification and, where a
-    second log was given, its ``validation``."""
+    """The outcome of ``identify_log``: the scenario, the log, the theta identification
+    and, where a second log was given, its ``validation``."""
 
+    scenario: LoadedScenario
     log: EncoderLog
-    theta: ThetaIdentification
+    theta: ThetaIdentification | None = None
+    serial: SerialIdentification | None = None
     validation: Validation | None = None
 
     @property
+    def estimate(self) -> Estimate:
+        return self.theta.estimate if self.theta is not None else self.serial.estimate
+
+    @property
+    def model_values(self) -> np.ndarray:
+        """The parameters of the model written: bounded theta, or the consistent arm's
+        base parameters."""
+        if self.theta is not None:
+            return self.theta.model_values
+        return self.serial.model_values
+
+    @property
     def warnings(self) -> tuple[str, ...]:
-        return self.theta.warnings
+        return self.theta.warnings if self.theta is not None else self.serial.warnings
 
     def as_dict(self) -> dict[str, object]:
-        """What ``posfb identify --log ... --json`` prints."""
-        estimate = self.theta.estimate
-        result: dict[str, object] = dict(estimate.as_dict())
+        """What ``posfb identify --log ... --json`` prints: for the paper's arm
+        ``theta1`` .. ``theta11`` at the top level, for a URDF arm ``parameters``; then
+        ``std``, ``model`` (the values the model holds) and the common keys."""
+        estimate = self.estimate
+        result: dict[str, object] = {}
+        if self.theta is not None:
+            result.update(estimate.as_dict())
+        else:
+            result["parameters"] = estimate.as_dict()
         result["std"] = estimate.std_dict()
         result["model"] = {
-            name: float(v) for name, v in zip(estimate.names, self.theta.model_values, strict=True)
+            name: float(v) for name, v in zip(estimate.names, self.model_values, strict=True)
         }
         result["condition_number"] = estimate.condition_number
         result["cutoff_hz"] = estimate.cutoff_hz
@@ -63,13 +93,57 @@ class Identification:
         return result
 
     def save(self, path: str | Path) -> None:
-        """Write the model file ``nominal_model: !Identified {file: ...}`` reads."""
-        save_model(self.theta.model_file(self.log.source), Path(path))
+        """Write the model file ``nominal_model: !Identified {file: ...}`` reads (for a
+        URDF arm, with the consistent arm's URDF beside it: ``MODEL.urdf``)."""
+        path = Path(path)
+        if self.theta is not None:
+            save_model(self.theta.model_file(self.log.source), path)
+            return
+        urdf = path.with_suffix(".urdf")
+        write_urdf(
+            self.serial.model.urdf, self.serial.consistent, urdf,
+            motor_constant=self.serial.motor_constant,
+        )  # fmt: skip
+        estimate = self.estimate
+        save_model(
+            IdentifiedModelFile(
+                kind="urdf",
+                names=list(estimate.names),
+                values=[float(v) for v in self.model_values],
+                std=[float(s) for s in estimate.std],
+                covariance=[[float(c) for c in row] for row in estimate.covariance],
+                urdf=urdf.name,
+                log=self.log.source,
+                condition_number=estimate.condition_number,
+                cutoff_hz=estimate.cutoff_hz,
+                warnings=list(self.warnings),
+            ),
+            path,
+        )
+
+    def save_study(
+        self, path: str | Path, *, model: str | Path | None = None, samples: int = 100
+    ) -> Path:
+        """Write a Monte-Carlo study whose ``samples`` plants are drawn from this
+        identification's uncertainty (``analysis.identification.study_out``); with
+        ``model`` (a file ``save`` wrote) its controllers use the identified model."""
+        from posfb.analysis.identification.study_out import plant_posterior, write_study
+
+        if not (isinstance(samples, int) and samples > 0):
+            raise ValueError(f"samples = {samples!r}; an integer > 0 is required")
+        posterior = plant_posterior(self, self.scenario)
+        return write_study(
+            posterior,
+            self.scenario,
+            Path(path),
+            model=None if model is None else Path(model),
+            samples=samples,
+        )
 
     def report(self) -> str:
         """The estimate as a table (value, standard error, relative), the condition
         number, the validation and the warnings."""
-        estimate = self.theta.estimate
+        estimate = self.estimate
         lines = [
             f"identified from {self.log.source}: {self.log.time.size} samples at "
             f"{self.log.sample_time:g} s, filters at {estimate.cutoff_hz:g} Hz, rows used per "
@@ -82,12 +156,21 @@ class Identification:
             estimate.values,
             estimate.std,
             estimate.relative_std,
-            self.theta.model_values,
+            self.model_values,
             strict=True,
         ):
             lines.append(
                 f"{name:8s} {value:12.6g} {std:10.3g} {100 * min(relative, 1e6):8.2f}% "
                 f"{model:12.6g}"
+            )
+        if self.serial is not None:
+            lines += [f"  {name} = {text}" for name, text in zip(
+                estimate.names, self.serial.model.base.descriptions, strict=False
+            )]  # fmt: skip
+            lines.append(
+                "motor constants (joint 1's nominal, the others identified): "
+                + ", ".join(f"{k:.4g}" for k in self.serial.motor_constant)
+                + " N m/V"
             )
         if self.validation is not None:
             checked = self.validation
@@ -110,18 +193,12 @@ class Identification:
         validation_figure(self.validation, Path(path))
 
 
-def theta_nominal(loaded: LoadedScenario) -> tuple[LumpedParameters, ClosedLoopConfig]:
-    """The scenario's theta nominal model and its closed-loop settings; any other
-    nominal model is refused (one line)."""
-    config = resolve(loaded).config
-    nominal = config.design.nominal
-    if not isinstance(nominal, LumpedParameters):
-        raise ValueError(
-            f"nominal_model of {loaded.source} is not theta of Sec. 4.1 (!Table1, !Theta, "
-            "!IdentifiedFromUrdf or !Identified); identification from a log and its plan "
-            "are built for the paper's two-joint theta model"
-        )
-    return nominal, config
+def serial_model(config: ClosedLoopConfig) -> SerialModel:
+    """The regressor of the scenario's URDF nominal model (``!UrdfModel``)."""
+    from posfb.models.plant import PlantConfig, build_arm_diagram
+
+    _, arm, context = build_arm_diagram(PlantConfig(urdf=config.design.nominal.urdf))
+    return SerialModel.of_arm(arm, context, urdf=config.design.nominal.urdf)
 
 
 def identify_log(
@@ -132,34 +209,43 @@ def identify_log(
     settings: FilterSettings | None = None,
     window: float = DEFAULT_WINDOW,
 ) -> Identification:
-    """theta of the scenario's arm from ``log`` (module docstring), validated on
+    """The scenario's arm from ``log`` (module docstring), validated on
     ``validation_log`` when given."""
     settings = settings or FilterSettings()
-    nominal, config = theta_nominal(loaded)
+    config = resolve(loaded).config
     counts = tuple(config.sensor.encoder_counts)
-    record = read_log(log, joints=2, counts_per_revolution=counts)
+    record = read_log(log, joints=config.joints, counts_per_revolution=counts)
     step = record.quantisation_step
     if step is None and all(c > 0 for c in counts):
         step = 2.0 * np.pi / np.asarray(counts, dtype=float)
-    theta = identify_theta(
-        record.time,
-        record.q,
-        record.u,
-        l1=nominal.l1,
-        g=nominal.g,
-        quantisation_step=step,
-        settings=settings,
+    second = (
+        None
+        if validation_log is None
+        else read_log(validation_log, joints=config.joints, counts_per_revolution=counts)
     )
-    checked = None
-    if validation_log is not None:
-        second = read_log(validation_log, joints=2, counts_per_revolution=counts)
-        checked = validate(
-            second.time,
-            second.q,
-            second.u,
-            lambda q, v, a: theta_regressor(q, v, a, nominal.l1, nominal.g),
-            theta.model_values,
-            settings=settings,
-            window=window,
+    nominal = config.design.nominal
+    if isinstance(nominal, LumpedParameters):
+        theta = identify_theta(
+            record.time, record.q, record.u, l1=nominal.l1, g=nominal.g,
+            quantisation_step=step, settings=settings,
+        )  # fmt: skip
+        result = Identification(loaded, record, theta=theta)
+        regressor, target = (
+            lambda q, v, a: theta_regressor(q, v, a, nominal.l1, nominal.g)
+        ), None
+    else:
+        model = serial_model(config)
+        serial = identify_serial(
+            model, record.time, record.q, record.u, quantisation_step=step, settings=settings
         )
-    return Identification(record, theta, checked)
+        result = Identification(loaded, record, serial=serial)
+        size = model.base.size
+        regressor, target = model.columns, serial.torque
+    values = result.model_values if result.theta is not None else result.model_values[:size]
+    if second is None:
+        return result
+    checked = validate(
+        second.time, second.q, second.u, regressor, values,
+        target=target, settings=settings, window=window,
+    )  # fmt: skip
+    return replace(result, validation=checked)

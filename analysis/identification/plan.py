@@ -6,7 +6,9 @@ The limits come from the scenario: at rest at its trajectory's start ``q_d(0)``;
 joint within ``excursion`` rad of it and inside the plant URDF's position limits where
 it has finite ones; ``|q'|`` under ``velocity_limit`` (default: the URDF's velocity
 limit where finite, else ``DEFAULT_VELOCITY_LIMIT``); ``|u|`` of the nominal model's
-inverse dynamics under ``actuator.voltage_limit``; sampled at ``timing.sample_time``.
+inverse dynamics under ``actuator.voltage_limit``; sampled at ``timing.sample_time``. The
+regressor is theta's for the paper's arm, a URDF arm's base-parameter regressor else
+(``models.identification.serial``).
 """
 
 from __future__ import annotations
@@ -16,8 +18,8 @@ from pathlib import Path
 
 import numpy as np
 
-from posfb.analysis.identification.identify import theta_nominal
-from posfb.diagrams.resolve import LoadedScenario
+from posfb.analysis.identification.identify import serial_model
+from posfb.diagrams.resolve import LoadedScenario, resolve
 from posfb.models.identification.excitation import (
     ExcitationPlan,
     per_sample,
@@ -25,7 +27,7 @@ from posfb.models.identification.excitation import (
     write_trajectory_csv,
 )
 from posfb.models.identification.theta_regressor import theta_regressor
-from posfb.models.lumped import LumpedModel
+from posfb.models.lumped import LumpedModel, LumpedParameters
 
 #: Velocity limit (rad/s) where the URDF gives none.
 DEFAULT_VELOCITY_LIMIT = 2.0
@@ -112,7 +114,15 @@ def plan_for_scenario(
     velocity_limit: float | None = None,
 ) -> PlannedExcitation:
     """The exciting trajectory for the scenario's arm (module docstring)."""
-    nominal, config = theta_nominal(loaded)
+    config = resolve(loaded).config
+    nominal = config.design.nominal
+    if isinstance(nominal, LumpedParameters):
+        model = LumpedModel(nominal)
+        regressor = lambda q, v, a: theta_regressor(q, v, a, nominal.l1, nominal.g)  # noqa: E731
+        voltage = per_sample(model.inverse_dynamics)
+    else:
+        serial = serial_model(config)
+        regressor, voltage = serial.columns, serial.voltage
     excursion = DEFAULT_EXCURSION if excursion is None else excursion
     if not (np.isfinite(excursion) and excursion > 0.0):
         raise ValueError(f"excursion = {excursion!r} rad; a finite value > 0 is required")
@@ -125,10 +135,9 @@ def plan_for_scenario(
         velocity = np.where(np.isfinite(urdf_velocity), urdf_velocity, DEFAULT_VELOCITY_LIMIT)
     else:
         velocity = np.full(joints, velocity_limit, dtype=float)
-    model = LumpedModel(nominal)
     plan = plan_excitation(
-        lambda q, v, a: theta_regressor(q, v, a, nominal.l1, nominal.g),
-        per_sample(model.inverse_dynamics),
+        regressor,
+        voltage,
         joints=joints,
         rest=rest,
         duration=duration,

@@ -142,9 +142,27 @@ def draw(
     return nominal * (1.0 + x) if distribution.relative else x
 
 
+def _draw_posterior(
+    study: Study, nominal: ArmParameters, index: int, values: dict[str, list[float]]
+) -> None:
+    """Replace the posterior's keys in ``values`` by one correlated log-normal draw
+    around ``nominal`` (``Study.posterior``), from a stream of its own (the slot after
+    every scalar's and ``draws``')."""
+    posterior = study.posterior
+    slot = len(slots(study_joints(study))) + len(study.draws)
+    normal = stream(study.seed, index, slot).standard_normal(len(posterior.keys))
+    covariance = np.asarray(posterior.covariance, dtype=float)
+    eigenvalues, vectors = np.linalg.eigh(covariance)
+    root = vectors * np.sqrt(np.clip(eigenvalues, 0.0, None))
+    logs = np.asarray(posterior.mean, dtype=float) + root @ normal
+    for (name, joint), log in zip(posterior.entries(), logs, strict=True):
+        values[name][joint] = float(getattr(nominal, name)[joint] * np.exp(log))
+
+
 def sample_plant(study: Study, nominal: ArmParameters, index: int) -> SampledPlant:
     """The plant of sample ``index``: draws from ``study.parameters`` around ``nominal``
-    (the URDF's values), the encoder resolution, then ``study.overrides``."""
+    (the URDF's values), the encoder resolution, ``study.posterior``'s correlated draw,
+    then ``study.overrides``."""
     joints = study_joints(study)
     values: dict[str, list[float]] = {name: [0.0] * joints for name in JOINT_PARAMETERS}
     point = unit_point(study, index)
@@ -161,6 +179,8 @@ def sample_plant(study: Study, nominal: ArmParameters, index: int) -> SampledPla
         else:
             distribution = study.parameters.for_joint(name, joint)
             values[name][joint] = draw(distribution, getattr(nominal, name)[joint], rng, u)
+    if study.posterior is not None:
+        _draw_posterior(study, nominal, index, values)
     for override in study.overrides:
         if override.sample != index:
             continue

@@ -68,6 +68,7 @@ from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import ClassVar
 
+import numpy as np
 import scipy.stats
 from pydrake.common.yaml import yaml_dump_typed
 
@@ -186,6 +187,28 @@ ParameterDistributions = dataclasses.make_dataclass(
 
 
 @dataclass
+class Posterior:
+    """Correlated draws of the physical plant: ``log(p / p_base) ~ N(mean, covariance)``
+    over ``keys`` (``ArmParameters`` entries as ``link_mass[0]``, one per joint entry),
+    with ``p_base`` the base scenario's true arm; the Laplace approximation of an
+    identification's uncertainty (``posfb identify --study-out``). Drawn after
+    ``parameters`` (the keys it names replace their draws), before ``overrides``; only
+    with ``sampling: random``."""
+
+    keys: list[str] = field(default_factory=list)
+    mean: list[float] = field(default_factory=list)
+    covariance: list[list[float]] = field(default_factory=list)
+
+    def entries(self) -> list[tuple[str, int]]:
+        """``keys`` as ``(field, joint)``."""
+        out = []
+        for key in self.keys:
+            name, _, rest = key.partition("[")
+            out.append((name, int(rest.rstrip("]")) if rest.rstrip("]").isdigit() else -1))
+        return out
+
+
+@dataclass
 class SampleOverride:
     """Absolute values for sample ``sample``: keys are ``ArmParameters`` fields (one
     value per joint for a per-joint field, one for ``payload_mass``) or
@@ -234,6 +257,7 @@ class Study:
     parameters: ParameterDistributions = field(default_factory=ParameterDistributions)
     draws: dict[str, Distribution] = field(default_factory=dict)
     overrides: list[SampleOverride] = field(default_factory=list)
+    posterior: Posterior | None = None
     alpha_star: float | None = None
     entries: dict[str, ControllerSection] = field(default_factory=dict)
 
@@ -247,6 +271,7 @@ class Study:
             len(set(self.encoder_counts)) > 1
             or any(is_random(d) for d in physical)
             or any(is_random(d) for d in self.draws.values())
+            or (self.posterior is not None and bool(self.posterior.keys))
         )
 
     def base_scenario(self) -> Scenario:
@@ -581,9 +606,46 @@ def validate_study(study: Study) -> Study:
         _check_override(position, override, study_joints(study))
     samples = [override.sample for override in study.overrides]
     _require(len(set(samples)) == len(samples), "overrides name a sample twice")
+    if study.posterior is not None:
+        _check_posterior(study.posterior, study_joints(study), study.sampling)
     if study.sampling == "saltelli":
         _check_saltelli(study)
     return study
+
+
+def _check_posterior(posterior: Posterior, joints: int, sampling: str) -> None:
+    """Keys of per-joint physical parameters, once each; a mean per key; a symmetric
+    positive semi-definite covariance of that size; random sampling."""
+    size = len(posterior.keys)
+    _require(size > 0, "posterior.keys is empty; name at least one parameter")
+    _require(
+        sampling == "random",
+        f"posterior with sampling = {sampling!r}; sampling: random is required (a "
+        "correlated draw has no unit-cube design)",
+    )
+    for key, (name, joint) in zip(posterior.keys, posterior.entries(), strict=True):
+        _require(
+            name in JOINT_PARAMETERS and 0 <= joint < joints,
+            f"posterior.keys has {key!r}; a per-joint parameter with its joint, e.g. "
+            f"link_mass[0] ({', '.join(JOINT_PARAMETERS)}; joints 0..{joints - 1}), is required",
+        )
+    _require(len(set(posterior.keys)) == size, "posterior.keys names a parameter twice")
+    _require(
+        len(posterior.mean) == size and all(math.isfinite(m) for m in posterior.mean),
+        f"posterior.mean has {len(posterior.mean)} entries; {size} finite values (one per "
+        "key) are required",
+    )
+    matrix = np.asarray(posterior.covariance, dtype=float)
+    _require(
+        matrix.shape == (size, size) and bool(np.all(np.isfinite(matrix))),
+        f"posterior.covariance must be {size} x {size} (one row per key), finite",
+    )
+    scale = max(1.0, float(np.abs(matrix).max()))
+    _require(
+        np.allclose(matrix, matrix.T, rtol=1e-9, atol=1e-15)
+        and float(np.linalg.eigvalsh(matrix).min()) >= -1e-12 * scale,
+        "posterior.covariance must be symmetric positive semi-definite",
+    )
 
 
 def _check_saltelli(study: Study) -> None:

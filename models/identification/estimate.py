@@ -189,16 +189,22 @@ def fit_log(
     *,
     coulomb: Mapping[int, int],
     target: Callable[[np.ndarray], np.ndarray] | None = None,
+    voltage_columns: Callable[[np.ndarray], np.ndarray] | None = None,
     settings: FilterSettings | None = None,
 ) -> Estimate:
     """The estimate of the parameters ``names`` of ``y = regressor(q, q', q'') p`` from a
     log (module docstring). ``coulomb`` maps a Coulomb parameter's index to its joint;
-    ``target`` maps the aligned voltages ``(N, n)`` to ``y`` (default: ``y = u``)."""
+    ``target`` maps the aligned voltages ``(N, n)`` to ``y`` (default: ``y = u``);
+    ``voltage_columns`` (``(N, n) -> (N, n, k)``) appends regressor columns made of the
+    aligned voltages (a motor constant's unknown ratio), filtered alike."""
     settings = settings or FilterSettings()
     motion = filtered_motion(time, q_measured, voltage, settings)
     sample_time = float(time[1] - time[0])
     sos = lowpass(motion.cutoff_hz, sample_time)
-    Y = scipy.signal.sosfiltfilt(sos, regressor(motion.q, motion.qdot, motion.qddot), axis=0)
+    Y = regressor(motion.q, motion.qdot, motion.qddot)
+    if voltage_columns is not None:
+        Y = np.concatenate([Y, voltage_columns(motion.voltage)], axis=2)
+    Y = scipy.signal.sosfiltfilt(sos, Y, axis=0)
     y = motion.voltage if target is None else target(motion.voltage)
     y = scipy.signal.sosfiltfilt(sos, y, axis=0)
     kept = kept_samples(motion)

@@ -5,8 +5,11 @@
 the controllers use: the weighted least-squares estimate, bounded where a value left
 its physical sign, ``models.identification.theta``), their standard errors ``std``,
 the covariance of the estimate (``covariance``, in ``names`` order) and the ``l1``,
-``g`` the regressor used; ``log``, ``condition_number``, ``cutoff_hz`` and
-``warnings`` say where it came from. Read and written with Drake's typed YAML.
+``g`` the regressor used. ``kind: urdf`` holds a serial arm's base parameters (torque
+units, ``names`` are their pivot parameters) and ``urdf``, the physically consistent
+arm written beside the file (relative to it), which the controllers use. ``log``,
+``condition_number``, ``cutoff_hz`` and ``warnings`` say where it came from. Read and
+written with Drake's typed YAML.
 """
 
 # No "from __future__ import annotations": Drake's YAML reads the field types at runtime.
@@ -17,7 +20,7 @@ from pathlib import Path
 from pydrake.common.yaml import yaml_dump_typed, yaml_load_typed
 
 #: The kinds of identified model a file can hold.
-MODEL_KINDS = ("theta",)
+MODEL_KINDS = ("theta", "urdf")
 
 
 @dataclass
@@ -31,6 +34,7 @@ class IdentifiedModelFile:
     covariance: list[list[float]] = field(default_factory=list)
     l1: float = 0.0
     g: float = 0.0
+    urdf: str = ""
     log: str = ""
     condition_number: float = 0.0
     cutoff_hz: float = 0.0
@@ -48,6 +52,8 @@ class IdentifiedModelFile:
             )
         if len(self.covariance) != size or any(len(row) != size for row in self.covariance):
             raise ValueError(f"{source}: covariance must be {size} x {size} (one row per name)")
+        if (self.kind == "urdf") != bool(self.urdf):
+            raise ValueError(f"{source}: urdf is required with kind: urdf, and only with it")
         return self
 
 

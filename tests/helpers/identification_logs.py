@@ -11,13 +11,15 @@ import numpy as np
 
 import posfb
 from posfb.models.identify import identify
-from posfb.models.plant import ArmParameters, build_arm_diagram
+from posfb.models.plant import ArmParameters, PlantConfig, build_arm_diagram
 
 
-def perturbed_parameters(seed: int, spread: float = 0.15) -> ArmParameters:
-    """The shipped arm's parameters, each per-joint value times ``1 + U(-spread, spread)``
-    (seeded; the payload stays 0)."""
-    _, arm, _ = build_arm_diagram()
+def perturbed_parameters(
+    seed: int, spread: float = 0.15, urdf: Path | None = None
+) -> ArmParameters:
+    """The parameters of the arm ``urdf`` (default: the shipped two-link arm), each
+    per-joint value times ``1 + U(-spread, spread)`` (seeded; the payload stays 0)."""
+    _, arm, _ = build_arm_diagram(None if urdf is None else PlantConfig(urdf=str(urdf)))
     defaults = arm.default_parameters
     rng = np.random.default_rng(seed)
     changes = {}
@@ -37,14 +39,17 @@ def true_theta(parameters: ArmParameters) -> np.ndarray:
     return identify(arm, context).theta
 
 
-def scenario_text(trajectory: Path, parameters: ArmParameters, counts: int, duration: float) -> str:
-    """A scenario running ``trajectory`` (a ``!CsvFile``) on the arm with ``parameters``."""
+def scenario_text(
+    trajectory: Path, parameters: ArmParameters, counts: int, duration: float, base: str = ""
+) -> str:
+    """A scenario running ``trajectory`` (a ``!CsvFile``) on the arm with ``parameters``,
+    after the text ``base`` (e.g. a scenario of another arm, without those keys)."""
     overrides = ", ".join(
         f"{f.name}: {list(getattr(parameters, f.name))}"
         for f in fields(parameters)
         if f.name != "payload_mass"
     )
-    return (
+    return base + (
         f"trajectory: !CsvFile {{path: {trajectory}}}\n"
         f"timing: {{duration: {duration}}}\n"
         f"sensor: {{encoder_counts: [{counts}]}}\n"
@@ -61,10 +66,11 @@ def simulated_log(
     counts: int = 20000,
     duration: float = 60.0,
     controller: str = "lin_lc",
+    base: str = "",
 ) -> Path:
     """Run the scenario with ``controller`` and write its log ``folder/name.csv``."""
     scenario = folder / f"{name}.yaml"
-    scenario.write_text(scenario_text(trajectory, parameters, counts, duration))
+    scenario.write_text(scenario_text(trajectory, parameters, counts, duration, base))
     log = folder / f"{name}.csv"
     posfb.simulate(scenario, controller).save(log)
     return log

@@ -46,6 +46,11 @@ def configure(parser: argparse.ArgumentParser) -> None:
                         help="a second log of the same arm to validate the model on")
     parser.add_argument("--out", type=Path, metavar="MODEL.yaml",
                         help="write the model (nominal_model: !Identified {file: ...})")
+    parser.add_argument("--study-out", type=Path, metavar="STUDY.yaml",
+                        help="write a Monte-Carlo study whose plants are drawn from the "
+                        "identification's uncertainty (for montecarlo run, tune --study)")
+    parser.add_argument("--study-samples", type=int, default=100, metavar="N",
+                        help="samples of --study-out's study (default 100)")
     parser.add_argument("--figure", type=Path, metavar="FILE",
                         help="with --validate: measured against predicted (.svg or .png)")
     parser.add_argument("--cutoff", type=_positive, metavar="HZ",
@@ -95,7 +100,7 @@ def _exact(args: argparse.Namespace) -> int:
 def run(args: argparse.Namespace) -> int:
     if args.log is None:
         given = [f for f in ("validate", "out", "figure", "cutoff", "stiction_velocity",
-                             "window") if getattr(args, f) is not None]  # fmt: skip
+                             "window", "study_out") if getattr(args, f) is not None]  # fmt: skip
         if given:
             raise UsageError(f"--{given[0].replace('_', '-')} needs --log")
         return _exact(args)
@@ -105,6 +110,8 @@ def run(args: argparse.Namespace) -> int:
         )
     if args.figure is not None and args.validate is None:
         raise UsageError("--figure needs --validate (it draws the validation)")
+    if args.study_samples < 1:
+        raise UsageError(f"--study-samples = {args.study_samples}; at least 1 is required")
     from posfb.analysis.api import identify
 
     result = identify(
@@ -119,11 +126,13 @@ def run(args: argparse.Namespace) -> int:
         result.save(args.out)
     if args.figure is not None:
         result.figure(args.figure)
+    if args.study_out is not None:
+        result.save_study(args.study_out, model=args.out, samples=args.study_samples)
     if args.json:
         print(json.dumps(result.as_dict()))
         return 0
     print(result.report())
-    for path in (args.out, args.figure):
+    for path in (args.out, args.figure, args.study_out):
         if path is not None:
             print(f"wrote {path}")
     return 0
