@@ -26,7 +26,8 @@ from posfb.analysis.common.errors import (
 #: Subcommand (a module of ``posfb.analysis.cli.commands`` with ``configure(parser)``) -> its
 #: one-line help, in the order ``posfb --help`` lists them.
 COMMANDS = {
-    "identify": "identify theta_1..theta_11 (Sec. 4.1) from the URDF plant",
+    "identify": "theta (Sec. 4.1) of a URDF plant, or a model with its uncertainty from an "
+    "encoder log (--log); identify plan: an exciting trajectory",
     "design": "design the position-feedback controller (Sec. 3) and check it",
     "tune": "a robust design for a scenario's arm, verified with a stated guarantee",
     "scenario": "print or check a scenario file",
