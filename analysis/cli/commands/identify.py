@@ -14,18 +14,24 @@ from posfb.analysis.cli.commands.scenario_args import add_scenario_arguments, sc
 from posfb.analysis.common.errors import UsageError
 
 
-def _positive(text: str) -> float:
-    value = float(text)
-    if not (math.isfinite(value) and value > 0.0):
-        raise argparse.ArgumentTypeError(f"{text!r}: a finite number > 0 is required")
-    return value
+def _finite_above(lowest: float, inclusive: bool):
+    """An argparse type: a finite number above ``lowest`` (or equal, ``inclusive``),
+    refused in one line otherwise."""
+    relation = ">=" if inclusive else ">"
+
+    def number(text: str) -> float:  # argparse names a non-number "invalid number value"
+        value = float(text)
+        if not (math.isfinite(value) and (value >= lowest if inclusive else value > lowest)):
+            raise argparse.ArgumentTypeError(
+                f"{text!r}: a finite number {relation} {lowest:g} is required"
+            )
+        return value
+
+    return number
 
 
-def _nonnegative(text: str) -> float:
-    value = float(text)
-    if not (math.isfinite(value) and value >= 0.0):
-        raise argparse.ArgumentTypeError(f"{text!r}: a finite number >= 0 is required")
-    return value
+_positive = _finite_above(0.0, inclusive=False)
+_nonnegative = _finite_above(0.0, inclusive=True)
 
 
 def configure(parser: argparse.ArgumentParser) -> None:
