@@ -14,7 +14,7 @@ Generated, so that they cannot drift from the code:
 * the examples gallery (sphinx-gallery runs ``examples/*.py`` with short options,
   ``docs/_ext/gallery_hooks.py``);
 * the findings pages, which include the committed reports under ``docs/results``,
-  ``docs/montecarlo``, ``docs/realism`` (MyST ``{include}``).
+  ``docs/montecarlo``, ``docs/realism``, ``docs/model_error`` (MyST ``{include}``).
 """
 
 from __future__ import annotations
@@ -58,6 +58,7 @@ exclude_patterns = [
     "montecarlo",
     "nonidealities",
     "realism",
+    "model_error",
     "results",
     "stability_map",
     "sg_execution_times.rst",

@@ -94,6 +94,16 @@ FILES = {
     "  - {name: dac, label: DAC, source: a book, settings: [actuator.dac_bits=12]}\n"
     "combined: [dac, lag]\n",
     "realism_extends_gone.yaml": "extends: gone.yaml\n",
+    "realism_combined_plant.yaml": "study: {duration: 0.5, controllers: [lin_lc]}\neffects:\n"
+    "  - {name: mass, label: mass, source: a guess,\n"
+    "     parameters: {link_mass: [!Uniform {min: -0.1, max: 0.1, relative: true}]}}\n"
+    "combined: [mass]\n",
+    "model_error_sizes.yaml": "identification: {encoder_counts: [1024], duration: 60.0, "
+    "controller: lin_lc}\nsizes: [0.2, 0.1]\n",
+    "model_error_counts.yaml": "identification: {encoder_counts: [0], duration: 60.0, "
+    "controller: lin_lc}\nsizes: [0.1]\n",
+    "model_error_lhs.yaml": "study: {sampling: latin_hypercube}\nidentification: "
+    "{encoder_counts: [1024], duration: 60.0, controller: lin_lc}\nsizes: [0.1]\n",
     "realism_cycle_a.yaml": "extends: realism_cycle_b.yaml\n",
     "realism_cycle_b.yaml": "extends: realism_cycle_a.yaml\n",
     "gear_draw.yaml": STUDY + "settings: [plant.gear_stiffness=1000]\n"
@@ -669,6 +679,28 @@ CASES = {
     "realism extends in a cycle": Case(
         ("realism", "{tmp}/realism_cycle_a.yaml", "--out", "{tmp}/r"),
         "extends: 'realism_cycle_a.yaml' extends this file again (a cycle)",
+    ),
+    "realism combines an effect that draws the arm": Case(
+        ("realism", "{tmp}/realism_combined_plant.yaml", "--out", "{tmp}/r"),
+        "combined names 'mass', which draws the true arm (parameters or posterior); only "
+        "effects of settings and draws combine",
+    ),
+    # the model-error study (posfb model-error)
+    "model-error sizes not increasing": Case(
+        ("model-error", "{tmp}/model_error_sizes.yaml", "--out", "{tmp}/m"),
+        "sizes = [0.2, 0.1]; an increasing list of relative spreads in (0, 1) is required",
+    ),
+    "model-error identification at zero counts": Case(
+        ("model-error", "{tmp}/model_error_counts.yaml", "--out", "{tmp}/m"),
+        "identification.encoder_counts = [0]; a list of counts per revolution > 0 is required",
+    ),
+    "model-error study not random": Case(
+        ("model-error", "{tmp}/model_error_lhs.yaml", "--out", "{tmp}/m"),
+        "study.sampling = 'latin_hypercube'; random (the posterior draws of part b) is required",
+    ),
+    "model-error report of nothing run": Case(
+        ("model-error", "--out", "{tmp}/m", "--report-only"),
+        "does not exist; run posfb model-error without --report-only first",
     ),
     "realism report of nothing run": Case(
         ("realism", "--out", "{tmp}/r", "--report-only"),

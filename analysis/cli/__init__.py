@@ -38,6 +38,8 @@ COMMANDS = {
     "animate": "write an offline HTML animation of one run (Meshcat recording)",
     "montecarlo": "Monte-Carlo robustness study over sampled plants",
     "realism": "how far from hardware: non-idealities from the literature vs Tables 3-4",
+    "model-error": "how far model error explains the hardware's errors: identification "
+    "accuracy, Tables 3-4 on identified arms, a scan of sizes",
 }
 
 #: ``posfb --help``, above the list of commands.
@@ -64,8 +66,8 @@ sample differs from its stored rows; 2 bad input; 3 a bug in posfb; 4 a run dive
 (simulate, compare); 5 a run finished saturated or lost its path (simulate, compare;
 a warning says which); 6 a results store is damaged; 7 the disk refused a write (no
 space left; what finished is kept, run again to resume); 8 a worker process died on a
-sample and its retry (montecarlo run, realism: recorded as that sample's error, the run
-went on); 130 interrupted.
+sample and its retry (montecarlo run, realism, model-error: recorded as that sample's
+error, the run went on); 130 interrupted.
 The same from Python: import posfb (posfb.simulate, posfb.compare, posfb.build).
 Run posfb COMMAND --help for the options of a command."""
 
@@ -113,7 +115,7 @@ def build_parser(
         if name != chosen and not every:
             subparsers.add_parser(name, help=text)
             continue
-        module = importlib.import_module(f"posfb.analysis.cli.commands.{name}")
+        module = importlib.import_module(f"posfb.analysis.cli.commands.{name.replace('-', '_')}")
         module.configure(subparsers.add_parser(name, help=text, description=text))
     return parser
 

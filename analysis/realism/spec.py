@@ -19,6 +19,8 @@
         settings: []     # KEY=VALUE, as --set (e.g. the friction law's kind)
         draws:           # scenario keys and their literature range
           actuator.electrical_time_constant: !Uniform {min: 1.0e-4, max: 2.0e-3}
+        parameters: {}   # or the true arm's physical parameters drawn (a study's
+        posterior: null  # parameters: and posterior:; not in the combination)
     combined: [electrical_lag, ...]   # the effects drawn together in one more study
     combined_samples: 4
 
@@ -38,7 +40,13 @@ from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 from posfb.analysis.common.tables import PAPER_TABLES
-from posfb.analysis.uncertainty.study import Distribution, Study, complete_study
+from posfb.analysis.uncertainty.study import (
+    Distribution,
+    ParameterDistributions,
+    Posterior,
+    Study,
+    complete_study,
+)
 from posfb.diagrams.yaml_schema import load_typed, read_text
 
 #: The name of the study of the ideal arm (no effect) and of all effects together.
@@ -52,7 +60,9 @@ NAME = re.compile(r"[a-z][a-z0-9_]*\Z")
 class Effect:
     """One non-ideality: its ``name`` (lower-case, digits, ``_``), the ``label`` the
     report shows, the ``source`` of its range, the ``samples`` of its study, the
-    ``settings`` that switch it on and the ``draws`` of its literature range."""
+    ``settings`` that switch it on and the ``draws`` of its literature range; a model
+    error draws the true arm itself, as a study's ``parameters`` and ``posterior``
+    (``analysis.uncertainty.study``)."""
 
     name: str = ""
     label: str = ""
@@ -60,6 +70,12 @@ class Effect:
     samples: int = 8
     settings: list[str] = field(default_factory=list)
     draws: dict[str, Distribution] = field(default_factory=dict)
+    parameters: ParameterDistributions = field(default_factory=ParameterDistributions)
+    posterior: Posterior | None = None
+
+    def draws_plant(self) -> bool:
+        """Whether the effect draws the true arm's physical parameters."""
+        return Study(parameters=self.parameters, posterior=self.posterior).draws_anything()
 
 
 @dataclass
@@ -106,8 +122,8 @@ def _check(spec: RealismSpec, source: str) -> None:
     )
     require(bool(spec.effects), "effects is empty; at least one effect is required")
     require(
-        not spec.study.draws,
-        "study.draws is not empty; the shared study draws nothing (each effect draws its own)",
+        not spec.study.draws_anything(),
+        "study draws something; the shared study draws nothing (each effect draws its own)",
     )
     controllers = spec.study.controllers
     papers = PAPER_TABLES.get(spec.paper_table, {})
@@ -140,22 +156,34 @@ def _check(spec: RealismSpec, source: str) -> None:
             f"{where}.samples = {effect.samples!r}; an integer >= 1 is required",
         )
         require(
-            bool(effect.settings or effect.draws),
+            bool(effect.settings or effect.draws or effect.draws_plant()),
             f"{where} ({effect.name}) has no settings and no draws; it changes nothing",
         )
     for name in spec.combined:
         require(name in names, f"combined names {name!r}; one of the effects {names} is required")
+        require(
+            name not in names or not spec.effects[names.index(name)].draws_plant(),
+            f"combined names {name!r}, which draws the true arm (parameters or posterior); "
+            "only effects of settings and draws combine",
+        )
     require(
         isinstance(spec.combined_samples, int) and spec.combined_samples >= 1,
         f"combined_samples = {spec.combined_samples!r}; an integer >= 1 is required",
     )
 
 
-def _study(spec: RealismSpec, settings: list[str], draws: dict, samples: int) -> Study:
+def _study(
+    spec: RealismSpec, settings: list[str], draws: dict, samples: int, plant: Effect | None = None
+) -> Study:
+    """The shared study with ``settings`` and ``draws`` (and the true arm drawn as
+    ``plant`` draws it, where given)."""
     shared = spec.study
-    return replace(
+    study = replace(
         shared, samples=samples, settings=[*shared.settings, *settings], draws=dict(draws)
     )
+    if plant is None or not plant.draws_plant():
+        return study
+    return replace(study, parameters=plant.parameters, posterior=plant.posterior)
 
 
 def realism_studies(spec: RealismSpec, source: str, folder: Path) -> RealismStudies:
@@ -163,7 +191,7 @@ def realism_studies(spec: RealismSpec, source: str, folder: Path) -> RealismStud
     _check(spec, source)
     studies = {IDEAL: complete_study(_study(spec, [], {}, 1), f"{source}: study", folder)}
     for i, effect in enumerate(spec.effects):
-        study = _study(spec, effect.settings, effect.draws, effect.samples)
+        study = _study(spec, effect.settings, effect.draws, effect.samples, effect)
         studies[effect.name] = complete_study(study, f"{source}: effects[{i}]", folder)
     if spec.combined:
         chosen = [next(e for e in spec.effects if e.name == n) for n in spec.combined]

@@ -1,0 +1,173 @@
+"""Part (a): how accurate an identification of the paper's arm is.
+
+Each planned excitation (``posfb identify plan``, seed ``p``) is played on the study
+scenario's true arm by the spec's controller, logged at each encoder resolution and
+identified from the log as ``posfb identify --log`` does; the truth is that arm's own
+theta, computed from the plant (``models.identify``). One record per (resolution,
+plan), written as JSON as soon as it is done, so that a rerun continues where it
+stopped; the logs are kept only for plan 0, whose model file and plant posterior
+(``analysis.identification.study_out``) part (b) draws from.
+"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import asdict, dataclass
+from pathlib import Path
+
+import numpy as np
+
+from posfb.analysis.common.export import export_run
+from posfb.analysis.common.loop_effects import rigid_plant
+from posfb.analysis.common.outputs import atomic_file
+from posfb.analysis.identification.identify import identify_log
+from posfb.analysis.identification.plan import plan_for_scenario
+from posfb.analysis.identification.study_out import plant_posterior
+from posfb.analysis.model_error.spec import ModelErrorSpec
+from posfb.diagrams.resolve import LoadedScenario, resolve, run_scenario, scenario_from_file
+from posfb.models.identification.checks import IDENTIFIABLE_RELATIVE_STD
+from posfb.models.identify import identify
+from posfb.models.plant import apply_parameters, build_arm_diagram
+
+#: The plan whose identification part (b) draws from (and whose logs are kept).
+POSTERIOR_PLAN = 0
+
+
+@dataclass(frozen=True)
+class AccuracyRecord:
+    """One identification: the resolution and plan, theta's ``names``, the ``estimate``,
+    its stated ``std``, the ``truth``, the ``model`` the model file holds (the estimate
+    bounded), the condition number and the warnings."""
+
+    encoder_counts: int
+    plan: int
+    names: list[str]
+    estimate: list[float]
+    std: list[float]
+    truth: list[float]
+    model: list[float]
+    condition_number: float
+    warnings: list[str]
+
+    def relative_error(self) -> np.ndarray:
+        """``(estimate - truth) / truth`` per theta."""
+        return (np.array(self.estimate) - self.truth) / np.abs(self.truth)
+
+    def relative_std(self) -> np.ndarray:
+        """The stated ``std / |estimate|`` per theta."""
+        return np.array(self.std) / np.abs(self.estimate)
+
+    def identifiable(self) -> np.ndarray:
+        """The theta the identification states identifiable (relative standard error at
+        most ``IDENTIFIABLE_RELATIVE_STD``: no warning)."""
+        return self.relative_std() <= IDENTIFIABLE_RELATIVE_STD
+
+    def z(self) -> np.ndarray:
+        """The actual error in stated standard errors, ``(estimate - truth) / std``."""
+        return (np.array(self.estimate) - self.truth) / np.array(self.std)
+
+
+def record_path(folder: Path, counts: int, plan: int) -> Path:
+    return folder / f"counts_{counts}_plan_{plan}.json"
+
+
+def model_path(folder: Path, counts: int) -> Path:
+    """The model file of plan ``POSTERIOR_PLAN`` at ``counts`` (``!Identified``)."""
+    return folder / f"model_{counts}.yaml"
+
+
+def posterior_path(folder: Path, counts: int) -> Path:
+    """The plant posterior of plan ``POSTERIOR_PLAN`` at ``counts`` (JSON)."""
+    return folder / f"posterior_{counts}.json"
+
+
+def _scenario(spec: ModelErrorSpec, extra: list[str]) -> LoadedScenario:
+    return scenario_from_file(spec.study.scenario, [*spec.study.settings, *extra])
+
+
+def true_theta(loaded: LoadedScenario) -> np.ndarray:
+    """theta of the scenario's true arm, computed from the plant."""
+    resolved = resolve(loaded)
+    _, arm, context = build_arm_diagram(rigid_plant(resolved.config.plant))
+    apply_parameters(arm, context, resolved.true_parameters(arm.default_parameters))
+    return identify(arm, context).theta
+
+
+def _plan(spec: ModelErrorSpec, folder: Path, seed: int) -> Path:
+    path = folder / f"plan_{seed}.csv"
+    if not path.is_file():
+        runs = spec.identification
+        planned = plan_for_scenario(_scenario(spec, []), duration=runs.duration, seed=seed)
+        planned.save(path)
+    return path
+
+
+def _identify(spec: ModelErrorSpec, folder: Path, logs: Path, counts: int, plan: int) -> None:
+    runs = spec.identification
+    loaded = _scenario(
+        spec,
+        [
+            f"trajectory=!CsvFile {{path: {_plan(spec, folder, plan)}}}",
+            f"timing.duration={runs.duration!r}",
+            f"sensor.encoder_counts=[{counts}]",
+            f"controller.kind={runs.controller}",
+        ],
+    )
+    log = export_run(run_scenario(loaded), logs / f"counts_{counts}_plan_{plan}.csv")
+    identification = identify_log(loaded, log)
+    estimate = identification.estimate
+    record = AccuracyRecord(
+        encoder_counts=counts,
+        plan=plan,
+        names=list(estimate.names),
+        estimate=[float(v) for v in estimate.values],
+        std=[float(s) for s in estimate.std],
+        truth=[float(t) for t in true_theta(loaded)],
+        model=[float(v) for v in identification.model_values],
+        condition_number=float(estimate.condition_number),
+        warnings=list(identification.warnings),
+    )
+    if plan == POSTERIOR_PLAN:
+        identification.save(model_path(folder, counts))
+        posterior = plant_posterior(identification, loaded)
+        with atomic_file(posterior_path(folder, counts)) as path:
+            path.write_text(
+                json.dumps(
+                    {
+                        "keys": list(posterior.keys),
+                        "mean": posterior.mean.tolist(),
+                        "covariance": posterior.covariance.tolist(),
+                    }
+                )
+            )
+    else:
+        log.unlink()
+    with atomic_file(record_path(folder, counts, plan)) as path:
+        path.write_text(json.dumps(asdict(record), indent=1))
+
+
+def run_identifications(spec: ModelErrorSpec, folder: Path, logs: Path) -> None:
+    """Every (resolution, plan) not yet recorded in ``folder`` (module docstring)."""
+    folder, logs = folder.resolve(), logs.resolve()  # the scenarios name them
+    folder.mkdir(parents=True, exist_ok=True)
+    logs.mkdir(parents=True, exist_ok=True)
+    runs = spec.identification
+    for counts in runs.encoder_counts:
+        for plan in range(runs.plans):
+            if not record_path(folder, counts, plan).is_file():
+                _identify(spec, folder, logs, counts, plan)
+
+
+def load_records(spec: ModelErrorSpec, folder: Path) -> dict[int, list[AccuracyRecord]]:
+    """The records of every resolution, by plan (a missing one is refused in one line)."""
+    records = {}
+    for counts in spec.identification.encoder_counts:
+        found = []
+        for plan in range(spec.identification.plans):
+            path = record_path(folder, counts, plan)
+            if not path.is_file():
+                raise ValueError(f"{path} does not exist; run posfb model-error without "
+                                 "--report-only first")  # fmt: skip
+            found.append(AccuracyRecord(**json.loads(path.read_text())))
+        records[counts] = found
+    return records
