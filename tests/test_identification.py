@@ -225,12 +225,21 @@ def test_a_study_out_runs_a_montecarlo_study_and_tunes(plan_csv, tmp_path):
     parameters = perturbed_parameters(12)
     log = simulated_log(tmp_path, "experiment", plan_csv, parameters, duration=30.0)
     model, study = tmp_path / "model.yaml", tmp_path / "study.yaml"
+    # The study's samples run the paper's trajectory on the same arm (--study-scenario),
+    # not the excitation the log came from.
+    scenario = tmp_path / "tune_me.yaml"
+    scenario.write_text(
+        f"nominal_model: !Identified {{file: {model}}}\ntiming: {{duration: 2}}\nplant:\n"
+        + (tmp_path / "experiment.yaml").read_text().split("plant:\n")[1]
+    )
     identified = subprocess.run(
         [*CLI, "identify", "--log", str(log), "--scenario", str(tmp_path / "experiment.yaml"),
-         "--out", str(model), "--study-out", str(study), "--study-samples", "2"],
+         "--out", str(model), "--study-out", str(study), "--study-samples", "2",
+         "--study-scenario", str(scenario)],
         capture_output=True, text=True, timeout=300,
     )  # fmt: skip
     assert identified.returncode == 0, identified.stderr
+    assert "scenario: tune_me.yaml" in study.read_text()
     study.write_text(study.read_text() + "duration: 1.0\n")
     run = subprocess.run(
         [*CLI, "montecarlo", "run", str(study), "--db", str(tmp_path / "mc.sqlite"),
@@ -239,11 +248,6 @@ def test_a_study_out_runs_a_montecarlo_study_and_tunes(plan_csv, tmp_path):
     )  # fmt: skip
     assert run.returncode == 0, run.stderr
     assert "2 of 2 samples" in run.stdout + run.stderr
-    scenario = tmp_path / "tune_me.yaml"
-    scenario.write_text(
-        f"nominal_model: !Identified {{file: {model}}}\ntiming: {{duration: 2}}\nplant:\n"
-        + (tmp_path / "experiment.yaml").read_text().split("plant:\n")[1]
-    )
     tuned = subprocess.run(
         [*CLI, "tune", str(scenario), "--study", str(study), "--plants", "5", "--rounds", "1",
          "--epsilon", "0.2", "--beta", "0.01", "--out", str(tmp_path / "tuned.yaml")],
@@ -251,3 +255,19 @@ def test_a_study_out_runs_a_montecarlo_study_and_tunes(plan_csv, tmp_path):
     )  # fmt: skip
     assert tuned.returncode == 0, tuned.stderr
     assert (tmp_path / "tuned.yaml").is_file()
+
+
+def test_a_study_scenario_of_another_arm_is_refused(tmp_path):
+    """--study-scenario: the posterior is relative to the identified scenario's true arm,
+    so a study scenario of another arm (or one that is not a file) is refused."""
+    from posfb.analysis.identification.study_out import require_same_arm
+
+    own = tmp_path / "own.yaml"
+    own.write_text("timing: {duration: 1}\n")
+    other = tmp_path / "other.yaml"
+    other.write_text("plant:\n  parameters: {link_mass: [6.0, 0.9]}\n")
+    require_same_arm(posfb.load_scenario(own), posfb.load_scenario(own))
+    with pytest.raises(ValueError, match="differs from that of the identified scenario"):
+        require_same_arm(posfb.load_scenario(own), posfb.load_scenario(other))
+    with pytest.raises(ValueError, match="is not a file; a scenario file is required"):
+        require_same_arm(posfb.load_scenario(own), posfb.load_scenario({"timing": {"duration": 1}}))

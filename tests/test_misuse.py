@@ -454,6 +454,14 @@ CASES = {
     "prismatic joint": Case(("identify", "--urdf", "{tmp}/prismatic.urdf"), "prismatic"),
     "URDF is a folder": Case(("identify", "--urdf", "{tmp}"), "is a directory"),
     "huge payload": Case(("identify", "--payload", "1e308"), "payload_mass"),
+    "identify study scenario without a study": Case(
+        ("identify", "--log", "{tmp}/log_missing.csv", "--study-scenario", "{tmp}/s.yaml"),
+        "--study-scenario needs --study-out",
+    ),
+    "identify study of no samples": Case(
+        ("identify", "--log", "{tmp}/log_missing.csv", "--study-samples", "0"),
+        "argument --study-samples: 0 is not >= 1",
+    ),
     # identification from logs (issue 29)
     "log without a joint's positions": Case(
         ("identify", "--log", "{tmp}/log_missing.csv"), "lacks q2_measured_rad"

@@ -104,37 +104,41 @@ class Identification:
             self.serial.model.urdf, self.serial.consistent, urdf,
             motor_constant=self.serial.motor_constant,
         )  # fmt: skip
-        estimate = self.estimate
         save_model(
-            IdentifiedModelFile(
-                kind="urdf",
-                names=list(estimate.names),
-                values=[float(v) for v in self.model_values],
-                std=[float(s) for s in estimate.std],
-                covariance=[[float(c) for c in row] for row in estimate.covariance],
+            IdentifiedModelFile.of_estimate(
+                "urdf", self.estimate, self.model_values, self.log.source, self.warnings,
                 urdf=urdf.name,
-                log=self.log.source,
-                condition_number=estimate.condition_number,
-                cutoff_hz=estimate.cutoff_hz,
-                warnings=list(self.warnings),
             ),
             path,
-        )
+        )  # fmt: skip
 
     def save_study(
-        self, path: str | Path, *, model: str | Path | None = None, samples: int = 100
+        self,
+        path: str | Path,
+        *,
+        model: str | Path | None = None,
+        samples: int = 100,
+        experiment: LoadedScenario | None = None,
     ) -> Path:
         """Write a Monte-Carlo study whose ``samples`` plants are drawn from this
         identification's uncertainty (``analysis.identification.study_out``); with
-        ``model`` (a file ``save`` wrote) its controllers use the identified model."""
-        from posfb.analysis.identification.study_out import plant_posterior, write_study
+        ``model`` (a file ``save`` wrote) its controllers use the identified model. Its
+        samples run ``experiment`` (a scenario file of the same true arm; default: the
+        identification's scenario)."""
+        from posfb.analysis.identification.study_out import (
+            plant_posterior,
+            require_same_arm,
+            write_study,
+        )
 
         if not (isinstance(samples, int) and samples > 0):
             raise ValueError(f"samples = {samples!r}; an integer > 0 is required")
+        if experiment is not None:
+            require_same_arm(self.scenario, experiment)
         posterior = plant_posterior(self, self.scenario)
         return write_study(
             posterior,
-            self.scenario,
+            self.scenario if experiment is None else experiment,
             Path(path),
             model=None if model is None else Path(model),
             samples=samples,

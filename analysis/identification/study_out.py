@@ -115,6 +115,33 @@ def plant_posterior(identification: Identification, loaded: LoadedScenario) -> P
     )
 
 
+def _true_arm(loaded: LoadedScenario) -> tuple[str, ArmParameters]:
+    resolved = resolve(loaded)
+    plant = rigid_plant(resolved.config.plant)
+    _, arm, _ = build_arm_diagram(plant)
+    return plant.urdf, resolved.true_parameters(arm.default_parameters)
+
+
+def require_same_arm(identified: LoadedScenario, experiment: LoadedScenario) -> None:
+    """Refuse (one ``ValueError`` line) a study ``experiment`` that is not a scenario
+    file of the identified scenario's true arm: the posterior is relative to that arm
+    (``PlantPosterior``), and the study names its scenario by file."""
+    if not Path(experiment.source).is_file():
+        raise ValueError(
+            f"study scenario {experiment.source!r} is not a file; a scenario file is "
+            "required (the study names it)"
+        )
+    (urdf, own), (other_urdf, other) = _true_arm(identified), _true_arm(experiment)
+    if urdf != other_urdf or any(
+        getattr(own, name) != getattr(other, name) for name in JOINT_PARAMETERS
+    ):
+        raise ValueError(
+            f"study scenario {experiment.source}: its true arm (plant.urdf and "
+            f"plant.parameters) differs from that of the identified scenario "
+            f"{identified.source}; the same arm is required (the draws are relative to it)"
+        )
+
+
 def _number(value: float) -> str:
     return repr(float(value))
 

@@ -23,7 +23,7 @@ from pathlib import Path
 from posfb.analysis.model_error.accuracy import model_path, posterior_path
 from posfb.analysis.model_error.spec import ModelErrorSpec
 from posfb.analysis.realism.spec import Effect, RealismSpec, RealismStudies, realism_studies
-from posfb.analysis.uncertainty.study import ParameterDistributions, Posterior, Uniform
+from posfb.analysis.uncertainty.study import ParameterDistributions, Posterior, Study, Uniform
 from posfb.models.plant import JOINT_PARAMETERS
 
 #: Where each part's stores go (``OUT/stores/<name>/``) and which paper table it is
@@ -72,7 +72,7 @@ def _size_effect(spec: ModelErrorSpec, size: float) -> Effect:
     )
 
 
-def _studies(spec: ModelErrorSpec, study, table: str, effects: list[Effect], what: str):
+def _studies(study: Study, table: str, effects: list[Effect], what: str) -> RealismStudies:
     realism = RealismSpec(study=study, paper_table=table, effects=effects)
     return realism_studies(realism, f"model-error study: {what}", Path.cwd())
 
@@ -81,10 +81,10 @@ def model_error_studies(spec: ModelErrorSpec, folder: Path) -> dict[str, Realism
     """The studies of parts (b) and (c) by part (``TABLE3``, ``TABLE4``, ``SIZES``),
     from the identifications recorded in ``folder``."""
     identified = _identified_effects(spec, folder.resolve())  # the settings name it
-    studies = {TABLE3: _studies(spec, spec.study, "nominal", identified, "Table 3")}
+    studies = {TABLE3: _studies(spec.study, "nominal", identified, "Table 3")}
     if spec.payload_scenario:
         payload = replace(spec.study, scenario=spec.payload_scenario)
-        studies[TABLE4] = _studies(spec, payload, "payload", identified, "Table 4")
+        studies[TABLE4] = _studies(payload, "payload", identified, "Table 4")
     sizes = [_size_effect(spec, size) for size in spec.sizes]
-    studies[SIZES] = _studies(spec, spec.study, "nominal", sizes, "sizes")
+    studies[SIZES] = _studies(spec.study, "nominal", sizes, "sizes")
     return studies

@@ -21,6 +21,7 @@ from posfb.analysis.model_error.experiments import (
     SIZES,
     TABLE3,
     TABLE4,
+    identified_name,
     model_error_studies,
     size_name,
 )
@@ -123,15 +124,14 @@ def results(spec: ModelErrorSpec, out: Path) -> dict:
     path, table1 = _desired_path(spec)
     studies = model_error_studies(spec, out / "identification")
     result: dict[str, object] = {"accuracy": _accuracy(records, path)}
+    identified = {
+        identified_name(c): np.array(found[POSTERIOR_PLAN].model) for c, found in records.items()
+    }
     for part, realism in studies.items():
         found = findings(realism, out / "stores" / part)
         entry = {"medians": _medians(found), "paper": found.paper, "voltage_error": {}}
         for name in realism.studies:
-            if part == SIZES or name == "ideal":
-                model = table1
-            else:
-                counts = int(name.rsplit("_", 1)[1])
-                model = np.array(records[counts][POSTERIOR_PLAN].model)
+            model = table1 if part == SIZES else identified.get(name, table1)  # ideal: Table 1
             store = store_path(out / "stores" / part, name)
             entry["voltage_error"][name] = _median_voltage_error(path, store, model)
         result[part] = entry

@@ -14,10 +14,15 @@ written with Drake's typed YAML.
 
 # No "from __future__ import annotations": Drake's YAML reads the field types at runtime.
 
+from collections.abc import Iterable
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from pydrake.common.yaml import yaml_dump_typed, yaml_load_typed
+
+if TYPE_CHECKING:
+    from posfb.models.identification.estimate import Estimate
 
 #: The kinds of identified model a file can hold.
 MODEL_KINDS = ("theta", "urdf")
@@ -39,6 +44,33 @@ class IdentifiedModelFile:
     condition_number: float = 0.0
     cutoff_hz: float = 0.0
     warnings: list[str] = field(default_factory=list)
+
+    @classmethod
+    def of_estimate(
+        cls,
+        kind: str,
+        estimate: "Estimate",
+        values: Iterable[float],
+        log: str,
+        warnings: Iterable[str],
+        **fields: object,
+    ) -> "IdentifiedModelFile":
+        """The file of an identification: its ``estimate`` (``estimate.Estimate``: names,
+        std, covariance, condition number, cutoff), the model ``values`` written, the
+        ``log`` it came from, its ``warnings``, and the kind's own ``fields`` (``l1``,
+        ``g`` of theta; ``urdf`` of a serial arm)."""
+        return cls(
+            kind=kind,
+            names=list(estimate.names),
+            values=[float(v) for v in values],
+            std=[float(s) for s in estimate.std],
+            covariance=[[float(c) for c in row] for row in estimate.covariance],
+            log=log,
+            condition_number=float(estimate.condition_number),
+            cutoff_hz=float(estimate.cutoff_hz),
+            warnings=list(warnings),
+            **fields,
+        )
 
     def check(self, source: str) -> "IdentifiedModelFile":
         """Refuse a file whose parts do not fit together (one line naming ``source``)."""

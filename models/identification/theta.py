@@ -53,19 +53,8 @@ class ThetaIdentification:
 
     def model_file(self, log: str) -> IdentifiedModelFile:
         """The identification as ``posfb identify --out`` writes it."""
-        estimate = self.estimate
-        return IdentifiedModelFile(
-            kind="theta",
-            names=list(estimate.names),
-            values=[float(v) for v in self.model_values],
-            std=[float(s) for s in estimate.std],
-            covariance=[[float(c) for c in row] for row in estimate.covariance],
-            l1=self.l1,
-            g=self.g,
-            log=log,
-            condition_number=estimate.condition_number,
-            cutoff_hz=estimate.cutoff_hz,
-            warnings=list(self.warnings),
+        return IdentifiedModelFile.of_estimate(
+            "theta", self.estimate, self.model_values, log, self.warnings, l1=self.l1, g=self.g
         )
 
 

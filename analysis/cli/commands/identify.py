@@ -10,6 +10,7 @@ import json
 import math
 from pathlib import Path
 
+from posfb.analysis.cli.commands.montecarlo import _positive_int
 from posfb.analysis.cli.commands.scenario_args import add_scenario_arguments, scenario_from_args
 from posfb.analysis.common.errors import UsageError
 
@@ -55,7 +56,10 @@ def configure(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--study-out", type=Path, metavar="STUDY.yaml",
                         help="write a Monte-Carlo study whose plants are drawn from the "
                         "identification's uncertainty (for montecarlo run, tune --study)")
-    parser.add_argument("--study-samples", type=int, default=100, metavar="N",
+    parser.add_argument("--study-scenario", type=Path, metavar="S.yaml",
+                        help="the scenario --study-out's samples run, of the same true arm "
+                        "(default: --scenario, the identification's)")
+    parser.add_argument("--study-samples", type=_positive_int, default=100, metavar="N",
                         help="samples of --study-out's study (default 100)")
     parser.add_argument("--figure", type=Path, metavar="FILE",
                         help="with --validate: measured against predicted (.svg or .png)")
@@ -106,7 +110,8 @@ def _exact(args: argparse.Namespace) -> int:
 def run(args: argparse.Namespace) -> int:
     if args.log is None:
         given = [f for f in ("validate", "out", "figure", "cutoff", "stiction_velocity",
-                             "window", "study_out") if getattr(args, f) is not None]  # fmt: skip
+                             "window", "study_out", "study_scenario")
+                 if getattr(args, f) is not None]  # fmt: skip
         if given:
             raise UsageError(f"--{given[0].replace('_', '-')} needs --log")
         return _exact(args)
@@ -114,10 +119,10 @@ def run(args: argparse.Namespace) -> int:
         raise UsageError(
             "--urdf and --log both given; the log's arm is the scenario's (--scenario)"
         )
+    if args.study_scenario is not None and args.study_out is None:
+        raise UsageError("--study-scenario needs --study-out (it is the study's scenario)")
     if args.figure is not None and args.validate is None:
         raise UsageError("--figure needs --validate (it draws the validation)")
-    if args.study_samples < 1:
-        raise UsageError(f"--study-samples = {args.study_samples}; at least 1 is required")
     from posfb.analysis.api import identify
 
     result = identify(
@@ -133,7 +138,12 @@ def run(args: argparse.Namespace) -> int:
     if args.figure is not None:
         result.figure(args.figure)
     if args.study_out is not None:
-        result.save_study(args.study_out, model=args.out, samples=args.study_samples)
+        from posfb.analysis.api import load_scenario
+
+        experiment = None if args.study_scenario is None else load_scenario(args.study_scenario)
+        result.save_study(
+            args.study_out, model=args.out, samples=args.study_samples, experiment=experiment
+        )
     if args.json:
         print(json.dumps(result.as_dict()))
         return 0
