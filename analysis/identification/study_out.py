@@ -27,6 +27,7 @@ from pathlib import Path
 
 import numpy as np
 import scipy.optimize
+from pydrake.systems.framework import Context
 
 from posfb.analysis.common.loop_effects import rigid_plant
 from posfb.analysis.identification.identify import Identification
@@ -35,7 +36,9 @@ from posfb.models.identification.serial_regressor import true_parameters
 from posfb.models.identify import identify
 from posfb.models.plant import (
     JOINT_PARAMETERS,
+    Arm,
     ArmParameters,
+    PlantConfig,
     apply_parameters,
     build_arm_diagram,
 )
@@ -61,6 +64,26 @@ class PlantPosterior:
     theta: np.ndarray
 
 
+@dataclass(frozen=True)
+class TrueArm:
+    """A scenario's true arm: the rigid plant it is built from (``plant``), the Drake
+    ``arm`` and a ``context`` of it, and its ``parameters`` (the URDF's with the
+    scenario's overrides; not yet applied to ``context``)."""
+
+    plant: PlantConfig
+    arm: Arm
+    context: Context
+    parameters: ArmParameters
+
+
+def true_arm(loaded: LoadedScenario) -> TrueArm:
+    """The true arm of ``loaded`` (rigid, as the nominal model's theta is)."""
+    resolved = resolve(loaded)
+    plant = rigid_plant(resolved.config.plant)
+    _, arm, context = build_arm_diagram(plant)
+    return TrueArm(plant, arm, context, resolved.true_parameters(arm.default_parameters))
+
+
 def _entries(nominal: ArmParameters) -> list[tuple[str, int]]:
     return [
         (name, j)
@@ -80,9 +103,8 @@ def _with(nominal: ArmParameters, entries: list[tuple[str, int]], x: np.ndarray)
 def plant_posterior(identification: Identification, loaded: LoadedScenario) -> PlantPosterior:
     """The Laplace approximation of the physical arms the identification allows
     (module docstring)."""
-    resolved = resolve(loaded)
-    _, arm, context = build_arm_diagram(rigid_plant(resolved.config.plant))
-    nominal = resolved.true_parameters(arm.default_parameters)
+    truth = true_arm(loaded)
+    arm, context, nominal = truth.arm, truth.context, truth.parameters
     entries = _entries(nominal)
     estimate = identification.estimate
     whitening = np.linalg.inv(np.linalg.cholesky(estimate.covariance))
@@ -115,13 +137,6 @@ def plant_posterior(identification: Identification, loaded: LoadedScenario) -> P
     )
 
 
-def _true_arm(loaded: LoadedScenario) -> tuple[str, ArmParameters]:
-    resolved = resolve(loaded)
-    plant = rigid_plant(resolved.config.plant)
-    _, arm, _ = build_arm_diagram(plant)
-    return plant.urdf, resolved.true_parameters(arm.default_parameters)
-
-
 def require_same_arm(identified: LoadedScenario, experiment: LoadedScenario) -> None:
     """Refuse (one ``ValueError`` line) a study ``experiment`` that is not a scenario
     file of the identified scenario's true arm: the posterior is relative to that arm
@@ -131,9 +146,10 @@ def require_same_arm(identified: LoadedScenario, experiment: LoadedScenario) -> 
             f"study scenario {experiment.source!r} is not a file; a scenario file is "
             "required (the study names it)"
         )
-    (urdf, own), (other_urdf, other) = _true_arm(identified), _true_arm(experiment)
-    if urdf != other_urdf or any(
-        getattr(own, name) != getattr(other, name) for name in JOINT_PARAMETERS
+    own, other = true_arm(identified), true_arm(experiment)
+    if own.plant.urdf != other.plant.urdf or any(
+        getattr(own.parameters, name) != getattr(other.parameters, name)
+        for name in JOINT_PARAMETERS
     ):
         raise ValueError(
             f"study scenario {experiment.source}: its true arm (plant.urdf and "

@@ -18,16 +18,15 @@ from pathlib import Path
 import numpy as np
 
 from posfb.analysis.common.export import export_run
-from posfb.analysis.common.loop_effects import rigid_plant
 from posfb.analysis.common.outputs import atomic_file
 from posfb.analysis.identification.identify import identify_log
 from posfb.analysis.identification.plan import plan_for_scenario
-from posfb.analysis.identification.study_out import plant_posterior
+from posfb.analysis.identification.study_out import plant_posterior, true_arm
 from posfb.analysis.model_error.spec import ModelErrorSpec
-from posfb.diagrams.resolve import LoadedScenario, resolve, run_scenario, scenario_from_file
+from posfb.diagrams.resolve import LoadedScenario, run_scenario, scenario_from_file
 from posfb.models.identification.checks import IDENTIFIABLE_RELATIVE_STD
 from posfb.models.identify import identify
-from posfb.models.plant import apply_parameters, build_arm_diagram
+from posfb.models.plant import apply_parameters
 
 #: The plan whose identification part (b) draws from (and whose logs are kept).
 POSTERIOR_PLAN = 0
@@ -87,10 +86,18 @@ def _scenario(spec: ModelErrorSpec, extra: list[str]) -> LoadedScenario:
 
 def true_theta(loaded: LoadedScenario) -> np.ndarray:
     """theta of the scenario's true arm, computed from the plant."""
-    resolved = resolve(loaded)
-    _, arm, context = build_arm_diagram(rigid_plant(resolved.config.plant))
-    apply_parameters(arm, context, resolved.true_parameters(arm.default_parameters))
-    return identify(arm, context).theta
+    truth = true_arm(loaded)
+    apply_parameters(truth.arm, truth.context, truth.parameters)
+    return identify(truth.arm, truth.context).theta
+
+
+def require_recorded(path: Path) -> Path:
+    """``path``, a file an earlier run of the study wrote (refused in one line if not)."""
+    if not path.is_file():
+        raise ValueError(
+            f"{path} does not exist; run posfb model-error without --report-only first"
+        )
+    return path
 
 
 def _plan(spec: ModelErrorSpec, folder: Path, seed: int) -> Path:
@@ -164,10 +171,7 @@ def load_records(spec: ModelErrorSpec, folder: Path) -> dict[int, list[AccuracyR
     for counts in spec.identification.encoder_counts:
         found = []
         for plan in range(spec.identification.plans):
-            path = record_path(folder, counts, plan)
-            if not path.is_file():
-                raise ValueError(f"{path} does not exist; run posfb model-error without "
-                                 "--report-only first")  # fmt: skip
+            path = require_recorded(record_path(folder, counts, plan))
             found.append(AccuracyRecord(**json.loads(path.read_text())))
         records[counts] = found
     return records

@@ -20,7 +20,7 @@ import json
 from dataclasses import replace
 from pathlib import Path
 
-from posfb.analysis.model_error.accuracy import model_path, posterior_path
+from posfb.analysis.model_error.accuracy import model_path, posterior_path, require_recorded
 from posfb.analysis.model_error.spec import ModelErrorSpec
 from posfb.analysis.realism.spec import Effect, RealismSpec, RealismStudies, realism_studies
 from posfb.analysis.uncertainty.study import ParameterDistributions, Posterior, Study, Uniform
@@ -43,11 +43,7 @@ def size_name(size: float) -> str:
 def _identified_effects(spec: ModelErrorSpec, folder: Path) -> list[Effect]:
     effects = []
     for counts in spec.identification.encoder_counts:
-        path = posterior_path(folder, counts)
-        if not path.is_file():
-            raise ValueError(
-                f"{path} does not exist; run posfb model-error without --report-only first"
-            )
+        path = require_recorded(posterior_path(folder, counts))
         effects.append(
             Effect(
                 name=identified_name(counts),
