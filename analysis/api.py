@@ -54,6 +54,7 @@ if TYPE_CHECKING:
     from pydrake.systems.analysis import Simulator
     from pydrake.systems.framework import Context, Diagram
 
+    from posfb.analysis.design.linear_loop import LinearDesign
     from posfb.analysis.design.settings import TuneSettings
     from posfb.analysis.design.tune import TuneResult
     from posfb.analysis.identification.identify import Identification
@@ -555,6 +556,48 @@ def compare(
     for kind in kinds:
         comparison.runs[kind] = simulate(loaded, kind, progress=progress)
     return comparison
+
+
+def design(scenario: ScenarioSource = None, controller: str | None = None) -> LinearDesign:
+    """A scenario's controller as a linear sampled loop, for its margins and for a
+    control toolbox (what ``posfb design --margins`` reports).
+
+    The loop is the one ``posfb design`` and ``posfb tune`` judge by its spectral
+    radius: the nominal linear part of Eq. 2 held over ``T_s`` with every linear effect
+    the scenario sets (sensor and compute delay, armature lag, compliant gear), closed
+    by the controller's feedback linearised there (the paper's controller at ``alpha =
+    alpha*``).
+
+    Parameters
+    ----------
+    scenario, controller
+        As for ``simulate``; the controller must have a linear design (every built-in
+        one does; a ``!Python`` plug-in does not).
+
+    Returns
+    -------
+    LinearDesign
+        ``.radius()``, ``.margins()`` (``models.design.margins.LoopMargins``: gain,
+        phase, delay and disk margins, sensitivity peaks), ``.controller_ss()`` and
+        ``.plant_ss()`` (python-control ``StateSpace``, ``dt = T_s``; the loop is
+        ``control.feedback(plant, controller, sign=+1)``), ``.controller_system()`` and
+        ``.plant_system()`` (Drake ``LinearSystem``), ``.closed_loop_eigenvalues()``.
+
+    Raises
+    ------
+    ValueError
+        A bad setting, or a controller without a linear design (one line).
+
+    Examples
+    --------
+    >>> import posfb
+    >>> loop = posfb.design(controller="lin_lc")
+    >>> bool(loop.radius() < 1.0)
+    True
+    """
+    from posfb.analysis.design.linear_loop import linear_design
+
+    return linear_design(resolve(_scenario(scenario, controller)))
 
 
 def tune(

@@ -8,6 +8,7 @@ The public API (``__all__``; its reference is generated into the user guide,
     run.rms_q, run.status, run.frame(), run.plot(), run.save("run.parquet")
     loop = posfb.build(scenario, extend=add_disturbance)    # the Drake Diagram, to wire more
     posfb.compare(scenario, ["pid", "lin_lc", "proposed"]).save("out/")
+    posfb.design(scenario, "lin_lc").margins()              # gain, phase, delay, disk margins
     class MyController(posfb.Controller): ...              # your own, position only
 
 The code lives in three layers, imported one way only::
@@ -37,6 +38,7 @@ _EXPORTS = {
     "simulate": "posfb.analysis.api",
     "build": "posfb.analysis.api",
     "compare": "posfb.analysis.api",
+    "design": "posfb.analysis.api",
     "tune": "posfb.analysis.api",
     "identify": "posfb.analysis.api",
     "plan_excitation": "posfb.analysis.api",
@@ -50,6 +52,7 @@ _EXPORTS = {
     "BuiltLoop": "posfb.analysis.api",
     "Comparison": "posfb.analysis.api",
     "ScenarioWarning": "posfb.analysis.api",
+    "LinearDesign": "posfb.analysis.design.linear_loop",
     "LoadedScenario": "posfb.diagrams.resolve",
     "Controller": "posfb.models.controllers.plugin",
     "ControllerSetup": "posfb.models.controllers.plugin",
@@ -63,6 +66,7 @@ __all__ = [
     "Controller",
     "ControllerSetup",
     "Identification",
+    "LinearDesign",
     "LoadedScenario",
     "NominalDynamics",
     "PlannedExcitation",
@@ -75,6 +79,7 @@ __all__ = [
     "__version__",
     "build",
     "compare",
+    "design",
     "identify",
     "load_scenario",
     "plan_excitation",
@@ -91,6 +96,7 @@ if TYPE_CHECKING:
         ScenarioWarning,
         build,
         compare,
+        design,
         identify,
         load_scenario,
         plan_excitation,
@@ -98,6 +104,7 @@ if TYPE_CHECKING:
         simulate,
         tune,
     )
+    from posfb.analysis.design.linear_loop import LinearDesign
     from posfb.analysis.design.search import TuneError
     from posfb.analysis.design.settings import TuneSettings
     from posfb.analysis.design.tune import TuneResult

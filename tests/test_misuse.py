@@ -320,6 +320,13 @@ CASES = {
     "design of a plug-in controller": Case(
         ("design", "--set", "controller.kind=adrc"), "'adrc' (linear ADRC (ESO)) has no Sec. 3"
     ),
+    "margins of a plug-in controller": Case(
+        ("design", "--margins", "--scenario", "{tmp}/plugin_broadcast.yaml"),
+        "--margins: controller 'Mine' has no linear design",
+    ),
+    "margins with the stability map": Case(
+        ("design", "--margins", "--map"), "--margins applies to the design report, not to --map"
+    ),
     "empty entry in --controllers": Case(
         ("compare", "--controllers", "pid,,lin_lc"), "comma-separated controller kinds"
     ),

@@ -30,6 +30,7 @@ from posfb.models.controllers.registry import (
     spec,
 )
 from posfb.models.design import ControllerConfig, Design, cached_design
+from posfb.models.design.realisation import DiscreteFilter
 
 for _module in (pid, lin_lc, proposed, pd_gravity, adrc):
     register(_module.SPEC)
@@ -81,6 +82,32 @@ def controller_spec(kind: str, settings: object | None = None) -> ControllerSpec
     return settings.spec if isinstance(settings, UserPlugin) else spec(kind)
 
 
+def linear_kinds() -> tuple[str, ...]:
+    """The registered kinds with a linear feedback (``ControllerSpec.linear``)."""
+    return tuple(kind for kind, entry in REGISTRY.items() if entry.linear is not None)
+
+
+def linear_feedback(
+    kind: str,
+    config: ControllerConfig,
+    *,
+    voltage_limit: tuple[float, ...] = (),
+    settings: object | None = None,
+) -> DiscreteFilter:
+    """Controller ``kind``'s feedback linearised on the nominal linear part
+    (``ControllerSpec.linear``: a filter from ``q~`` to the feedback voltage) for the same
+    inputs as ``make_controller``; ``ValueError`` (one line) for a controller without one
+    (a plug-in of the user's) or a design it refuses."""
+    entry = controller_spec(kind, settings)
+    if entry.linear is None:
+        raise ValueError(
+            f"controller {kind!r} has no linear design (posfb cannot linearise a plug-in's "
+            f"step); the margins are computed for {', '.join(linear_kinds())}"
+        )
+    entry.refuse(config)
+    return entry.linear(ControllerBuild(config, tuple(voltage_limit), settings))
+
+
 def make_controller(
     kind: str,
     config: ControllerConfig | None = None,
@@ -118,6 +145,8 @@ __all__ = [
     "failed_checks",
     "internals_names",
     "kinds",
+    "linear_feedback",
+    "linear_kinds",
     "spec",
     "make_controller",
     "require_design",

@@ -29,6 +29,10 @@ tuning", ACC): the controller bandwidth ``w_c`` sets ``K_p = w_c^2``, ``K_d = 2 
 Gao's 3-10) times faster, ``w_o = observer_ratio w_c``. With ``bandwidth`` 0, ``w_c = 2 pi /
 (20 T_s)``, the sampling rule of ``models.controllers.tuning``; ``w_o`` must stay below the
 Nyquist frequency.
+
+Its linear feedback (``adrc_feedback``, for the margins): the same ESO and law with the
+clip left out (a linear loop does not saturate) and the reference terms as exogenous
+inputs, a filter from the reading to the voltage.
 """
 
 # No "from __future__ import annotations": Drake's YAML reads the settings field types.
@@ -39,13 +43,19 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.linalg import expm
 
-from posfb.models.controllers.plugin import Controller, ControllerSetup, plugin_factory
-from posfb.models.controllers.registry import ControllerSpec
+from posfb.models.controllers.plugin import (
+    Controller,
+    ControllerSetup,
+    plugin_factory,
+    plugin_instance,
+)
+from posfb.models.controllers.registry import ControllerBuild, ControllerSpec
 from posfb.models.controllers.tuning import (
     loop_bandwidth,
     positive_setting,
     require_below_nyquist,
 )
+from posfb.models.design.realisation import DiscreteFilter
 
 
 @dataclass
@@ -121,6 +131,27 @@ class AdrcController(Controller):
         return voltage, np.concatenate([z[2] / self.b0, z[1]])
 
 
+def adrc_feedback(build: ControllerBuild) -> DiscreteFilter:
+    """The ESO and law without the clip (module docstring), state the predicted ``zbar``
+    in the controller's memory order (``[q^ (n), qdot^ (n), f^ (n)]``), started at
+    ``[q~_0, 0, 0]`` as the controller is. Per joint ``z = (I - L h) zbar + L y`` (``h =
+    [1, 0, 0]``), ``b0 u = -k z`` (``k = [K_p, K_d, 1]``) and ``zbar' = (Phi - Gamma k) z``."""
+    law = plugin_instance(AdrcController, build)
+    n = law.setup.joints
+    k = np.array([law.Kp, law.Kd, 1.0])
+    correct = np.eye(3) - np.outer(law.L, [1.0, 0.0, 0.0])  # zbar -> z, without y
+    closed = law.Phi - np.outer(law.Gamma, k)  # z -> next zbar
+    per_volt = np.diag(1.0 / law.b0)
+    eye = np.eye(n)
+    return DiscreteFilter(
+        A=np.kron(closed @ correct, eye),
+        B=np.kron((closed @ law.L)[:, None], eye),
+        C=-per_volt @ np.kron((k @ correct)[None, :], eye),
+        D=-(k @ law.L) * per_volt,
+        initial=np.kron(np.array([[1.0], [0.0], [0.0]]), eye),
+    )
+
+
 #: Linear ADRC (Gao 2003): a registered plug-in baseline.
 SPEC = ControllerSpec(
     kind="adrc",
@@ -128,4 +159,5 @@ SPEC = ControllerSpec(
     factory=plugin_factory(AdrcController),
     style={"linestyle": (0, (3, 1, 1, 1, 1, 1)), "color": "tab:purple"},
     settings=Adrc,
+    linear=adrc_feedback,
 )

@@ -12,7 +12,7 @@ import numpy as np
 from posfb.models.controllers.base import SampledController, joint_names
 from posfb.models.controllers.feedforward import nominal_torques
 from posfb.models.controllers.registry import ControllerSpec
-from posfb.models.design import Design, cached_design
+from posfb.models.design import Design, cached_design, designed_feedback
 from posfb.models.design.settings import LinLc
 
 
@@ -61,4 +61,5 @@ SPEC = ControllerSpec(
     require=lambda design: cached_design(design).require_linear_torque(),
     internals=lin_lc_internals,
     settings=LinLc,
+    linear=lambda build: designed_feedback(cached_design(build.design), "lin_lc"),
 )

@@ -23,6 +23,10 @@ with ``zeta = damping_ratio`` (default 1), ``filter_ratio`` 5 (the derivative fi
 factor 5 above the loop) and, when ``bandwidth`` is 0, ``omega = 2 pi / (20 T_s)`` (5 Hz
 at 100 Hz; ``models.controllers.tuning``). The derivative filter's pole must stay below
 the Nyquist frequency ``pi / T_s``.
+
+Its linear feedback (``pd_gravity_feedback``, for the margins): on the nominal linear
+part (``G`` belongs to ``h`` of Eq. 2) ``u_k = -K_p q~_k - K_d v_k`` with ``v`` the dirty
+derivative of ``q~``.
 """
 
 # No "from __future__ import annotations": Drake's YAML reads the settings field types.
@@ -31,13 +35,19 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from posfb.models.controllers.plugin import Controller, ControllerSetup, plugin_factory
-from posfb.models.controllers.registry import ControllerSpec
+from posfb.models.controllers.plugin import (
+    Controller,
+    ControllerSetup,
+    plugin_factory,
+    plugin_instance,
+)
+from posfb.models.controllers.registry import ControllerBuild, ControllerSpec
 from posfb.models.controllers.tuning import (
     loop_bandwidth,
     positive_setting,
     require_below_nyquist,
 )
+from posfb.models.design.realisation import DiscreteFilter
 
 
 @dataclass
@@ -92,6 +102,23 @@ class PdGravityController(Controller):
         return voltage, np.concatenate([velocity, gravity])
 
 
+def pd_gravity_feedback(build: ControllerBuild) -> DiscreteFilter:
+    """The law linearised on the nominal linear part (module docstring), state
+    ``[q~_(k-1), v_(k-1)]``, started at ``[q~_0, 0]`` as the controller is."""
+    law = plugin_instance(PdGravityController, build)
+    T = law.setup.sample_time
+    keep, gain = law.tau_f / (law.tau_f + T), 1.0 / (law.tau_f + T)  # v_k = keep v + gain dq
+    Kp, Kd = np.diag(law.Kp), np.diag(law.Kd)
+    eye, zero = np.eye(len(Kp)), np.zeros_like(Kp)
+    return DiscreteFilter(
+        A=np.block([[zero, zero], [-gain * eye, keep * eye]]),
+        B=np.vstack([eye, gain * eye]),
+        C=np.hstack([gain * Kd, -keep * Kd]),
+        D=-Kp - gain * Kd,
+        initial=np.vstack([eye, zero]),
+    )
+
+
 #: PD + gravity with a dirty derivative (Kelly 1993): a registered plug-in baseline.
 SPEC = ControllerSpec(
     kind="pd_gravity",
@@ -99,4 +126,5 @@ SPEC = ControllerSpec(
     factory=plugin_factory(PdGravityController),
     style={"linestyle": (0, (5, 1, 1, 1)), "color": "tab:red"},
     settings=PdGravity,
+    linear=pd_gravity_feedback,
 )

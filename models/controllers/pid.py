@@ -8,6 +8,11 @@ position everywhere (``F*`` uses its sign: no Coulomb term while the encoder
 count does not change). At the first sample ``q_{-1} = q_0`` (zero velocity
 estimate) and the integral is 0; the integral is the left-rectangle sum
 ``I_k = T_s (q~_0 + ... + q~_{k-1})``.
+
+Its linear feedback (``pid_feedback``, for the margins): on the nominal linear part
+(``M* = M0*``; ``C* q'``, ``G*`` and ``F*`` belong to ``h`` of Eq. 2 and the reference
+terms cancel) ``u_k = M0* (-K_p q~_k - K_v d_k - K_I I_k) + B* d_k`` with ``d_k = (q~_k -
+q~_(k-1)) / T_s``.
 """
 
 from __future__ import annotations
@@ -17,6 +22,7 @@ import numpy as np
 from posfb.models.controllers.base import SampledController, joint_names
 from posfb.models.controllers.registry import ControllerBuild, ControllerSpec
 from posfb.models.design.config import PidGains
+from posfb.models.design.realisation import DiscreteFilter
 from posfb.models.design.settings import Pid
 from posfb.models.nominal import NominalModel, joint_count, nominal_model
 
@@ -59,6 +65,25 @@ class PidController(SampledController):
         return voltage, np.concatenate([qdot, integral])
 
 
+def pid_feedback(build: ControllerBuild) -> DiscreteFilter:
+    """Eq. 26 linearised on the nominal linear part (module docstring), state ``[q~_(k-1),
+    I_k]``, started at ``[q~_0, 0]`` as the controller is."""
+    design = build.design
+    model = nominal_model(design.nominal)
+    M0, B, T = model.M0(), model.B(), design.sample_time
+    Kp, Kv, KI = (np.diag(np.asarray(g, dtype=float)) for g in (design.pid.Kp, design.pid.Kv,
+                                                                 design.pid.KI))  # fmt: skip
+    n, zero, eye = len(M0), np.zeros_like(M0), np.eye(len(M0))
+    rate = (M0 @ Kv - B) / T  # the gain of q~_(k-1) through d_k
+    return DiscreteFilter(
+        A=np.block([[zero, zero], [zero, eye]]),
+        B=np.vstack([eye, T * eye]),
+        C=np.hstack([rate, -M0 @ KI]),
+        D=-M0 @ Kp - rate,
+        initial=np.vstack([eye, np.zeros((n, n))]),
+    )
+
+
 def _build(build: ControllerBuild) -> PidController:
     design = build.design
     return PidController(design.nominal, design.pid, design.sample_time)
@@ -72,4 +97,5 @@ SPEC = ControllerSpec(
     style={"linestyle": "-", "color": "tab:blue"},
     internals=pid_internals,
     settings=Pid,
+    linear=pid_feedback,
 )

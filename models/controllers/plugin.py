@@ -54,6 +54,9 @@ from posfb.models.serial_model import SerialArmModel
 
 _T = TypeVar("_T")
 
+#: A registered plug-in class (``plugin_instance``).
+_C = TypeVar("_C", bound="Controller")
+
 
 class PluginError(ValueError):
     """A plug-in or its scenario entry is wrong (missing file, bad class, sizes,
@@ -306,10 +309,16 @@ def plugin_factory(cls: type[Controller]) -> Callable[[ControllerBuild], PluginS
     fields of the scenario entry's settings dataclass as keyword arguments."""
 
     def build(inputs: ControllerBuild) -> PluginSystem:
-        settings = {} if inputs.settings is None else dataclasses.asdict(inputs.settings)
-        return PluginSystem(cls(controller_setup(inputs), **settings))
+        return PluginSystem(plugin_instance(cls, inputs))
 
     return build
+
+
+def plugin_instance(cls: type[_C], build: ControllerBuild) -> _C:
+    """``cls(setup, **settings)`` of a registered plug-in kind (``plugin_factory``'s, before
+    it is wrapped in a Drake system)."""
+    settings = {} if build.settings is None else dataclasses.asdict(build.settings)
+    return cls(controller_setup(build), **settings)
 
 
 @dataclass(frozen=True, eq=False)

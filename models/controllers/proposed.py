@@ -26,7 +26,7 @@ import numpy as np
 from posfb.models.controllers.base import SampledController, joint_names
 from posfb.models.controllers.feedforward import nominal_torques
 from posfb.models.controllers.registry import ControllerSpec
-from posfb.models.design import ControllerConfig, Design, cached_design
+from posfb.models.design import ControllerConfig, Design, cached_design, designed_feedback
 from posfb.models.design.settings import Proposed
 
 
@@ -139,4 +139,5 @@ SPEC = ControllerSpec(
     require=lambda design: cached_design(design).require_nonlinear_torque(),
     internals=proposed_internals,
     settings=Proposed,
+    linear=lambda build: designed_feedback(cached_design(build.design), "proposed"),
 )

@@ -5,7 +5,10 @@ scenario's name for it), its ``label`` and plot ``style`` (legends, tables; a
 ``design_label`` where the label depends on the settings, ``label_for``), its
 settings class (a member of the scenario's ``controller:`` union: ``!Proposed``,
 ``!LinLc``, ``!Pid``, ...), the design checks that concern it, what it refuses, and its
-factory. Plots, exports, tables,
+factory, and where it has one its ``linear`` feedback: the controller linearised on the
+nominal linear part (Eq. 2 with ``h = 0``, the feed-forward terms cancelled by the
+reference), a discrete filter from ``q~`` to the feedback voltage, which the margins of
+``models.design.margins`` break. Plots, exports, tables,
 reports, Monte Carlo and replay read the spec; none of them spells a controller's name.
 A new controller is one module with a ``SPEC`` and one line in
 ``models.controllers.__init__`` (``register``). A user's own controller
@@ -22,6 +25,7 @@ from typing import TYPE_CHECKING
 if TYPE_CHECKING:
     from posfb.models.controllers.base import SampledController
     from posfb.models.design import ControllerConfig
+    from posfb.models.design.realisation import DiscreteFilter
 
 
 @dataclass(frozen=True)
@@ -48,6 +52,7 @@ class ControllerSpec:
     require: Callable[[ControllerConfig], None] | None = None
     internals: Callable[[int], tuple[str, ...]] | None = None
     design_label: Callable[[ControllerConfig], str] | None = None
+    linear: Callable[[ControllerBuild], DiscreteFilter] | None = None
 
     def label_for(self, design: ControllerConfig) -> str:
         """The label of this controller built from ``design``: ``design_label(design)``

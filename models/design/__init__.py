@@ -19,6 +19,7 @@ from posfb.models.design.synthesis import (
     Design,
     compute_design,
     design_loop,
+    designed_feedback,
     held_design_loop,
     held_design_radius,
     plant_spectral_radii,
@@ -30,6 +31,7 @@ cached_design = lru_cache(maxsize=32)(compute_design)
 
 __all__ = [
     "cached_design",
+    "designed_feedback",
     "LOOP_CONTROLLERS",
     "plant_spectral_radii",
     "Check",

@@ -331,6 +331,15 @@ def _designed(design: Design, controller: str, joints: int) -> tuple[DiscreteFil
     return designed, gain
 
 
+def designed_feedback(design: Design, controller: str) -> DiscreteFilter:
+    """The filter of ``controller`` (one of ``LOOP_CONTROLLERS``) as designed, from ``q~`` to
+    the feedback voltage: its output gain folded into ``C`` and ``D`` (the proposed
+    controller's at ``alpha = alpha*``), as the sampled-data checks close it."""
+    designed, gain = _designed(design, controller, design.config.joints)
+    return DiscreteFilter(designed.A, designed.B, gain @ designed.C, gain @ designed.D,
+                          designed.initial)  # fmt: skip
+
+
 def held_design_loop(design: Design, controller: str, plant: HeldPlant) -> SampledLoop:
     """``design_loop`` around a plant already held over the design's sample time."""
     return held_loop(plant, *_designed(design, controller, plant.Gamma.shape[1]))

@@ -9,6 +9,10 @@ out are named in one note on stderr and under ``left_out`` in JSON). A failed ch
 reported (``warnings`` in JSON, ``FAILED`` in the text) and the command exits 0 (the
 report is the result), or 1 with ``--strict``.
 
+``--margins`` adds the margins of the scenario's controller's sampled loop (gain, phase,
+delay and disk margins, sensitivity peaks: ``analysis.design.margins_report``; in JSON the
+object ``margins``); a controller without a linear design (a plug-in) is refused.
+
 ``--map`` draws the stability map instead (``analysis.design.stability_map``): the nominal
 loop's spectral radius and the share of sampled plants robustly stable over a grid of
 two design keys, and the largest sample time with a robust design.
@@ -33,6 +37,7 @@ from posfb.analysis.design.report import (
 from posfb.analysis.design.settings import DEFAULT_MARGIN, TuneSettings
 
 if TYPE_CHECKING:
+    from posfb.analysis.design.linear_loop import LinearDesign
     from posfb.analysis.design.stability_map import MapAxis
     from posfb.diagrams.resolve import LoadedScenario, ResolvedScenario
     from posfb.models.design import Design
@@ -42,11 +47,15 @@ EXIT_FAILED_CHECK = 1
 
 
 def configure(parser: argparse.ArgumentParser) -> None:
-    add_scenario_arguments(parser, ("sample_time", "alpha_star"))
+    add_scenario_arguments(parser, ("controller", "sample_time", "alpha_star"))
     parser.add_argument("--json", action="store_true", help="print one JSON object")
     parser.add_argument(
         "--strict", action="store_true", help="exit 1 when any design check fails (for scripts)"
     )
+    parser.add_argument(
+        "--margins", action="store_true", help="add the gain, phase, delay and disk margins "
+        "of the scenario controller's sampled loop",
+    )  # fmt: skip
     add_map_arguments(parser)
     parser.set_defaults(handler=run)
 
@@ -124,22 +133,54 @@ def scenario_design(resolved: ResolvedScenario, command: str = "design") -> Desi
     return nominal_design(resolved)
 
 
+def loop_design(resolved: ResolvedScenario, flag: str = "--margins") -> LinearDesign:
+    """The scenario controller's linear sampled loop; a controller without one is refused
+    naming ``flag``."""
+    from posfb.analysis.design.linear_loop import linear_design
+
+    try:
+        return linear_design(resolved)
+    except ValueError as error:
+        raise UsageError(f"{flag}: {error}") from None
+
+
 def run(args: argparse.Namespace) -> int:
     if args.map:
+        if args.margins:
+            raise UsageError("--margins applies to the design report, not to --map")
         return run_map(args)
     given = [flag for dest, flag in MAP_OPTIONS.items() if getattr(args, dest) is not None]
     if given:
         raise UsageError(f"{given[0]} applies to the stability map; add --map")
-    resolved, relevant = design_config(args)
-    design = scenario_design(resolved)
-    failed = [c for c in design.checks if c.name in relevant and not c.passed]
+    from posfb.diagrams.resolve import resolve
+    from posfb.models.controllers import design_checks
+
+    resolved = resolve(scenario_from_args(args))
+    linear = loop_design(resolved) if args.margins else None
+    # A controller without a Sec. 3 design (PID, a plug-in) has only its margins to show.
+    relevant = relevant_checks(resolved.config) if linear is None else (
+        design_checks(resolved.config.controller))  # fmt: skip
+    design = scenario_design(resolved) if relevant else None
+    failed = [] if design is None else [
+        c for c in design.checks if c.name in relevant and not c.passed]  # fmt: skip
+    margins = None if linear is None else linear.margins()
     if args.json:
         from posfb.analysis.common.loop_effects import left_out
 
-        found = {"left_out": left_out(resolved.config)}
-        print(json.dumps(design_to_dict(design, relevant) | found))
+        found = {} if design is None else design_to_dict(design, relevant)
+        found["left_out"] = left_out(resolved.config)
+        if margins is not None:
+            from posfb.analysis.design.margins_report import margins_to_dict
+
+            found["margins"] = margins_to_dict(linear, margins)
+        print(json.dumps(found, allow_nan=False))
     else:
-        print(format_report(design, relevant))
+        if design is not None:
+            print(format_report(design, relevant))
+        if margins is not None:
+            from posfb.analysis.design.margins_report import format_margins
+
+            print(format_margins(linear, margins))
     return EXIT_FAILED_CHECK if args.strict and failed else 0
 
 

@@ -1,5 +1,6 @@
 """``posfb scenario dump|check|init``: the settings tree of a run, written out in full,
-validated with the design verdict (Sec. 3 checks, sampled-data radius), or derived for a
+validated with the design verdict (Sec. 3 checks, sampled-data radius) and the margins
+of the controller's sampled loop (``posfb design --margins``), or derived for a
 new arm from its URDF (``analysis.design.scenario_init``)."""
 
 from __future__ import annotations
@@ -7,10 +8,14 @@ from __future__ import annotations
 import argparse
 import sys
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from posfb.analysis.cli.commands.design import EXIT_FAILED_CHECK, scenario_design
 from posfb.analysis.cli.commands.scenario_args import add_scenario_arguments, scenario_from_args
 from posfb.analysis.design.report import format_report
+
+if TYPE_CHECKING:
+    from posfb.diagrams.resolve import ResolvedScenario
 
 
 def configure(parser: argparse.ArgumentParser) -> None:
@@ -63,11 +68,13 @@ def run_check(args: argparse.Namespace) -> int:
     for warning in trajectory_warnings(resolved):
         print(f"warning: {warning}")
     if not design_checks(config.controller):  # PID or a plug-in (built once by resolve)
+        print(margins_text(resolved))
         print(f"verdict: {config.spec.label} has no Sec. 3 design; it was built with the "
               "scenario's settings")  # fmt: skip
         return 0
     design = scenario_design(resolved, "scenario check")
     print(format_report(design, design_checks(config.controller)))
+    print(margins_text(resolved))
     relevant = design_checks(config.controller) if args.strict else config.spec.checks
     failed = [c.name for c in design.checks if c.name in relevant and not c.passed]
     whose = "the design" if args.strict else f"the {config.controller} controller"
@@ -76,6 +83,19 @@ def run_check(args: argparse.Namespace) -> int:
         return EXIT_FAILED_CHECK
     print(f"verdict: every check of {whose} passed")
     return 0
+
+
+def margins_text(resolved: ResolvedScenario) -> str:
+    """The margins of the scenario controller's sampled loop in words
+    (``analysis.design.margins_report``), or one line saying why it has none."""
+    from posfb.analysis.design.linear_loop import linear_design
+    from posfb.analysis.design.margins_report import format_margins
+
+    try:
+        linear = linear_design(resolved)
+    except ValueError as error:
+        return f"margins: none ({error})"
+    return format_margins(linear, linear.margins())
 
 
 def run_init(args: argparse.Namespace) -> int:

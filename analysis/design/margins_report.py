@@ -1,0 +1,137 @@
+"""The margins of a design in words and in JSON (``posfb design --margins``, ``posfb
+scenario check``): ``models.design.margins`` computes them, this module only writes them.
+
+JSON (``margins_to_dict``): ``null`` where a margin is infinite (no crossover, a delay
+beyond the scan) or undefined; with an unstable nominal loop (``stable: false``) the
+margins do not apply and every one of them is ``null``.
+"""
+
+from __future__ import annotations
+
+import math
+
+from posfb.analysis.design.linear_loop import LinearDesign
+from posfb.models.design.margins import (
+    MAX_DELAY_SAMPLES,
+    BreakMargins,
+    ChannelMargins,
+    LoopMargins,
+)
+
+
+def _number(value: float) -> float | None:
+    """JSON's number, or ``null`` for an infinite or undefined one."""
+    return float(value) if math.isfinite(value) else None
+
+
+def _channel(channel: ChannelMargins) -> dict[str, float | None]:
+    return {
+        "gain_margin": _number(channel.gain_margin),
+        "phase_crossover_rad_per_s": _number(channel.phase_crossover_rad_per_s),
+        "phase_margin_deg": _number(channel.phase_margin_deg),
+        "crossover_rad_per_s": _number(channel.crossover_rad_per_s),
+        "delay_margin_s": _number(channel.delay_margin_s),
+    }
+
+
+def _break(margins: BreakMargins) -> dict[str, object]:
+    return {
+        "disk_margin": _number(margins.disk_margin),
+        "disk_gain_margin": _number(margins.disk_gain_margin),
+        "disk_phase_margin_deg": _number(margins.disk_phase_margin_deg),
+        "disk_frequency_rad_per_s": _number(margins.disk_frequency_rad_per_s),
+        "peak_sensitivity": _number(margins.peak_sensitivity),
+        "peak_complementary_sensitivity": _number(margins.peak_complementary_sensitivity),
+        "channels": [_channel(c) for c in margins.channels],
+    }
+
+
+def margins_to_dict(design: LinearDesign, margins: LoopMargins) -> dict[str, object]:
+    """The ``margins`` object of ``--json`` (module docstring): the loop-wide figures (the
+    worse break's), ``channels`` loop at a time at the plant input, and ``at`` both breaks
+    in full."""
+    result: dict[str, object] = {
+        "controller": design.controller,
+        "sample_time": design.sample_time,
+        "spectral_radius": margins.radius,
+        "stable": margins.stable,
+        "delay_margin_s": _number(margins.delay_margin_s),
+        "delay_margin_samples": _number(margins.delay_margin_samples),
+        "disk_margin": _number(margins.disk_margin),
+        "disk_gain_margin": _number(margins.disk_gain_margin),
+        "disk_phase_margin_deg": _number(margins.disk_phase_margin_deg),
+        "peak_sensitivity": _number(margins.peak_sensitivity),
+        "peak_complementary_sensitivity": _number(margins.peak_complementary_sensitivity),
+        "channels": [_channel(c) for c in margins.at_input.channels],
+        "at": {b.where: _break(b) for b in margins.breaks},
+        "left_out": list(design.left_out),
+    }
+    if not margins.stable:
+        result = _nulled(result)
+    return result
+
+
+def _nulled(value: object) -> object:
+    """``value`` with every margin ``null`` (the identity and the radius kept)."""
+    kept = {"controller", "sample_time", "spectral_radius", "stable", "left_out"}
+    if isinstance(value, dict):
+        return {k: (v if k in kept else _nulled(v)) for k, v in value.items()}
+    if isinstance(value, list):
+        return [_nulled(v) for v in value]
+    return None
+
+
+def radius_text(radius: float) -> str:
+    """A spectral radius to four decimals, or to as many as it takes (up to 12) to tell
+    one just below 1 (a slow integral mode: ``0.99998``) from 1."""
+    for decimals in range(4, 13):
+        text = f"{radius:.{decimals}f}"
+        if radius >= 1.0 or float(text) < 1.0:
+            return text
+    return text
+
+
+def _value(value: float, form: str, unit: str = "") -> str:
+    return "none" if not math.isfinite(value) else f"{value:{form}}{unit}"
+
+
+def _delay(seconds: float, sample_time: float) -> str:
+    if math.isinf(seconds):
+        return f"more than {MAX_DELAY_SAMPLES} periods"
+    return f"{seconds * 1e3:.3g} ms ({seconds / sample_time:.3g} T_s)"
+
+
+def format_margins(design: LinearDesign, margins: LoopMargins) -> str:
+    """The margins in words: the loop-wide line, then per break the disk margin, the
+    sensitivity peaks and one line per joint."""
+    T = design.sample_time
+    lines = [f"Margins of the sampled loop ({design.label}, T_s = {T:g} s, nominal linear "
+             f"plant held over T_s): spectral radius {radius_text(margins.radius)}"]  # fmt: skip
+    if design.left_out:
+        lines.append(f"  left out (nonlinear): {', '.join(design.left_out)}")
+    if not margins.stable:
+        lines.append("  the nominal loop is UNSTABLE (radius >= 1): no margin applies")
+        return "\n".join(lines)
+    lines += [
+        "  delay margin (the same extra delay on every joint): "
+        + _delay(margins.delay_margin_s, T),
+        f"  disk margin {margins.disk_margin:.3f}: gain x{_value(margins.disk_gain_margin, '.3f')}"
+        f" (or x{_value(1.0 / margins.disk_gain_margin, '.3f')}), phase "
+        f"+-{margins.disk_phase_margin_deg:.1f} deg, in every channel at once",
+        f"  peak |S| {margins.peak_sensitivity:.3f}, peak |T| "
+        f"{margins.peak_complementary_sensitivity:.3f}",
+    ]
+    for where in margins.breaks:
+        lines.append(
+            f"  at the plant {where.where}: disk {where.disk_margin:.3f} at "
+            f"{where.disk_frequency_rad_per_s:.3g} rad/s, peak |S| {where.peak_sensitivity:.3f}, "
+            f"|T| {where.peak_complementary_sensitivity:.3f}; loop at a time:"
+        )
+        for j, c in enumerate(where.channels, start=1):
+            lines.append(
+                f"    joint {j}: gain margin x{_value(c.gain_margin, '.3g')}, phase margin "
+                f"{_value(c.phase_margin_deg, '.1f', ' deg')} at "
+                f"{_value(c.crossover_rad_per_s, '.3g', ' rad/s')}, delay margin "
+                f"{_delay(c.delay_margin_s, T)}"
+            )
+    return "\n".join(lines)
