@@ -283,3 +283,42 @@ def test_the_guides_margins_table_is_the_codes():
 
     committed = Path(__file__).resolve().parent.parent / "docs/margins/table.md"
     assert committed.read_text() == table()
+
+
+def test_bode_marks_each_channels_margins():
+    """The Bode figure's marks are the margins: the red segment spans the gain margin in
+    dB below 0 dB at the phase crossover, the green one the phase margin above -180 deg
+    at the gain crossover."""
+    from posfb.analysis.design.margins_figures import margins_bode
+
+    loop = posfb.design(None, "lin_lc")
+    margins = loop.margins()
+    figure = margins_bode(loop, margins)
+    axes = figure.get_axes()
+    assert len(axes) == 2 * loop.joints
+    for j, channel in enumerate(margins.at_input.channels):
+        magnitude, phase = axes[2 * j], axes[2 * j + 1]
+        gain_mark = [line for line in magnitude.lines if len(line.get_xdata()) == 2
+                     and line.get_color() == "tab:red"]  # fmt: skip
+        assert len(gain_mark) == 1
+        assert gain_mark[0].get_xdata()[0] == pytest.approx(channel.phase_crossover_rad_per_s)
+        low, high = gain_mark[0].get_ydata()
+        assert high - low == pytest.approx(20.0 * math.log10(channel.gain_margin))
+        phase_mark = [line for line in phase.lines if len(line.get_xdata()) == 2
+                      and line.get_color() == "tab:green"]  # fmt: skip
+        start, end = phase_mark[0].get_ydata()
+        assert start - end == pytest.approx(channel.phase_margin_deg)
+        assert end % 360.0 == pytest.approx(180.0, abs=0.5)
+
+
+def test_margins_out_writes_the_json_and_figures(tmp_path):
+    out = tmp_path / "margins"
+    subprocess.run(
+        [*CLI, "design", "--margins", "--controller", "pid", "--out", str(out)],
+        capture_output=True, text=True, check=True,
+    )  # fmt: skip
+    names = sorted(p.name for p in out.iterdir())
+    assert names == sorted(["margins.json"] + [f"{stem}.{suffix}" for stem in
+                           ("margins_bode", "margins_nyquist", "margins_sensitivity")
+                           for suffix in ("png", "svg")])  # fmt: skip
+    assert json.loads((out / "margins.json").read_text())["controller"] == "pid"

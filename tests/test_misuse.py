@@ -324,6 +324,10 @@ CASES = {
         ("design", "--margins", "--scenario", "{tmp}/plugin_broadcast.yaml"),
         "--margins: controller 'Mine' has no linear design",
     ),
+    "margins into a file": Case(
+        ("design", "--margins", "--out", "{tmp}/a_file"), "a_file: is a file; a folder is required",
+        untouched=("a_file",),
+    ),
     "margins with the stability map": Case(
         ("design", "--margins", "--map"), "--margins applies to the design report, not to --map"
     ),

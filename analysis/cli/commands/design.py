@@ -11,7 +11,9 @@ report is the result), or 1 with ``--strict``.
 
 ``--margins`` adds the margins of the scenario's controller's sampled loop (gain, phase,
 delay and disk margins, sensitivity peaks: ``analysis.design.margins_report``; in JSON the
-object ``margins``); a controller without a linear design (a plug-in) is refused.
+object ``margins``); a controller without a linear design (a plug-in) is refused. With
+``--out DIR`` it writes ``margins.json`` and the figures of
+``analysis.design.margins_figures`` (PNG and SVG) there.
 
 ``--map`` draws the stability map instead (``analysis.design.stability_map``): the nominal
 loop's spectral radius and the share of sampled plants robustly stable over a grid of
@@ -37,10 +39,13 @@ from posfb.analysis.design.report import (
 from posfb.analysis.design.settings import DEFAULT_MARGIN, TuneSettings
 
 if TYPE_CHECKING:
+    from pathlib import Path
+
     from posfb.analysis.design.linear_loop import LinearDesign
     from posfb.analysis.design.stability_map import MapAxis
     from posfb.diagrams.resolve import LoadedScenario, ResolvedScenario
     from posfb.models.design import Design
+    from posfb.models.design.margins import LoopMargins
 
 #: Exit code of ``--strict`` when a check fails.
 EXIT_FAILED_CHECK = 1
@@ -109,7 +114,8 @@ def add_map_arguments(parser: argparse.ArgumentParser) -> None:
                        help="also mark this scenario's values of the two keys (e.g. posfb "
                        "tune's output)")  # fmt: skip
     group.add_argument(
-        "--out", metavar="DIR", help="write stability_map.png, .svg and .json into DIR"
+        "--out", metavar="DIR", help="write stability_map.png, .svg and .json into DIR (with "
+        "--margins: margins.json and the Bode, Nyquist and sensitivity figures)"
     )
 
 
@@ -149,12 +155,16 @@ def run(args: argparse.Namespace) -> int:
         if args.margins:
             raise UsageError("--margins applies to the design report, not to --map")
         return run_map(args)
-    given = [flag for dest, flag in MAP_OPTIONS.items() if getattr(args, dest) is not None]
+    given = [flag for dest, flag in MAP_OPTIONS.items() if getattr(args, dest) is not None
+             and not (dest == "out" and args.margins)]  # fmt: skip
     if given:
         raise UsageError(f"{given[0]} applies to the stability map; add --map")
+    from posfb.analysis.common.loop_effects import left_out
+    from posfb.analysis.common.outputs import output_folder
     from posfb.diagrams.resolve import resolve
     from posfb.models.controllers import design_checks
 
+    out = None if args.out is None else output_folder("--out", args.out)
     resolved = resolve(scenario_from_args(args))
     linear = loop_design(resolved) if args.margins else None
     # A controller without a Sec. 3 design (PID, a plug-in) has only its margins to show.
@@ -163,25 +173,35 @@ def run(args: argparse.Namespace) -> int:
     design = scenario_design(resolved) if relevant else None
     failed = [] if design is None else [
         c for c in design.checks if c.name in relevant and not c.passed]  # fmt: skip
-    margins = None if linear is None else linear.margins()
-    if args.json:
-        from posfb.analysis.common.loop_effects import left_out
+    found = {} if design is None else design_to_dict(design, relevant)
+    found["left_out"] = left_out(resolved.config)
+    text = [] if design is None else [format_report(design, relevant)]
+    if linear is not None:
+        from posfb.analysis.design.margins_report import format_margins, margins_to_dict
 
-        found = {} if design is None else design_to_dict(design, relevant)
-        found["left_out"] = left_out(resolved.config)
-        if margins is not None:
-            from posfb.analysis.design.margins_report import margins_to_dict
-
-            found["margins"] = margins_to_dict(linear, margins)
-        print(json.dumps(found, allow_nan=False))
-    else:
-        if design is not None:
-            print(format_report(design, relevant))
-        if margins is not None:
-            from posfb.analysis.design.margins_report import format_margins
-
-            print(format_margins(linear, margins))
+        margins = linear.margins()
+        found["margins"] = margins_to_dict(linear, margins)
+        text.append(format_margins(linear, margins))
+        if out is not None:
+            found["files"] = write_margins(out, linear, margins, found["margins"])
+            text.append("wrote " + ", ".join(found["files"]))
+    print(json.dumps(found, allow_nan=False) if args.json else "\n".join(text))
     return EXIT_FAILED_CHECK if args.strict and failed else 0
+
+
+def write_margins(
+    out: Path, linear: LinearDesign, margins: LoopMargins, data: dict[str, object]
+) -> list[str]:
+    """``margins.json`` and the figures of ``analysis.design.margins_figures`` in ``out``,
+    staged (a failed write leaves ``out`` as it was); the paths written."""
+    from posfb.analysis.common.outputs import staged_folder
+    from posfb.analysis.design.margins_figures import write_margin_figures
+
+    with staged_folder(out) as staged:
+        path = staged.path / "margins.json"
+        path.write_text(json.dumps(data, allow_nan=False, indent=1) + "\n")
+        paths = [path, *write_margin_figures(staged.path, linear, margins)]
+    return [str(p) for p in staged.final(paths)]
 
 
 def _map_settings(args: argparse.Namespace) -> TuneSettings:
