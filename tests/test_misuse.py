@@ -328,8 +328,27 @@ CASES = {
         ("design", "--margins", "--out", "{tmp}/a_file"), "a_file: is a file; a folder is required",
         untouched=("a_file",),
     ),
+    "worst case without a study": Case(
+        ("design", "--worst-case"), "--worst-case needs --study STUDY.yaml"
+    ),
+    "worst case over another arm's study": Case(
+        ("design", "--worst-case", "--study", "three_link_uncertainty"),
+        "a study of the scenario's arm is required",
+    ),
+    "worst case of a plug-in controller": Case(
+        ("design", "--worst-case", "--study", "paper_uncertainty", "--scenario",
+         "{tmp}/plugin_broadcast.yaml"),
+        "--worst-case: controller 'Mine' has no linear design",
+    ),
+    "generations without the worst case": Case(
+        ("design", "--generations", "3"), "--generations applies to --worst-case"
+    ),
+    "margins and the worst case at once": Case(
+        ("design", "--margins", "--worst-case", "--study", "paper_uncertainty"),
+        "--margins and --worst-case are separate reports",
+    ),
     "margins with the stability map": Case(
-        ("design", "--margins", "--map"), "--margins applies to the design report, not to --map"
+        ("design", "--margins", "--map"), "--map and --margins are separate reports"
     ),
     "empty entry in --controllers": Case(
         ("compare", "--controllers", "pid,,lin_lc"), "comma-separated controller kinds"

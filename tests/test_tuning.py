@@ -172,6 +172,12 @@ def test_tuned_four_link_arm_is_stable_and_checked(four_link):
         assert entry["after"]["nominal_radius"] < 1.0 - report["margin"]
         assert entry["after"]["worst_radius"] <= 1.0 - report["margin"]
         assert entry["guarantee"]["failures"] == 0 and entry["guarantee"]["holds"]
+        # The report's margins are of the loop tune judged: the same nominal radius.
+        for when in ("before", "after"):
+            margins = entry[f"margins_{when}"]
+            assert margins["spectral_radius"] == pytest.approx(
+                entry[when]["nominal_radius"], rel=1e-9)  # fmt: skip
+        assert entry["margins_after"]["disk_margin"] > 0.0
     check = subprocess.run([*CLI, "scenario", "check", str(tuned)], capture_output=True,
                            text=True, timeout=300)  # fmt: skip
     assert check.returncode == 0, check.stdout + check.stderr

@@ -72,6 +72,7 @@ from posfb.diagrams.resolve import (
     with_absolute_paths,
 )
 from posfb.diagrams.scenario import Scenario, controller_kind, dump_scenario, with_controller
+from posfb.models.design.margins import LoopMargins
 from posfb.models.design.settings import LinearTorqueInputs
 
 #: The controllers ``tune`` designs, in order (each has a Sec. 3 loop).
@@ -199,6 +200,8 @@ class TunedController:
     evaluations: int
     worse: tuple[str, ...] = ()
     at_edge: tuple[EdgeValue, ...] = ()
+    margins_before: LoopMargins | None = None
+    margins_after: LoopMargins | None = None
 
 
 @dataclass
@@ -290,6 +293,19 @@ def check_duration(scenario: Scenario) -> float:
 class _OutOfTime(Exception):  # noqa: N818 (not an error: a stop)
     """A check run stopped by the budget at simulated time ``args[0]`` (not a
     ``RuntimeError``, which the runner reports as the run's own divergence)."""
+
+
+def _margins(loaded: LoadedScenario, entry: object) -> LoopMargins | None:
+    """The margins of ``entry``'s nominal sampled loop on the scenario
+    (``analysis.design.linear_loop``); ``None`` where the entry is refused."""
+    from posfb.analysis.design.linear_loop import linear_design
+
+    scenario = copy.deepcopy(loaded.scenario)
+    scenario.controller = entry
+    try:
+        return linear_design(resolve(LoadedScenario(scenario, loaded.base_dir))).margins()
+    except ValueError:
+        return None
 
 
 def _simulate(
@@ -462,6 +478,8 @@ def _tune_controller(
         evaluations=found.evaluations,
         worse=_worse(found.start, found.best, simulated_before, simulated_after, allowance),
         at_edge=edge_values(controller, problem.knobs, np.power(10.0, found.x)),
+        margins_before=_margins(loaded, before),
+        margins_after=_margins(loaded, after),
     )
 
 

@@ -1,6 +1,7 @@
 """The report of ``posfb tune``: each tuned value beside the one it replaced, the
-objective and the constraints before and after, the cross-check runs and the guarantee
-with its formula and source (text, and a JSON-ready dict)."""
+objective and the constraints before and after, the cross-check runs, the margins of the
+nominal loop before and after (``posfb design --margins``) and the guarantee with its
+formula and source (text, and a JSON-ready dict)."""
 
 from __future__ import annotations
 
@@ -10,6 +11,7 @@ import numpy as np
 
 from posfb.analysis.design.problem import VOLTAGE_SIGMAS, Evaluation
 from posfb.analysis.design.tune import SHOWN_SETTINGS, SimulatedCheck, TunedController, TuneResult
+from posfb.models.design.margins import LoopMargins
 
 #: The violation the guarantee bounds.
 UNSTABLE = "the sampled loop unstable (rho >= 1)"
@@ -85,10 +87,32 @@ def _controller_lines(entry: TunedController, result: TuneResult) -> list[str]:
         f"beta = {entry.scenario_beta:.3g} for epsilon = {settings.epsilon:g}, Calafiore "
         "and Campi 2006; this search is not convex)",
     ]
+    lines.append(f"  margins of the nominal loop: {_margins_change(entry)}")
     lines += [f"  warning: {edge.sentence()}" for edge in entry.at_edge]
     if entry.worse:
         lines.append(f"  worse than the scenario's own: {', '.join(entry.worse)}")
     return lines
+
+
+def _margin_text(margins: LoopMargins | None, figure: str) -> str:
+    if margins is None or not margins.stable:
+        return "none"
+    if figure == "disk":
+        return f"{margins.disk_margin:.3f}"
+    if figure == "delay":
+        delay = margins.delay_margin_s
+        return "inf" if math.isinf(delay) else f"{delay * 1e3:.3g} ms"
+    return f"{margins.peak_sensitivity:.3g}"
+
+
+def _margins_change(entry: TunedController) -> str:
+    """The tuned entry's margins beside the scenario's own (``posfb design --margins``)."""
+    return ", ".join(
+        f"{name} {_margin_text(entry.margins_before, figure)} -> "
+        f"{_margin_text(entry.margins_after, figure)}"
+        for name, figure in (("disk margin", "disk"), ("delay margin", "delay"),
+                             ("peak |S|", "peak"))  # fmt: skip
+    )
 
 
 def text_report(result: TuneResult) -> str:
@@ -118,6 +142,25 @@ def _evaluation_dict(evaluation: Evaluation) -> dict[str, object]:
         "voltage": list(evaluation.voltage),
         "voltage_ratio": finite(evaluation.voltage_ratio),
         "feasible": evaluation.feasible,
+    }
+
+
+def _margins_dict(margins: LoopMargins | None) -> dict[str, object] | None:
+    """The loop-wide margins of ``--json``'s ``margins`` object (``null`` where none)."""
+    if margins is None:
+        return None
+    stable = margins.stable
+
+    def number(value: float) -> float | None:
+        return value if stable and math.isfinite(value) else None
+
+    return {
+        "spectral_radius": margins.radius,
+        "stable": stable,
+        "disk_margin": number(margins.disk_margin),
+        "delay_margin_s": number(margins.delay_margin_s),
+        "peak_sensitivity": number(margins.peak_sensitivity),
+        "peak_complementary_sensitivity": number(margins.peak_complementary_sensitivity),
     }
 
 
@@ -155,6 +198,8 @@ def result_dict(result: TuneResult) -> dict[str, object]:
             "scenario_approach_beta": entry.scenario_beta,
             "generations": entry.generations,
             "evaluations": entry.evaluations,
+            "margins_before": _margins_dict(entry.margins_before),
+            "margins_after": _margins_dict(entry.margins_after),
             "worse": list(entry.worse),
             "at_edge": [vars(edge) for edge in entry.at_edge],
         }  # fmt: skip

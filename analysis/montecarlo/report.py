@@ -7,8 +7,9 @@ a Wilson 95 % interval (``analysis.uncertainty.statistics``, seeded, so the same
 store writes the same report). Inside/outside: the sample's identified plant
 against the Assumption-1 bounds of the controller design
 (``analysis.uncertainty.coverage``). The answers come in sections of their own:
-per-sample sampled-data stability (``stability``), sensitivity
-(``sensitivity``) and whether N was enough (``convergence``).
+per-sample sampled-data stability (``stability``), the loops' margins over the
+plants (``margins``), sensitivity (``sensitivity``) and whether N was enough
+(``convergence``).
 """
 
 from __future__ import annotations
@@ -27,7 +28,7 @@ from posfb.analysis.common.plots import (
     save_report_figure,
     thinned,
 )
-from posfb.analysis.montecarlo import convergence, sensitivity, stability
+from posfb.analysis.montecarlo import convergence, margins, sensitivity, stability
 from posfb.analysis.montecarlo.records import FINISHED, STATUSES
 from posfb.analysis.montecarlo.results import (
     JointStats,
@@ -202,6 +203,7 @@ class Answers:
 
     stats: list[JointStats]
     loops: list[stability.LoopStability]
+    margins: list[margins.MarginSummary]
     ranked: list[sensitivity.Sensitivity]
     settled: list[convergence.Convergence]
 
@@ -211,6 +213,7 @@ def answers(data: StudyData) -> Answers:
     return Answers(
         stats=stats,
         loops=stability.loop_stability(data),
+        margins=margins.margin_summaries(data),
         ranked=sensitivity.sensitivities(data),
         settled=convergence.convergence(data, stats),
     )
@@ -328,6 +331,7 @@ def markdown(
             f"{int(np.sum(failed & ~data.inside))} |"
         )
     lines += ["", *stability.markdown(loops)]
+    lines += margins.markdown(found.margins, n)
     lines += sensitivity.markdown(ranked)
     lines += convergence.markdown(settled, n)
     lines += ["## Figures", ""]

@@ -159,13 +159,16 @@ def _draw_posterior(
         values[name][joint] = float(getattr(nominal, name)[joint] * np.exp(log))
 
 
-def sample_plant(study: Study, nominal: ArmParameters, index: int) -> SampledPlant:
+def sample_plant(
+    study: Study, nominal: ArmParameters, index: int, point: dict[int, float] | None = None
+) -> SampledPlant:
     """The plant of sample ``index``: draws from ``study.parameters`` around ``nominal``
     (the URDF's values), the encoder resolution, ``study.posterior``'s correlated draw,
-    then ``study.overrides``."""
+    then ``study.overrides``. ``point`` (probabilities by slot) replaces the study's own
+    design point: the plant at that point of the parameter box."""
     joints = study_joints(study)
     values: dict[str, list[float]] = {name: [0.0] * joints for name in JOINT_PARAMETERS}
-    point = unit_point(study, index)
+    point = unit_point(study, index) if point is None else point
     for slot, (name, joint) in enumerate(slots(joints)):
         rng, u = stream(study.seed, index, slot), point.get(slot)
         if name == "payload_mass":

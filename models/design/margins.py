@@ -53,6 +53,10 @@ from posfb.models.design.realisation import DiscreteFilter
 #: Frequencies of the grid (log-spaced, the Nyquist frequency the last).
 GRID_POINTS = 1500
 
+#: The coarser grid of the per-plant figures of a study (``SampledFeedback.robustness``;
+#: the peak is refined between grid points either way).
+STUDY_GRID_POINTS = 300
+
 #: The grid's lowest frequency, as a fraction of the Nyquist frequency.
 LOWEST_FREQUENCY = 1e-4
 
@@ -176,8 +180,9 @@ def _osborne(magnitudes: np.ndarray, sweeps: int = 30) -> np.ndarray:
 
 def structured_norm(M: np.ndarray) -> float:
     """``inf_D sigma_max(D M D^-1)`` over positive diagonal ``D``: the upper bound of
-    ``mu`` for one complex scalar per channel (exact for ``n <= 3``). ``log sigma_max``
-    is convex in ``log D``, so a local search from Osborne's balancing finds it."""
+    ``mu`` for one complex scalar per channel (exact for ``n <= 3``). In closed form for
+    two channels (``_structured_norm_2``); beyond, ``log sigma_max`` is convex in ``log
+    D``, so a local search from Osborne's balancing finds it."""
     n = len(M)
     if n == 1:
         return float(abs(M[0, 0]))
@@ -186,18 +191,26 @@ def structured_norm(M: np.ndarray) -> float:
         scale = np.exp(np.concatenate([[0.0], np.atleast_1d(x)]))
         return float(np.linalg.norm(M * scale[:, None] / scale[None, :], 2))
 
-    start = _osborne(np.abs(M))[1:]
     if n == 2:
-        found = scipy.optimize.minimize_scalar(
-            lambda t: top(np.array([t])), bracket=(start[0] - 1.0, start[0] + 1.0),
-            tol=1e-10,
-        )  # fmt: skip
-    else:
-        found = scipy.optimize.minimize(
-            top, start, method="Nelder-Mead",
-            options={"xatol": 1e-8, "fatol": 1e-13, "maxiter": 400 * n},
-        )  # fmt: skip
+        return _structured_norm_2(M)
+    start = _osborne(np.abs(M))[1:]
+    found = scipy.optimize.minimize(
+        top, start, method="Nelder-Mead",
+        options={"xatol": 1e-8, "fatol": 1e-13, "maxiter": 400 * n},
+    )  # fmt: skip
     return min(float(found.fun), top(start), float(np.linalg.norm(M, 2)))
+
+
+def _structured_norm_2(M: np.ndarray) -> float:
+    """``structured_norm`` of a 2 x 2 matrix in closed form: with ``D = diag(1, d)``,
+    ``sigma_max^2 = (F + sqrt(F^2 - 4 |det M|^2)) / 2`` grows with the Frobenius norm ``F
+    = |m11|^2 + |m22|^2 + d^2 |m12|^2 + |m21|^2 / d^2`` of ``D M D^-1`` (its determinant
+    does not depend on ``d``), smallest at ``d^2 = |m21| / |m12|``."""
+    a = np.abs(M)
+    frobenius = a[0, 0] ** 2 + a[1, 1] ** 2 + 2.0 * a[0, 1] * a[1, 0]
+    determinant = abs(M[0, 0] * M[1, 1] - M[0, 1] * M[1, 0]) ** 2
+    return float(math.sqrt(0.5 * (frobenius + math.sqrt(max(frobenius**2 - 4 * determinant,
+                                                                0.0)))))  # fmt: skip
 
 
 def loop_at_a_time(F: np.ndarray, channel: int) -> np.ndarray:
@@ -264,11 +277,46 @@ def _peak(
     i = int(np.argmax(values))
     low, high = omega[max(i - 1, 0)], omega[min(i + 1, len(omega) - 1)]
     found = scipy.optimize.minimize_scalar(
-        lambda w: -function(w), bounds=(low, high), method="bounded", options={"xatol": 1e-10}
+        lambda w: -function(w), bounds=(low, high), method="bounded",
+        options={"xatol": 1e-9 * high},
     )
     if -found.fun > values[i]:
         return float(-found.fun), float(found.x)
     return float(values[i]), float(omega[i])
+
+
+def _disk_margin(
+    S: np.ndarray, omega: np.ndarray, sensitivity: Callable[[np.ndarray], np.ndarray]
+) -> tuple[float, float]:
+    """The disk margin at skew 0 (module docstring) of the sensitivity ``S`` on the grid
+    ``omega`` (``sensitivity(w)`` evaluates it anywhere), refined between grid points;
+    ``(alpha, frequency)``."""
+    eye = np.eye(S.shape[1])
+    balanced = S - eye / 2.0
+    upper = np.linalg.norm(balanced, 2, axis=(1, 2))
+    best, at = 0.0, 0
+    for i in np.argsort(-upper):  # mu <= sigma_max: stop when no frequency can beat it
+        if upper[i] <= best:
+            break
+        value = structured_norm(balanced[i])
+        if value > best:
+            best, at = value, i
+    peak, frequency = _peak(
+        np.where(np.arange(len(omega)) == at, best, 0.0), omega,
+        lambda w: structured_norm(sensitivity(np.array([w]))[0] - eye / 2.0),
+    )  # fmt: skip
+    return 1.0 / peak, frequency
+
+
+def disk_margin(loop: Callable[[np.ndarray], np.ndarray], omega: np.ndarray) -> float:
+    """The disk margin at skew 0 of the MIMO loop transfer ``loop(omega)`` alone (what
+    ``break_margins`` reports as ``disk_margin``, without the rest)."""
+    eye = np.eye(loop(omega[:1]).shape[1])
+
+    def sensitivity(frequencies: np.ndarray) -> np.ndarray:
+        return np.linalg.inv(eye + loop(frequencies))
+
+    return _disk_margin(sensitivity(omega), omega, sensitivity)[0]
 
 
 def break_margins(
@@ -284,20 +332,7 @@ def break_margins(
         return np.linalg.inv(eye + loop(frequencies))
 
     S = sensitivity(omega)
-    balanced = S - eye / 2.0
-    upper = np.linalg.norm(balanced, 2, axis=(1, 2))
-    best, at = 0.0, 0
-    for i in np.argsort(-upper):  # mu <= sigma_max: stop when no frequency can beat it
-        if upper[i] <= best:
-            break
-        value = structured_norm(balanced[i])
-        if value > best:
-            best, at = value, i
-    peak, frequency = _peak(
-        np.where(np.arange(len(omega)) == at, best, 0.0), omega,
-        lambda w: structured_norm(sensitivity(np.array([w]))[0] - eye / 2.0),
-    )  # fmt: skip
-    alpha = 1.0 / peak
+    alpha, frequency = _disk_margin(S, omega, sensitivity)
     peak_S, _ = _peak(
         np.linalg.norm(S, 2, axis=(1, 2)), omega,
         lambda w: float(np.linalg.norm(sensitivity(np.array([w]))[0], 2)),
@@ -388,6 +423,27 @@ class SampledFeedback:
         return spectral_radius(
             closed_loop_matrix(plant_system(held, self.sample_time), self.controller)
         )
+
+    def with_plant(self, M0: np.ndarray, B: np.ndarray, effects: LoopEffects) -> SampledFeedback:
+        """The same feedback, as designed, around another plant's linear part."""
+        return replace(self, M0=M0, B=B, effects=effects)
+
+    def robustness(
+        self, points: int = STUDY_GRID_POINTS, delay: bool = True
+    ) -> tuple[float, float, float]:
+        """``(radius, disk margin, delay margin in s)``: the figures a study reports per
+        plant, the disk margin the worse of the two breaks' on ``points`` frequencies;
+        both margins 0 for an unstable loop, the delay margin ``nan`` without ``delay``."""
+        radius = self.radius()
+        if radius >= 1.0:
+            return radius, 0.0, 0.0
+        plant, controller = self.plant, self.controller
+        omega = frequency_grid(self.sample_time, points)
+        alpha = min(
+            disk_margin(lambda w: -controller.response(w) @ plant.response(w), omega),
+            disk_margin(lambda w: -plant.response(w) @ controller.response(w), omega),
+        )
+        return radius, alpha, delay_margin(self.radius, self.sample_time) if delay else math.nan
 
     def margins(self, points: int = GRID_POINTS) -> LoopMargins:
         """Every margin of the loop (``LoopMargins``) on a grid of ``points`` frequencies."""

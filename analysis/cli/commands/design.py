@@ -27,6 +27,7 @@ import json
 import sys
 from typing import TYPE_CHECKING
 
+from posfb.analysis.cli.commands.montecarlo import _positive_int
 from posfb.analysis.cli.commands.scenario_args import add_scenario_arguments, scenario_from_args
 from posfb.analysis.common.errors import UsageError
 from posfb.analysis.common.shipped import study_argument
@@ -37,6 +38,10 @@ from posfb.analysis.design.report import (
     relevant_checks,
 )
 from posfb.analysis.design.settings import DEFAULT_MARGIN, TuneSettings
+
+#: ``--generations``' default (``analysis.design.worst_case.DEFAULT_GENERATIONS``, restated
+#: so that the parser does not import the search; a test checks the two agree).
+DEFAULT_GENERATIONS = 15
 
 if TYPE_CHECKING:
     from pathlib import Path
@@ -60,6 +65,15 @@ def configure(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--margins", action="store_true", help="add the gain, phase, delay and disk margins "
         "of the scenario controller's sampled loop",
+    )  # fmt: skip
+    parser.add_argument(
+        "--worst-case", action="store_true", help="search --study's parameter box for the "
+        "plants with the largest rho and the smallest disk margin of the scenario "
+        "controller's loop (with --plants, --seed, --generations)",
+    )  # fmt: skip
+    parser.add_argument(
+        "--generations", type=_positive_int, metavar="G",
+        help=f"--worst-case: generations of the search (default {DEFAULT_GENERATIONS})",
     )  # fmt: skip
     add_map_arguments(parser)
     parser.set_defaults(handler=run)
@@ -150,15 +164,26 @@ def loop_design(resolved: ResolvedScenario, flag: str = "--margins") -> LinearDe
         raise UsageError(f"{flag}: {error}") from None
 
 
+#: The options each of ``--margins`` and ``--worst-case`` takes from the map's group.
+SHARED_OPTIONS = {"margins": ("out",), "worst_case": ("study", "plants", "seed")}
+
+
 def run(args: argparse.Namespace) -> int:
+    modes = [flag for flag, on in (("--map", args.map), ("--margins", args.margins),
+                                   ("--worst-case", args.worst_case)) if on]  # fmt: skip
+    if len(modes) > 1:
+        raise UsageError(f"{modes[0]} and {modes[1]} are separate reports; give one of them")
+    if args.generations is not None and not args.worst_case:
+        raise UsageError("--generations applies to --worst-case")
     if args.map:
-        if args.margins:
-            raise UsageError("--margins applies to the design report, not to --map")
         return run_map(args)
+    shared = SHARED_OPTIONS["margins" if args.margins else "worst_case"] if modes else ()
     given = [flag for dest, flag in MAP_OPTIONS.items() if getattr(args, dest) is not None
-             and not (dest == "out" and args.margins)]  # fmt: skip
+             and dest not in shared]  # fmt: skip
     if given:
         raise UsageError(f"{given[0]} applies to the stability map; add --map")
+    if args.worst_case:
+        return run_worst_case(args)
     from posfb.analysis.common.loop_effects import left_out
     from posfb.analysis.common.outputs import output_folder
     from posfb.diagrams.resolve import resolve
@@ -187,6 +212,46 @@ def run(args: argparse.Namespace) -> int:
             text.append("wrote " + ", ".join(found["files"]))
     print(json.dumps(found, allow_nan=False) if args.json else "\n".join(text))
     return EXIT_FAILED_CHECK if args.strict and failed else 0
+
+
+def run_worst_case(args: argparse.Namespace) -> int:
+    """``posfb design --worst-case --study STUDY``: print (or ``--json``) the worst plants
+    of the study's box (``analysis.design.worst_case``)."""
+    from posfb.analysis.design.worst_case import (
+        DEFAULT_PLANTS,
+        DEFAULT_SEED,
+        format_worst_case,
+        worst_case,
+        worst_case_to_dict,
+    )
+    from posfb.analysis.uncertainty.study import load_study
+    from posfb.diagrams.arm import arm_identity
+    from posfb.diagrams.resolve import resolve
+
+    if args.strict:
+        raise UsageError("--strict applies to the design report, not to --worst-case")
+    if args.study is None:
+        raise UsageError("--worst-case needs --study STUDY.yaml (the parameter box to search)")
+    plants = DEFAULT_PLANTS if args.plants is None else args.plants
+    if plants < 1:
+        raise UsageError(f"--plants {plants}; at least 1 sampled plant is required")
+    loaded = scenario_from_args(args)
+    study = load_study(args.study, arm=arm_identity(loaded.scenario, loaded.base_dir))
+    config = resolve(loaded).config
+    loop_design(resolve(loaded), "--worst-case")  # a plug-in is refused before any work
+    try:
+        found = worst_case(
+            loaded, study, config.controller, plants=plants,
+            generations=DEFAULT_GENERATIONS if args.generations is None else args.generations,
+            seed=DEFAULT_SEED if args.seed is None else args.seed,
+        )  # fmt: skip
+    except ValueError as error:
+        raise UsageError(f"--worst-case: {error}") from None
+    if args.json:
+        print(json.dumps(worst_case_to_dict(found), allow_nan=False))
+    else:
+        print(format_worst_case(found, config.spec.label_for(config.design)))
+    return 0
 
 
 def write_margins(

@@ -1,0 +1,206 @@
+"""The worst plant of a study's parameter box for a design (``posfb design --worst-case
+--study STUDY``): the plant with the largest spectral radius ``rho`` of the sampled loop,
+and the one with the smallest disk margin.
+
+The plants are those ``posfb tune`` checks a design on (``analysis.uncertainty.plants``:
+the study's ``parameters:`` around the scenario's arm; a study of another arm is refused).
+The box leaves out the Coulomb levels, which do not enter the linear part.
+The loop is the scenario's controller as designed, closed around each plant's linear part
+with its linear effects (``analysis.uncertainty.loops``). Two steps:
+
+1. ``plants`` i.i.d. draws (seed ``seed``); the worst of them by each figure;
+2. a search of the box, each varied parameter between its distribution's ends (a
+   Gaussian without bounds between its 0.1 % and 99.9 % quantiles), with scipy's
+   ``differential_evolution`` (``generations`` generations of ``POPULATION_PER_AXIS``
+   members per axis, Latin-hypercube start, no gradient polish, seeded) started from the
+   worst sampled plant, which the population keeps: the found plant is never better
+   than the worst sampled one.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+
+import numpy as np
+import scipy.optimize
+
+from posfb.analysis.uncertainty.loops import BoxAxis, StudyLoops
+from posfb.analysis.uncertainty.plants import plant_family
+from posfb.analysis.uncertainty.sampling import sample_plant
+from posfb.analysis.uncertainty.study import Study
+from posfb.diagrams.resolve import LoadedScenario
+from posfb.models.design.margins import STUDY_GRID_POINTS, SampledFeedback
+from posfb.models.plant import ArmParameters
+
+#: The drawn parameters that do not enter the loop's linear part (not searched).
+NONLINEAR_PARAMETERS = ("coulomb",)
+
+#: The search's population per box axis (scipy's ``popsize``).
+POPULATION_PER_AXIS = 5
+
+#: Defaults: sampled plants, generations of the search, seed.
+DEFAULT_PLANTS = 100
+DEFAULT_GENERATIONS = 15
+DEFAULT_SEED = 0
+
+
+@dataclass(frozen=True)
+class Plant:
+    """One plant: where it comes from (``sampled N`` or ``search``), its loop's
+    ``radius`` and ``disk_margin`` (0 when unstable) and the box's parameter values."""
+
+    source: str
+    radius: float
+    disk_margin: float
+    values: tuple[float, ...]
+
+
+@dataclass(frozen=True)
+class WorstCase:
+    """The worst plants by ``rho`` and by disk margin, sampled and searched, the box's
+    ``axes`` and the nominal arm's values on them."""
+
+    controller: str
+    axes: tuple[BoxAxis, ...]
+    nominal: Plant
+    sampled_radius: Plant
+    searched_radius: Plant
+    sampled_disk: Plant
+    searched_disk: Plant
+    plants: int
+    evaluations: int
+
+
+def _value(axis: BoxAxis, parameters: ArmParameters) -> float:
+    scalar = axis.scalar
+    if scalar.key == "payload_mass":
+        return float(parameters.payload_mass)
+    return float(getattr(parameters, scalar.key)[scalar.joint])
+
+
+def _disk(loop: SampledFeedback) -> float:
+    """The loop's disk margin (the worse break's), 0 when it is unstable."""
+    return loop.robustness(STUDY_GRID_POINTS, delay=False)[1]
+
+
+def worst_case(
+    loaded: LoadedScenario,
+    study: Study,
+    controller: str,
+    plants: int = DEFAULT_PLANTS,
+    generations: int = DEFAULT_GENERATIONS,
+    seed: int = DEFAULT_SEED,
+) -> WorstCase:
+    """The ``WorstCase`` of the scenario ``loaded``'s ``controller`` over ``study``'s box
+    (module docstring). ``ValueError`` (one line): a study of another arm, one with a
+    ``posterior:`` (no box), one that varies no arm parameter, or a controller without a
+    linear design."""
+    if study.posterior is not None:
+        raise ValueError("the study draws the arm from a posterior:, which has no parameter "
+                         "box; a study with parameters: ranges is required")  # fmt: skip
+    family = replace(plant_family(study, loaded), seed=seed, samples=max(plants, 1))
+    loops = StudyLoops(family, controller)
+    axes = tuple(a for a in loops.box() if a.scalar.key not in NONLINEAR_PARAMETERS)
+    if not axes:
+        raise ValueError("the study varies no arm parameter (parameters:); nothing to search")
+    count = 0
+
+    def describe(source: str, parameters: ArmParameters) -> Plant:
+        nonlocal count
+        count += 1
+        loop = loops.loop(parameters)
+        radius = loop.radius()
+        return Plant(source, radius, _disk(loop) if radius < 1.0 else 0.0,
+                     tuple(_value(a, parameters) for a in axes))  # fmt: skip
+
+    drawn = [sample_plant(family, loops.nominal_parameters, i).parameters for i in range(plants)]
+    sampled = [describe(f"sampled {i}", p) for i, p in enumerate(drawn)]
+    by_radius = max(range(plants), key=lambda i: sampled[i].radius)
+    by_disk = min(range(plants), key=lambda i: sampled[i].disk_margin)
+    bounds = [(a.low, a.high) for a in axes]
+
+    def search(objective, start: ArmParameters) -> np.ndarray:
+        nonlocal count
+        found = scipy.optimize.differential_evolution(
+            objective, bounds, x0=loops.unit_of(axes, start), maxiter=generations,
+            popsize=POPULATION_PER_AXIS, init="latinhypercube", polish=False, seed=seed, tol=0.0,
+        )  # fmt: skip
+        count += found.nfev
+        return found.x
+
+    def negative_radius(u: np.ndarray) -> float:
+        return -loops.loop(loops.parameters_at(axes, u)).radius()
+
+    def disk(u: np.ndarray) -> float:
+        loop = loops.loop(loops.parameters_at(axes, u))
+        return 0.0 if loop.radius() >= 1.0 else _disk(loop)
+
+    worst_radius = loops.parameters_at(axes, search(negative_radius, drawn[by_radius]))
+    worst_disk = loops.parameters_at(axes, search(disk, drawn[by_disk]))
+    return WorstCase(
+        controller=controller,
+        axes=axes,
+        nominal=describe("nominal", loops.nominal_parameters),
+        sampled_radius=sampled[by_radius],
+        searched_radius=_at_least(describe("search", worst_radius), sampled[by_radius], "radius"),
+        sampled_disk=sampled[by_disk],
+        searched_disk=_at_least(describe("search", worst_disk), sampled[by_disk], "disk"),
+        plants=plants,
+        evaluations=count,
+    )
+
+
+def _at_least(found: Plant, sampled: Plant, figure: str) -> Plant:
+    """``found``, or ``sampled`` where the search ended on a better plant (the sampled one
+    is inside the box and the population keeps its start, so this only guards the
+    round trip through the box's probabilities)."""
+    worse = found.radius >= sampled.radius if figure == "radius" else (
+        found.disk_margin <= sampled.disk_margin)  # fmt: skip
+    return found if worse else sampled
+
+
+def worst_case_to_dict(found: WorstCase) -> dict[str, object]:
+    """``--json``'s object."""
+
+    def plant(p: Plant) -> dict[str, object]:
+        return {"source": p.source, "spectral_radius": p.radius, "disk_margin": p.disk_margin,
+                "parameters": {a.scalar.column: v for a, v in zip(found.axes, p.values,
+                                                                  strict=True)}}  # fmt: skip
+
+    return {
+        "controller": found.controller,
+        "plants": found.plants,
+        "evaluations": found.evaluations,
+        "nominal": plant(found.nominal),
+        "largest_radius": {"sampled": plant(found.sampled_radius),
+                           "searched": plant(found.searched_radius)},  # fmt: skip
+        "smallest_disk_margin": {"sampled": plant(found.sampled_disk),
+                                 "searched": plant(found.searched_disk)},  # fmt: skip
+    }
+
+
+def format_worst_case(found: WorstCase, label: str) -> str:
+    """The two worst plants in words, their parameters beside the nominal and the worst
+    sampled ones."""
+    columns = (found.nominal, found.sampled_radius, found.searched_radius, found.sampled_disk,
+               found.searched_disk)  # fmt: skip
+    lines = [
+        f"Worst plants of the study's box for {label} ({found.plants} sampled plants, then "
+        f"a search; {found.evaluations} loops evaluated):",
+        f"  largest rho: {found.searched_radius.radius:.4f} ({found.searched_radius.source}; "
+        f"the worst sampled {found.sampled_radius.radius:.4f}, nominal "
+        f"{found.nominal.radius:.4f})",
+        f"  smallest disk margin: {found.searched_disk.disk_margin:.4f} "
+        f"({found.searched_disk.source}; the worst sampled {found.sampled_disk.disk_margin:.4f},"
+        f" nominal {found.nominal.disk_margin:.4f})",
+        "",
+        "| parameter | nominal | worst sampled rho | largest rho | worst sampled disk | "
+        "smallest disk |",
+        "|---|---:|---:|---:|---:|---:|",
+        "| rho | " + " | ".join(f"{p.radius:.4f}" for p in columns) + " |",
+        "| disk margin | " + " | ".join(f"{p.disk_margin:.4f}" for p in columns) + " |",
+    ]
+    for k, axis in enumerate(found.axes):
+        lines.append(f"| {axis.scalar.column} | " + " | ".join(f"{p.values[k]:.6g}"
+                                                              for p in columns) + " |")  # fmt: skip
+    return "\n".join(lines)

@@ -1,0 +1,84 @@
+"""The report's margins over the sampled plants: for every controller of the study with a
+linear design, the disk margin and the delay margin of its loop on each sampled plant
+(``analysis.uncertainty.loops``: the design as it is, closed around the plant's own
+linear part with its linear effects; ``SampledFeedback.robustness``), summarised as the
+smallest, the 5th percentile and the median.
+
+The figures are recomputed from the study (its samples' draws are deterministic), not
+read from the store: a store written before them reports them too. At most
+``MARGIN_SAMPLES`` samples, the first by index, are used; the section says how many. A
+plant whose loop is unstable (``rho >= 1``) has margin 0.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from posfb.analysis.montecarlo.results import StudyData
+from posfb.analysis.uncertainty.loops import StudyLoops
+
+#: The most samples whose margins a report computes (about 0.05-0.5 s each per
+#: controller, by the arm's joints).
+MARGIN_SAMPLES = 200
+
+
+@dataclass(frozen=True)
+class MarginSummary:
+    """One controller's margins over ``plants`` sampled plants: ``unstable`` of them with
+    ``rho >= 1``; ``disk`` and ``delay_s`` as (smallest, 5th percentile, median)."""
+
+    controller: str
+    plants: int
+    unstable: int
+    disk: tuple[float, float, float]
+    delay_s: tuple[float, float, float]
+    sample_time: float
+
+
+def _summary(values: np.ndarray) -> tuple[float, float, float]:
+    return float(np.min(values)), float(np.percentile(values, 5)), float(np.median(values))
+
+
+def margin_summaries(data: StudyData) -> list[MarginSummary]:
+    """The ``MarginSummary`` of each controller of ``data`` with a linear design."""
+    indices = np.sort(data.samples)[:MARGIN_SAMPLES]
+    found = []
+    for controller in data.controllers:
+        try:
+            loops = StudyLoops(data.study, controller)
+        except ValueError:  # a plug-in: no linear design
+            continue
+        figures = np.array([loops.sample(int(i)).robustness() for i in indices])
+        found.append(MarginSummary(
+            controller, len(indices), int(np.sum(figures[:, 0] >= 1.0)),
+            _summary(figures[:, 1]), _summary(figures[:, 2]), loops.config.sample_time,
+        ))  # fmt: skip
+    return found
+
+
+def markdown(summaries: list[MarginSummary], samples: int) -> list[str]:
+    """The report's section (empty without a controller with a linear design)."""
+    if not summaries:
+        return []
+    used = summaries[0].plants
+    which = "every sample" if used == samples else f"the first {used} of {samples} samples"
+    lines = [
+        "## Margins over the sampled plants",
+        "",
+        f"Each controller's loop as designed, closed around each plant's own linear part "
+        f"with its linear effects (`posfb design --margins` on that plant; {which}). "
+        "Disk margin at skew 0, the worse of the two breaks; delay margin: the extra loop "
+        "delay, the same on every joint, at which the sampled loop turns unstable. An "
+        "unstable plant counts as margin 0.",
+        "",
+        "| controller | plants | rho >= 1 | disk margin: min | 5th pct | median | "
+        "delay margin (ms): min | 5th pct | median |",
+        "|---|---:|---:|---:|---:|---:|---:|---:|---:|",
+    ]
+    for s in summaries:
+        disk = " | ".join(f"{v:.3f}" for v in s.disk)
+        delay = " | ".join(f"{v * 1e3:.2f}" for v in s.delay_s)
+        lines.append(f"| {s.controller} | {s.plants} | {s.unstable} | {disk} | {delay} |")
+    return [*lines, ""]

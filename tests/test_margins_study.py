@@ -1,0 +1,139 @@
+"""Margins over a study's plants: the per-plant loops (``analysis.uncertainty.loops``)
+against the Monte-Carlo worker's radii, the report's margins section, and the
+worst-case search of ``posfb design --worst-case`` against the plants ``posfb tune``
+draws."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+import scipy.optimize
+
+import posfb
+from helpers.montecarlo_helpers import run_into_store
+from posfb.analysis.common.shipped import shipped_files
+from posfb.analysis.design.worst_case import worst_case
+from posfb.analysis.montecarlo.report import write_report
+from posfb.analysis.montecarlo.store import ResultStore
+from posfb.analysis.uncertainty.loops import StudyLoops
+from posfb.analysis.uncertainty.plants import linear_plants, plant_family
+from posfb.analysis.uncertainty.study import load_study
+from posfb.diagrams.resolve import resolve
+from posfb.models.design import compute_design, held_design_radius
+from posfb.models.design.margins import structured_norm
+
+CLI = [sys.executable, "-m", "posfb.analysis.cli"]
+
+
+def test_two_channel_structured_norm_is_the_scaled_minimum():
+    """The closed form of ``inf_d sigma_max(diag(1, d) M diag(1, 1/d))`` equals a numerical
+    minimisation over ``log d`` on random complex matrices."""
+    rng = np.random.default_rng(0)
+    for _ in range(100):
+        M = rng.normal(size=(2, 2)) + 1j * rng.normal(size=(2, 2))
+
+        def scaled(t: float, M=M) -> float:
+            d = np.array([1.0, np.exp(t)])
+            return float(np.linalg.norm(M * d[:, None] / d[None, :], 2))
+
+        found = scipy.optimize.minimize_scalar(scaled, bracket=(-3.0, 3.0), tol=1e-12).fun
+        assert structured_norm(M) == pytest.approx(found, rel=1e-10)
+        assert structured_norm(M) <= np.linalg.norm(M, 2) * (1 + 1e-12)
+
+
+@pytest.fixture(scope="module")
+def paper_study():
+    return load_study(str(shipped_files("study")["paper_uncertainty"]))
+
+
+@pytest.mark.parametrize("controller", ["proposed", "lin_lc"])
+def test_study_loops_have_the_workers_radii(paper_study, controller):
+    """A sample's loop has the spectral radius the Monte-Carlo worker stores for it
+    (``plant_spectral_radii``, another code path)."""
+    from posfb.analysis.montecarlo.worker import ClosedLoopEvaluator
+
+    evaluator = ClosedLoopEvaluator(paper_study)
+    loops = StudyLoops(paper_study, controller)
+    for index in range(3):
+        sample, _ = evaluator.evaluate(index, [controller], failed="not run")
+        stored = sample.runs[0].spectral_radius
+        assert loops.sample(index).radius() == pytest.approx(stored, rel=1e-12)
+
+
+def test_report_gives_the_margins_over_the_plants(tmp_path):
+    """A study whose plants are all the nominal arm: every plant's disk and delay margin is
+    ``posfb design --margins``' (the study's coarser grid agrees to the printed digits)."""
+    study = "seed: 3\nsamples: 2\nduration: 0.3\ncontrollers: [lin_lc, pid]\n"
+    db = run_into_store(tmp_path / "mc.sqlite", study)
+    with ResultStore.open_existing(db) as store:
+        report = write_report(store, tmp_path / "report").read_text()
+    section = report[report.index("## Margins over the sampled plants"):]
+    for controller in ("lin_lc", "pid"):
+        margins = posfb.design(None, controller).margins()
+        row = next(line for line in section.splitlines() if line.startswith(f"| {controller} |"))
+        cells = [c.strip() for c in row.strip("|").split("|")]
+        assert cells[1:3] == ["2", "0"]
+        assert cells[3:6] == [f"{margins.disk_margin:.3f}"] * 3
+        assert cells[6:9] == [f"{margins.delay_margin_s * 1e3:.2f}"] * 3
+
+
+@pytest.fixture(scope="module")
+def paper_worst(paper_study):
+    loaded = posfb.load_scenario()
+    return loaded, worst_case(loaded, paper_study, "lin_lc", plants=12, generations=2, seed=5)
+
+
+def test_worst_sampled_plant_is_tunes_worst(paper_study, paper_worst):
+    """The worst sampled rho is the largest over the plants ``posfb tune`` draws with the
+    same seed, each judged by the design's own held loop (``held_design_radius``)."""
+    loaded, found = paper_worst
+    resolved = resolve(loaded)
+    design = compute_design(resolved.config.design)
+    plants = linear_plants(plant_family(paper_study, loaded), resolved, 5, 12)
+    radii = [held_design_radius(design, "lin_lc", p.held) for p in plants]
+    assert found.sampled_radius.radius == pytest.approx(max(radii), rel=1e-12)
+    assert found.sampled_radius.source == f"sampled {int(np.argmax(radii))}"
+
+
+def test_search_finds_no_better_plant_than_the_worst_sampled(paper_study, paper_worst):
+    _, found = paper_worst
+    assert found.searched_radius.radius >= found.sampled_radius.radius
+    assert found.searched_radius.radius > found.nominal.radius
+    assert found.searched_disk.disk_margin <= found.sampled_disk.disk_margin
+    assert found.searched_disk.disk_margin < found.nominal.disk_margin
+    # Inside the box: each relative uniform parameter within its range of the nominal.
+    for k, axis in enumerate(found.axes):
+        distribution = paper_study.parameters.for_joint(axis.scalar.key, axis.scalar.joint) \
+            if axis.scalar.key != "payload_mass" else paper_study.parameters.payload_mass
+        nominal = found.nominal.values[k]
+        for plant in (found.searched_radius, found.searched_disk):
+            low, high = distribution.min, distribution.max
+            if getattr(distribution, "relative", False):
+                low, high = nominal * (1 + low), nominal * (1 + high)
+            if low is not None and high is not None:
+                assert low - 1e-12 <= plant.values[k] <= high + 1e-12, axis.scalar.column
+    assert "coulomb" not in {axis.scalar.key for axis in found.axes}
+
+
+@pytest.mark.slow
+def test_worst_case_command(tmp_path):
+    result = subprocess.run(
+        [*CLI, "design", "--worst-case", "--study", "paper_uncertainty", "--controller", "pid",
+         "--plants", "6", "--generations", "1", "--json"],
+        capture_output=True, text=True, check=True,
+    )  # fmt: skip
+    found = json.loads(result.stdout)
+    worst = found["largest_radius"]
+    assert worst["searched"]["spectral_radius"] >= worst["sampled"]["spectral_radius"]
+    assert set(worst["searched"]["parameters"]) == set(found["nominal"]["parameters"])
+
+
+def test_the_command_lines_default_generations_is_the_searchs():
+    from posfb.analysis.cli.commands import design as command
+    from posfb.analysis.design import worst_case as search
+
+    assert command.DEFAULT_GENERATIONS == search.DEFAULT_GENERATIONS
