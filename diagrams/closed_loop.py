@@ -341,8 +341,10 @@ class ClosedLoopResult:
     """One run, sampled at ``t_k = k T_s``, ``k = 0..K`` (``K = N0`` unless diverged).
 
     Arrays have one row per sample: ``q_true``, ``q_measured``, ``q_desired`` (rad,
-    n columns); ``u_commanded``, ``u_applied`` (V, the voltage computed at ``t_k``
-    and applied on ``[t_k, t_k + T_s)``); ``internals`` (columns ``internals_names``;
+    n columns), ``qd_desired`` (rad/s) and ``qdd_desired`` (rad/s^2), the rest of the
+    desired input the controller held (``None`` in a result made by hand);
+    ``u_commanded``, ``u_applied`` (V, the voltage computed at ``t_k`` and applied on
+    ``[t_k, t_k + T_s)``); ``internals`` (columns ``internals_names``;
     ``internals_columns`` are the same names with their units). ``status`` is the
     runner's: ``"ok"`` (the run reached ``duration``) or ``"diverged"`` (stopped early);
     ``message`` says why a run stopped early (empty if it did not). Whether a run that
@@ -368,6 +370,8 @@ class ClosedLoopResult:
     wall_time_s: float
     derivative_evaluations: int = 0
     integrator_steps: int = 0
+    qd_desired: np.ndarray | None = None
+    qdd_desired: np.ndarray | None = None
 
     @property
     def controller(self) -> str:
@@ -764,7 +768,8 @@ class ClosedLoopRunner:
         count = min(rows - 1, self.config.samples + 1)
         kept = max(count, min(rows, 1))
         q_true, q_measured = data["q_true"][:kept], data["q_measured"][:kept]
-        q_desired = data["desired"][:kept, : self.config.joints]
+        n = self.config.joints
+        q_desired = data["desired"][:kept, :n]
         shifted = {}
         for name in ("u_commanded", "u_applied", "internals"):
             values = data[name][1 : count + 1]
@@ -787,4 +792,6 @@ class ClosedLoopRunner:
             status=status,
             message=message,
             wall_time_s=wall,
+            qd_desired=data["desired"][:kept, n : 2 * n],
+            qdd_desired=data["desired"][:kept, 2 * n : 3 * n],
         )

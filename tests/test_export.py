@@ -43,6 +43,10 @@ EXPECTED_LEADING = [
     "u2_commanded_V",
     "u1_applied_V",
     "u2_applied_V",
+    "q1_desired_velocity_rad_per_s",
+    "q2_desired_velocity_rad_per_s",
+    "q1_desired_acceleration_rad_per_s2",
+    "q2_desired_acceleration_rad_per_s2",
 ]
 
 
@@ -167,3 +171,18 @@ def test_failed_write_leaves_no_file(runs, tmp_path, monkeypatch):
         export_run(result, target)
     assert target.read_bytes() == b"previous"
     assert [p.name for p in tmp_path.iterdir()] == ["run.parquet"]
+
+
+def test_the_log_holds_the_desired_input_the_controller_held(runs):
+    """The desired velocity and acceleration columns are the trajectory's at each sample
+    time (``models.trajectory``, evaluated independently of the diagram)."""
+    _, result = next(iter(runs.values()))
+    table = run_table(result)
+    trajectory = result.config.trajectory
+    for k in (0, 7, len(table) - 1):
+        _, velocity, acceleration = trajectory.evaluate(float(table.time_s[k]))
+        for j in range(2):
+            assert table[f"q{j + 1}_desired_velocity_rad_per_s"][k] == pytest.approx(
+                velocity[j], abs=1e-12)  # fmt: skip
+            assert table[f"q{j + 1}_desired_acceleration_rad_per_s2"][k] == pytest.approx(
+                acceleration[j], abs=1e-12)  # fmt: skip

@@ -6,9 +6,13 @@ One row per control sample ``t_k = k T_s``, ``k = 0..N`` (the rows of
 
     time_s, q1_desired_rad, q2_desired_rad, q1_rad, q2_rad,
     q1_measured_rad, q2_measured_rad, u1_commanded_V, u2_commanded_V,
-    u1_applied_V, u2_applied_V
+    u1_applied_V, u2_applied_V, q1_desired_velocity_rad_per_s,
+    q2_desired_velocity_rad_per_s, q1_desired_acceleration_rad_per_s2,
+    q2_desired_acceleration_rad_per_s2
 
-and likewise ``q1 .. qn``, ``u1 .. un`` for ``n`` joints.
+and likewise ``q1 .. qn``, ``u1 .. un`` for ``n`` joints. The desired position,
+velocity and acceleration are the ``desired`` input the controller held at ``t_k``
+(what a replay of the controller on the log needs).
 
 ``q`` is the true joint position, ``q_measured`` the encoder's; the voltages at
 row ``k`` are the ones computed at ``t_k`` and held on ``[t_k, t_k + T_s)``.
@@ -70,6 +74,7 @@ _CSV_READ_OPTIONS = (
 #: The leading column groups: a per-joint name pattern each, in order.
 _LEADING = (
     "q{j}_desired_rad", "q{j}_rad", "q{j}_measured_rad", "u{j}_commanded_V", "u{j}_applied_V",
+    "q{j}_desired_velocity_rad_per_s", "q{j}_desired_acceleration_rad_per_s2",
 )  # fmt: skip
 
 
@@ -77,6 +82,11 @@ def leading_columns(joints: int) -> tuple[str, ...]:
     """``time_s``, then each group of ``_LEADING`` for joints ``1..joints``."""
     names = [pattern.format(j=j + 1) for pattern in _LEADING for j in range(joints)]
     return ("time_s", *names)
+
+
+def _or_nan(values: np.ndarray | None, rows: int, width: int) -> np.ndarray:
+    """``values``, or NaN where a result made by hand carries none."""
+    return np.full((rows, width), np.nan) if values is None else values
 
 
 def _columns(name: str, values: np.ndarray, rows: int, width: int) -> np.ndarray:
@@ -107,6 +117,8 @@ def run_table(result: ClosedLoopResult) -> pd.DataFrame:
         _columns("q_measured", result.q_measured, rows, n),
         _columns("u_commanded", result.u_commanded, rows, n),
         _columns("u_applied", result.u_applied, rows, n),
+        _columns("qd_desired", _or_nan(result.qd_desired, rows, n), rows, n),
+        _columns("qdd_desired", _or_nan(result.qdd_desired, rows, n), rows, n),
         _columns("internals", np.reshape(result.internals, (rows, -1)), rows, len(names)),
     ]
     columns = [*leading_columns(n), *internal_names]
