@@ -23,6 +23,7 @@ import scipy.stats
 from posfb.analysis.common.loop_effects import loop_effects, rigid_plant
 from posfb.analysis.uncertainty.sampling import sample_plant, sample_scenario
 from posfb.analysis.uncertainty.study import (
+    Distribution,
     Gaussian,
     Study,
     Uniform,
@@ -32,6 +33,7 @@ from posfb.analysis.uncertainty.study import (
     study_joints,
     varied_scalars,
 )
+from posfb.diagrams.closed_loop import ClosedLoopConfig
 from posfb.diagrams.resolve import LoadedScenario, resolve
 from posfb.diagrams.scenario import with_controller
 from posfb.models.controllers import linear_feedback
@@ -72,12 +74,12 @@ class StudyLoops:
         base = with_controller(study.base_scenario(), controller)
         resolved = resolve(LoadedScenario(base, Path.cwd()))  # study paths are absolute
         self.config = resolved.config
-        self._feedback = {}
+        self._feedback: dict[tuple[object, ...], SampledFeedback] = {}
         self.feedback(self.config)
         _, self._arm, self._context = build_arm_diagram(rigid_plant(self.config.plant))
         self.nominal_parameters = resolved.true_parameters(self._arm.default_parameters)
 
-    def feedback(self, config: object) -> SampledFeedback:
+    def feedback(self, config: ClosedLoopConfig) -> SampledFeedback:
         """The feedback of ``config``'s design around its nominal linear part (cached per
         design: a study's draws may change it per sample)."""
         key = (config.design, repr(config.controller_settings), config.voltage_limit)
@@ -92,7 +94,9 @@ class StudyLoops:
             )
         return self._feedback[key]
 
-    def loop(self, parameters: ArmParameters, config: object | None = None) -> SampledFeedback:
+    def loop(
+        self, parameters: ArmParameters, config: ClosedLoopConfig | None = None
+    ) -> SampledFeedback:
         """The loop on the arm with ``parameters`` (``config``: the sample's scenario's,
         default the study's base)."""
         config = self.config if config is None else config
@@ -131,7 +135,7 @@ class StudyLoops:
             axes.append(BoxAxis(scalar, low, high))
         return tuple(axes)
 
-    def _distribution(self, scalar: VariedScalar) -> object:
+    def _distribution(self, scalar: VariedScalar) -> Distribution:
         if scalar.key == "payload_mass":
             return self.study.parameters.payload_mass
         return self.study.parameters.for_joint(scalar.key, scalar.joint)
@@ -160,7 +164,7 @@ class StudyLoops:
         return np.array(values)
 
 
-def _cdf(distribution: object, x: float) -> float:
+def _cdf(distribution: Distribution, x: float) -> float:
     """The probability of ``x`` (before ``relative``) under ``distribution``."""
     if isinstance(distribution, UniformDiscrete):
         values = np.asarray(distribution.values, dtype=float)
