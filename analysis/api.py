@@ -320,7 +320,11 @@ def _figure(results: Mapping[str, ClosedLoopResult], figure: str, title: str) ->
 
 
 def simulate(
-    scenario: ScenarioSource = None, controller: str | None = None, *, progress: bool = False
+    scenario: ScenarioSource = None,
+    controller: str | None = None,
+    *,
+    progress: bool = False,
+    sil: bool = False,
 ) -> Run:
     """Run a scenario's closed loop on its true arm, as ``posfb simulate`` does.
 
@@ -332,6 +336,9 @@ def simulate(
         A controller kind that replaces the scenario's ``controller.kind``.
     progress
         Show a progress bar on stderr.
+    sil
+        Software in the loop: the controller generated as C (``posfb codegen``),
+        compiled by the ``cc`` on the PATH and run as the diagram's controller.
 
     Returns
     -------
@@ -356,8 +363,13 @@ def simulate(
     loaded = _scenario(scenario, controller)
     resolved = _resolve_for_run(loaded)
     config = resolved.config
+    compiled = None
+    if sil:
+        from posfb.analysis.codegen.sil import compiled_controller
+
+        compiled = compiled_controller(resolved)
     with progress_bars.run_progress(config.duration, config.spec.label, progress) as update:
-        result = ClosedLoopRunner(config).run(progress=update)
+        result = ClosedLoopRunner(config, controller=compiled).run(progress=update)
     run = Run(result, loaded)
     if run.status in NOT_TRACKED_STATUSES:
         warnings.warn(ScenarioWarning(f"the {run.label} run {run.message}"), stacklevel=2)
@@ -513,6 +525,7 @@ def compare(
     controllers: Sequence[str] = DEFAULT_COMPARISON,
     *,
     progress: bool = False,
+    sil: bool = False,
 ) -> Comparison:
     """Run several controllers on one scenario (each as ``simulate`` runs it).
 
@@ -524,6 +537,8 @@ def compare(
         Controller kinds, in the order of the table and the legends.
     progress
         Show a progress bar per run on stderr.
+    sil
+        Software in the loop for every controller (``simulate``'s ``sil``).
 
     Returns
     -------
@@ -554,7 +569,7 @@ def compare(
     loaded = load_scenario(scenario)
     comparison = Comparison(loaded)
     for kind in kinds:
-        comparison.runs[kind] = simulate(loaded, kind, progress=progress)
+        comparison.runs[kind] = simulate(loaded, kind, progress=progress, sil=sil)
     return comparison
 
 

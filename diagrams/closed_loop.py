@@ -115,6 +115,7 @@ from posfb.models.controllers import (
     controller_spec,
     make_controller,
 )
+from posfb.models.controllers.base import SampledController
 from posfb.models.controllers.plugin import user_frames
 from posfb.models.gear import GearConfig
 from posfb.models.plant import (
@@ -475,12 +476,16 @@ def hold_inputs(
 
 
 def build_closed_loop(
-    config: ClosedLoopConfig, meshcat: Meshcat | None = None, extend: Extension | None = None
+    config: ClosedLoopConfig,
+    meshcat: Meshcat | None = None,
+    extend: Extension | None = None,
+    controller: SampledController | None = None,
 ) -> ClosedLoop:
     """Wire plant, trajectory, sensor, controller, saturation and loggers. With
     ``meshcat``, a ``MeshcatVisualizer`` of the arm is added (for recordings); with
     ``extend``, ``extend(builder, systems)`` wires more (a disturbance, a second
-    logger) before the diagram is built."""
+    logger) before the diagram is built; ``controller`` replaces the one the config
+    builds (a software-in-the-loop run's compiled controller, same ports)."""
     builder = DiagramBuilder()
     arm = add_arm(builder, config.plant)
     if arm.size != config.joints:
@@ -493,14 +498,14 @@ def build_closed_loop(
         sampled_source(config.trajectory, config.sample_time, config.samples + 3)
     )
     encoder, measured, delay, noise_source = _add_sensor(builder, config, arm)
-    controller = builder.AddSystem(
-        make_controller(
+    if controller is None:
+        controller = make_controller(
             config.controller,
             config.design,
             voltage_limit=config.voltage_limit,
             settings=config.controller_settings,
         )
-    )
+    controller = builder.AddSystem(controller)
     actuator = add_actuator(
         builder,
         controller.GetOutputPort("voltage"),
@@ -559,7 +564,7 @@ class ClosedLoopRunner:
     """Builds the closed loop of ``config`` once; ``run`` simulates it on a fresh
     Context, on the config's true arm (``config.true_plant``) or on given true plant
     parameters (the controller keeps the model of ``config.design.nominal``).
-    ``meshcat`` and ``extend``: see ``build_closed_loop``."""
+    ``meshcat``, ``extend`` and ``controller``: see ``build_closed_loop``."""
 
     def __init__(
         self,
@@ -567,9 +572,10 @@ class ClosedLoopRunner:
         *,
         meshcat: Meshcat | None = None,
         extend: Extension | None = None,
+        controller: SampledController | None = None,
     ) -> None:
         self.config = config
-        self.loop = build_closed_loop(config, meshcat, extend)
+        self.loop = build_closed_loop(config, meshcat, extend, controller)
 
     @property
     def diagram(self) -> Diagram:

@@ -7,6 +7,7 @@ The cases run concurrently (each is mostly Python start-up) in one module fixtur
 from __future__ import annotations
 
 import hashlib
+import os
 import sqlite3
 import subprocess
 import sys
@@ -32,6 +33,7 @@ class Case:
     needle: str
     untouched: tuple[str, ...] = ()
     code: int = 2
+    path: str | None = None  # PATH of the command's environment (None: the test's own)
 
 
 STUDY = "seed: 1\nsamples: 2\nduration: 0.5\ncontrollers: [lin_lc]\n"
@@ -87,6 +89,8 @@ FILES = {
         'xmlns:posfb="urn:posfb:urdf"', 'xmlns:posfb="https://posfb.org/urdf"'
     ),
     "a_file": "I am a file, not a folder\n",
+    "log.csv": "time_s,q1_measured_rad,q2_measured_rad,q1_desired_rad,q2_desired_rad,"
+    "u1_commanded_V,u2_commanded_V\n0,0,0,0,0,1,1\n0.01,0,0,0,0,1,1\n",
     "text.sqlite": "not a database\n",
     "realism_no_source.yaml": "study: {duration: 0.5, controllers: [lin_lc]}\neffects:\n"
     "  - {name: dac, label: DAC, draws: {actuator.dac_bits: !UniformDiscrete {values: [12]}}}\n",
@@ -319,6 +323,31 @@ CASES = {
     ),
     "design of a plug-in controller": Case(
         ("design", "--set", "controller.kind=adrc"), "'adrc' (linear ADRC (ESO)) has no Sec. 3"
+    ),
+    "C of a plug-in controller": Case(
+        ("codegen", "--scenario", "{tmp}/plugin_broadcast.yaml", "--out", "{tmp}/c"),
+        "controller 'Mine' has no generated code yet",
+    ),
+    "C of a controller without a law yet": Case(
+        ("codegen", "--controller", "proposed", "--out", "{tmp}/c"),
+        "controller 'proposed' has no generated code yet (posfb codegen covers lin_lc)",
+    ),
+    "C of a URDF arm's model": Case(
+        ("codegen", "--scenario", "six_joint_tuned", "--controller", "lin_lc", "--out",
+         "{tmp}/c"),
+        "C is generated for the paper's theta model so far",
+    ),
+    "C into a file": Case(
+        ("codegen", "--controller", "lin_lc", "--out", "{tmp}/a_file"),
+        "a_file: is a file; a folder is required", untouched=("a_file",),
+    ),
+    "C check without a compiler": Case(
+        ("codegen", "--controller", "lin_lc", "--out", "{tmp}/c", "--check", "{tmp}/log.csv"),
+        "--check needs a C compiler: no 'cc' on the PATH", path="/nonexistent",
+    ),
+    "C check of a log without the desired signals": Case(
+        ("codegen", "--controller", "lin_lc", "--out", "{tmp}/c", "--check", "{tmp}/log.csv"),
+        "the log lacks q1_desired_velocity_rad_per_s",
     ),
     "margins of a plug-in controller": Case(
         ("design", "--margins", "--scenario", "{tmp}/plugin_broadcast.yaml"),
@@ -787,7 +816,9 @@ def _digest(path: Path) -> str:
 def _run(tmp: Path, case: Case) -> tuple[subprocess.CompletedProcess, dict[str, str]]:
     args = [arg.replace("{tmp}", str(tmp)) for arg in case.args]
     before = {name: _digest(tmp / name) for name in case.untouched}
-    result = subprocess.run([*CLI, *args], capture_output=True, text=True, timeout=300, cwd=tmp)
+    environment = None if case.path is None else {**os.environ, "PATH": case.path}
+    result = subprocess.run([*CLI, *args], capture_output=True, text=True, timeout=300, cwd=tmp,
+                            env=environment)  # fmt: skip
     after = {name: _digest(tmp / name) for name in case.untouched}
     return result, {name: "changed" for name in before if before[name] != after[name]}
 

@@ -34,6 +34,7 @@ COMMANDS = {
     "simulate": "one closed-loop run of a scenario: RMS errors and voltages",
     "compare": "several controllers on one scenario: a table and overlaid figures",
     "reproduce": "Sec. 4: 3 controllers x {nominal, payload}, tables, figures, report",
+    "codegen": "the designed controller as C99 (no dynamic memory), checked against a log",
     "graph": "render the closed-loop diagram (.svg/.png/.pdf, or .dot text)",
     "animate": "write an offline HTML animation of one run (Meshcat recording)",
     "montecarlo": "Monte-Carlo robustness study over sampled plants",

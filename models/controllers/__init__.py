@@ -31,6 +31,7 @@ from posfb.models.controllers.registry import (
 )
 from posfb.models.design import ControllerConfig, Design, cached_design
 from posfb.models.design.realisation import DiscreteFilter
+from posfb.models.laws.law import Law
 
 for _module in (pid, lin_lc, proposed, pd_gravity, adrc):
     register(_module.SPEC)
@@ -108,6 +109,25 @@ def linear_feedback(
     return entry.linear(ControllerBuild(config, tuple(voltage_limit), settings))
 
 
+def controller_law(
+    kind: str,
+    config: ControllerConfig,
+    *,
+    voltage_limit: tuple[float, ...] = (),
+    settings: object | None = None,
+) -> Law:
+    """Controller ``kind``'s update as a ``models.laws`` law (``ControllerSpec.law``), for
+    the same inputs as ``make_controller``; ``ValueError`` (one line) for a controller
+    without one."""
+    entry = controller_spec(kind, settings)
+    if entry.law is None:
+        having = ", ".join(k for k, e in REGISTRY.items() if e.law is not None)
+        raise ValueError(f"controller {kind!r} has no generated code yet (posfb codegen "
+                         f"covers {having})")  # fmt: skip
+    entry.refuse(config)
+    return entry.law(ControllerBuild(config, tuple(voltage_limit), settings))
+
+
 def make_controller(
     kind: str,
     config: ControllerConfig | None = None,
@@ -145,6 +165,7 @@ __all__ = [
     "failed_checks",
     "internals_names",
     "kinds",
+    "controller_law",
     "linear_feedback",
     "linear_kinds",
     "spec",

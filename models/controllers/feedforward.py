@@ -4,9 +4,9 @@
     tau_d   = M0* qdd_d + B* qd_d                                     (Eq. 7)
 
 with ``||M1*(q)||_2`` for Eq. 18. Two implementations of one interface:
-``NominalTorques`` for the paper's two-link theta model, written out with ``math``
-on the two joints (they run once per control period; the tests check them against
-the matrices of ``models.lumped.LumpedModel``), and ``SerialTorques`` for any
+``NominalTorques`` for the paper's two-link theta model, the CasADi expressions of
+``models.laws.nominal`` (the generated C prints the same ones; the tests check them
+against the matrices of ``models.lumped.LumpedModel``), and ``SerialTorques`` for any
 serial arm, from Drake's ``MultibodyPlant`` (``models.serial_model``).
 ``nominal_torques`` picks the one for a nominal model.
 """
@@ -22,52 +22,37 @@ from posfb.models.nominal import NominalModel, UrdfNominal, nominal_model
 from posfb.models.serial_model import SerialArmModel
 
 
-def _sign(x: float) -> float:
-    return (x > 0.0) - (x < 0.0)
-
-
 class NominalTorques:
     """``tau_Lin`` (Eq. 4) and ``tau_d`` (Eq. 7) of the nominal lumped model, and
     ``||M1*(q)||_2`` (Eq. 18), evaluated without temporary matrices."""
 
     def __init__(self, model: LumpedModel) -> None:
+        from posfb.models.laws.law import Evaluator
+        from posfb.models.laws.nominal import (
+            desired_torque_function,
+            theta_linearization_function,
+        )
+
         p = model.parameters
-        self._t = (p.theta3, p.theta4, p.theta6, p.theta8, p.theta11)
-        self._gravity_ratio = p.g / p.l1
+        self.parameters = p
+        self._t = (p.theta3, p.theta8)
         self._M0 = model.M0()
         self._B = model.B()
+        self._linearization = Evaluator(theta_linearization_function(p))
+        self._desired = Evaluator(desired_torque_function(self._M0, self._B))
 
     def linearization(self, q: np.ndarray, qd_dot: np.ndarray, qd_ddot: np.ndarray) -> np.ndarray:
-        """Eq. 4: ``M1*(q) qdd_d + C*(q, qd_d) qd_d + G*(q) + F*(qd_d)`` at the measured ``q``."""
-        theta3, theta4, theta6, theta8, theta11 = self._t
-        q1, q2 = float(q[0]), float(q[1])
-        v1, v2 = float(qd_dot[0]), float(qd_dot[1])
-        a1, a2 = float(qd_ddot[0]), float(qd_ddot[1])
-        c2, s2, c12 = math.cos(q2), math.sin(q2), math.cos(q1 + q2)
-        inertia = (2.0 * theta3 * c2 * a1 + theta3 * c2 * a2, theta8 * c2 * a1)
-        coriolis = (
-            -theta3 * v2 * s2 * v1 + -theta3 * (v1 + v2) * s2 * v2,
-            theta8 * v1 * s2 * v1,
-        )
-        gravity = (
-            theta4 * math.cos(q1) + self._gravity_ratio * theta3 * c12,
-            self._gravity_ratio * theta8 * c12,
-        )
-        friction = (theta6 * _sign(v1), theta11 * _sign(v2))
-        return np.array(
-            [
-                inertia[0] + coriolis[0] + gravity[0] + friction[0],
-                inertia[1] + coriolis[1] + gravity[1] + friction[1],
-            ]
-        )
+        """Eq. 4: ``M1*(q) qdd_d + C*(q, qd_d) qd_d + G*(q) + F*(qd_d)`` at the measured ``q``
+        (``models.laws.nominal``, the expression the generated C prints)."""
+        return self._linearization(q, qd_dot, qd_ddot)[0]
 
     def desired(self, qd_dot: np.ndarray, qd_ddot: np.ndarray) -> np.ndarray:
-        """Eq. 7: ``tau_d = M0* qdd_d + B* qd_d``."""
-        return self._M0 @ qd_ddot + self._B @ qd_dot
+        """Eq. 7: ``tau_d = M0* qdd_d + B* qd_d`` (``models.laws.nominal``)."""
+        return self._desired(qd_dot, qd_ddot)[0]
 
     def M1_norm(self, q: np.ndarray) -> float:
         """``||M1*(q)||_2`` of ``M1* = cos q2 [[2 theta3, theta3], [theta8, 0]]`` in closed form."""
-        theta3, theta8 = self._t[0], self._t[3]
+        theta3, theta8 = self._t
         c2 = math.cos(float(q[1]))
         m11, m12, m21 = 2.0 * theta3 * c2, theta3 * c2, theta8 * c2
         frobenius2 = m11 * m11 + m12 * m12 + m21 * m21

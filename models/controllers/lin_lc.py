@@ -7,6 +7,8 @@ initialised at rest (``eta~(0) = 0``) from the first measurement.
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
 
 from posfb.models.controllers.base import SampledController, joint_names
@@ -14,6 +16,10 @@ from posfb.models.controllers.feedforward import nominal_torques
 from posfb.models.controllers.registry import ControllerSpec
 from posfb.models.design import Design, cached_design, designed_feedback
 from posfb.models.design.settings import LinLc
+from posfb.models.lumped import LumpedParameters
+
+if TYPE_CHECKING:
+    from posfb.models.laws.law import Law
 
 
 def lin_lc_internals(joints: int) -> tuple[str, ...]:
@@ -21,34 +27,70 @@ def lin_lc_internals(joints: int) -> tuple[str, ...]:
     return joint_names("tau_lin", joints) + joint_names("tau_lc", joints)
 
 
+def lin_lc_law(design: Design) -> Law:
+    """The controller's update as a ``models.laws`` law (the one description the
+    simulation evaluates and ``posfb codegen`` prints): memory ``w`` of the filter,
+    ``eta~ = C w + D q~``, ``w' = A w + B q~``, ``u = tau_Lin + tau_d + eta~``. On a URDF
+    arm ``tau_Lin`` enters as the law's ``model`` input (``SerialTorques``, evaluated by
+    Drake)."""
+    import casadi as ca
+
+    from posfb.models.laws.law import law
+    from posfb.models.laws.nominal import desired_torque, theta_linearization
+
+    design.require_linear_torque()
+    f = design.lin_lc_filter
+    n = design.config.joints
+    q, desired, memory = ca.SX.sym("q", n), ca.SX.sym("desired", 3 * n), ca.SX.sym("w", len(f.A))
+    q_d, qd_dot, qd_ddot = desired[:n], desired[n : 2 * n], desired[2 * n :]
+    error = q - q_d
+    nominal = design.config.nominal
+    if isinstance(nominal, LumpedParameters):
+        model = ca.SX.sym("model", 0)
+        tau_lin = theta_linearization(nominal, q, qd_dot, qd_ddot)
+    else:
+        model = ca.SX.sym("tau_lin", n)
+        tau_lin = model
+    eta = ca.mtimes(ca.DM(f.C), memory) + ca.mtimes(ca.DM(f.D), error)
+    tau_lc = desired_torque(design.M0, design.B, qd_dot, qd_ddot) + eta
+    start_q, start_desired = ca.SX.sym("q", n), ca.SX.sym("desired", 3 * n)
+    return law(
+        "lin_lc", n,
+        (start_q, start_desired, ca.mtimes(ca.DM(f.initial), start_q - start_desired[:n])),
+        (memory, q, desired, model, tau_lin + tau_lc, ca.vertcat(tau_lin, tau_lc),
+         ca.mtimes(ca.DM(f.A), memory) + ca.mtimes(ca.DM(f.B), error)),
+    )  # fmt: skip
+
+
 class LinLcController(SampledController):
-    """``u = tau_Lin + tau_LC`` (Eq. 3 without ``tau_NC``); refuses a failed LQR design."""
+    """``u = tau_Lin + tau_LC`` (Eq. 3 without ``tau_NC``); refuses a failed LQR design.
+    Its step evaluates ``lin_lc_law``."""
 
     #: The torques of the lumped model are armature voltages.
     INTERNAL_UNITS = {"tau_lin": "V", "tau_lc": "V"}
 
     def __init__(self, design: Design) -> None:
-        design.require_linear_torque()
-        self._filter = design.lin_lc_filter
+        from posfb.models.laws.law import Stepper
+
+        self.law = lin_lc_law(design)
         n = design.config.joints
-        super().__init__(design.config.sample_time, n, lin_lc_internals(n), len(self._filter.A))
+        super().__init__(design.config.sample_time, n, lin_lc_internals(n), self.law.memory)
         self.set_name("lin_lc_controller")
-        self._torques = nominal_torques(design.config.nominal)
+        self._stepper = Stepper(self.law)
+        self._torques = None if self.law.model_inputs == 0 else nominal_torques(
+            design.config.nominal)  # fmt: skip
 
     def _start(self, q: np.ndarray, desired: np.ndarray) -> np.ndarray:
-        return self._filter.initial @ (q - desired[: self.joints])
+        return self._stepper.start(q, desired)
 
     def _step(
         self, q: np.ndarray, desired: np.ndarray, memory: np.ndarray
     ) -> tuple[np.ndarray, np.ndarray]:
-        q_d, qd_dot, qd_ddot = self.split_desired(desired)
-        error = q - q_d
-        f = self._filter
-        eta = f.C @ memory + f.D @ error
-        memory[:] = f.A @ memory + f.B @ error
-        tau_lin = self._torques.linearization(q, qd_dot, qd_ddot)
-        tau_lc = self._torques.desired(qd_dot, qd_ddot) + eta
-        return tau_lin + tau_lc, np.concatenate([tau_lin, tau_lc])
+        model = None
+        if self._torques is not None:
+            _, qd_dot, qd_ddot = self.split_desired(desired)
+            model = self._torques.linearization(q, qd_dot, qd_ddot)
+        return self._stepper.step(q, desired, memory, model)
 
 
 #: Lin + LC (Eq. 4 + 13): the paper's ablation without the nonlinear torque.
@@ -62,4 +104,5 @@ SPEC = ControllerSpec(
     internals=lin_lc_internals,
     settings=LinLc,
     linear=lambda build: designed_feedback(cached_design(build.design), "lin_lc"),
+    law=lambda build: lin_lc_law(cached_design(build.design)),
 )

@@ -8,7 +8,9 @@ settings class (a member of the scenario's ``controller:`` union: ``!Proposed``,
 factory, and where it has one its ``linear`` feedback: the controller linearised on the
 nominal linear part (Eq. 2 with ``h = 0``, the feed-forward terms cancelled by the
 reference), a discrete filter from ``q~`` to the feedback voltage, which the margins of
-``models.design.margins`` break. Plots, exports, tables,
+``models.design.margins`` break; and where it has one its ``law``: the update written
+once (``models.laws``), which the simulation evaluates and ``posfb codegen`` prints as
+C. Plots, exports, tables,
 reports, Monte Carlo and replay read the spec; none of them spells a controller's name.
 A new controller is one module with a ``SPEC`` and one line in
 ``models.controllers.__init__`` (``register``). A user's own controller
@@ -26,6 +28,7 @@ if TYPE_CHECKING:
     from posfb.models.controllers.base import SampledController
     from posfb.models.design import ControllerConfig
     from posfb.models.design.realisation import DiscreteFilter
+    from posfb.models.laws.law import Law
 
 
 @dataclass(frozen=True)
@@ -53,6 +56,7 @@ class ControllerSpec:
     internals: Callable[[int], tuple[str, ...]] | None = None
     design_label: Callable[[ControllerConfig], str] | None = None
     linear: Callable[[ControllerBuild], DiscreteFilter] | None = None
+    law: Callable[[ControllerBuild], Law] | None = None
 
     def label_for(self, design: ControllerConfig) -> str:
         """The label of this controller built from ``design``: ``design_label(design)``

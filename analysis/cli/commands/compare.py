@@ -28,6 +28,10 @@ def configure(parser: argparse.ArgumentParser) -> None:
     )  # fmt: skip
     parser.add_argument("--json", action="store_true", help="print one JSON object per run")
     parser.add_argument("--no-progress", action="store_true", help="no progress bars on stderr")
+    parser.add_argument(
+        "--sil", action="store_true", help="software in the loop: the controller generated as "
+        "C (posfb codegen), compiled by the cc on the PATH and run in the diagram",
+    )  # fmt: skip
     parser.set_defaults(handler=run)
 
 
@@ -51,7 +55,9 @@ def run(args: argparse.Namespace) -> int:
     folder = None if args.out is None else output_folder("--out", args.out)
     loaded = scenario_from_args(args)
     with printed_warnings("compare"):
-        comparison = compare(loaded, kinds, progress=progress.wanted(args.no_progress))
+        comparison = compare(
+            loaded, kinds, progress=progress.wanted(args.no_progress), sil=args.sil
+        )
     written = comparison.save(folder) if folder else []
     if args.json:
         print(json.dumps({kind: run.summary() for kind, run in comparison.runs.items()}))

@@ -36,6 +36,10 @@ def configure(parser: argparse.ArgumentParser) -> None:
     )
     parser.add_argument("--json", action="store_true", help="print one JSON object")
     parser.add_argument("--no-progress", action="store_true", help="no progress bar on stderr")
+    parser.add_argument(
+        "--sil", action="store_true", help="software in the loop: the controller generated as "
+        "C (posfb codegen), compiled by the cc on the PATH and run in the diagram",
+    )  # fmt: skip
     parser.set_defaults(handler=run)
 
 
@@ -47,7 +51,7 @@ def run(args: argparse.Namespace) -> int:
     from posfb.analysis.common import progress
 
     with printed_warnings("simulate"):
-        run = simulate(loaded, progress=progress.wanted(args.no_progress))
+        run = simulate(loaded, progress=progress.wanted(args.no_progress), sil=args.sil)
     written = run.save(out) if out else None
     if figures:
         from posfb.analysis.common import plots

@@ -1,0 +1,54 @@
+"""Software in the loop (``posfb simulate --sil``): the scenario's controller generated as
+C (``analysis.codegen.package``), compiled into a shared library by the ``cc`` on the
+PATH and loaded as the diagram's controller (``models.laws.compiled``); everything else
+in the loop is unchanged. The library lives in a temporary folder removed at exit.
+"""
+
+from __future__ import annotations
+
+import atexit
+import shutil
+import subprocess
+import tempfile
+from pathlib import Path
+
+from posfb.analysis.codegen.check import compiler
+from posfb.analysis.codegen.package import CFLAGS, generate
+from posfb.diagrams.resolve import ResolvedScenario
+from posfb.models.controllers import make_controller
+from posfb.models.laws.compiled import CompiledController
+
+
+def shared_library(files: dict[str, str], name: str) -> Path:
+    """``files`` written to a new temporary folder and ``NAME.c`` compiled into a shared
+    library there; ``ValueError`` without a C compiler, ``RuntimeError`` if it fails."""
+    folder = Path(tempfile.mkdtemp(prefix="posfb-sil-"))
+    atexit.register(shutil.rmtree, folder, ignore_errors=True)
+    for file, text in files.items():
+        (folder / file).write_text(text)
+    library = folder / f"lib{name}.so"
+    command = [compiler(), *CFLAGS.split(), "-shared", "-fPIC", "-o", str(library),
+               f"{name}.c", "-lm"]  # fmt: skip
+    result = subprocess.run(command, cwd=folder, capture_output=True, text=True)
+    if result.returncode != 0:
+        first = (result.stderr.strip().splitlines() or ["(no message)"])[0]
+        raise RuntimeError(f"the generated code did not compile: {first}")
+    return library
+
+
+def compiled_controller(
+    resolved: ResolvedScenario, precision: str = "double"
+) -> CompiledController:
+    """The scenario's controller as compiled C (module docstring); ``ValueError`` (one
+    line) for a controller without generated code or without a C compiler."""
+    package = generate(resolved, None, precision)
+    config = resolved.config
+    simulated = make_controller(
+        config.controller, config.design, voltage_limit=config.voltage_limit,
+        settings=config.controller_settings,
+    )  # fmt: skip
+    return CompiledController(
+        shared_library(package.files, package.name), package.name, precision,
+        config.sample_time, package.law.joints, package.law.memory,
+        tuple(simulated.internals_names), tuple(simulated.internals_columns),
+    )  # fmt: skip

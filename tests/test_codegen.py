@@ -1,0 +1,125 @@
+"""Generated C of a designed controller (``posfb codegen``): the law against an
+independent evaluation of its equations, the C compiled with strict flags and free of
+dynamic memory, the C step against a simulated log, and a software-in-the-loop run
+against the simulated controller's."""
+
+from __future__ import annotations
+
+import json
+import shutil
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+import posfb
+from posfb.analysis.codegen.check import check
+from posfb.analysis.codegen.package import CFLAGS, generate
+from posfb.diagrams.resolve import resolve
+from posfb.models.controllers.lin_lc import lin_lc_law
+from posfb.models.design import compute_design
+from posfb.models.laws.law import Stepper
+from posfb.models.lumped import TABLE1, LumpedModel
+
+CLI = [sys.executable, "-m", "posfb.analysis.cli"]
+
+#: The functions the generated code must not call.
+DYNAMIC_MEMORY = ("malloc", "calloc", "realloc", "free")
+
+
+def test_lin_lc_law_is_eq_4_and_13():
+    """The law's step against its equations evaluated with ``models.lumped``'s matrices
+    and the design's filter: ``u = (M(q) - M0) qdd_d + C(q, qd_d) qd_d + G(q) + F(qd_d) +
+    M0 qdd_d + B qd_d + C_f w + D_f q~`` and ``w' = A_f w + B_f q~``."""
+    design = compute_design()
+    stepper = Stepper(lin_lc_law(design))
+    model, f = LumpedModel(TABLE1), design.lin_lc_filter
+    rng = np.random.default_rng(1)
+    for _ in range(20):
+        q, desired, memory = rng.normal(size=2), rng.normal(size=6), rng.normal(size=len(f.A))
+        q_d, velocity, acceleration = desired[:2], desired[2:4], desired[4:]
+        error = q - q_d
+        expected = (
+            (model.M(q) - model.M0()) @ acceleration + model.C(q, velocity) @ velocity
+            + model.G(q) + model.F(velocity) + model.M0() @ acceleration
+            + model.B() @ velocity + f.C @ memory + f.D @ error
+        )  # fmt: skip
+        following = f.A @ memory + f.B @ error
+        voltage, _ = stepper.step(q, desired, memory)
+        np.testing.assert_allclose(voltage, expected, rtol=1e-12, atol=1e-12)
+        np.testing.assert_allclose(memory, following, rtol=1e-12, atol=1e-12)
+
+
+def _compile(folder, name: str) -> subprocess.CompletedProcess:
+    return subprocess.run(["cc", *CFLAGS.split(), "-c", f"{name}.c", "-o", f"{name}.o"],
+                          cwd=folder, capture_output=True, text=True)  # fmt: skip
+
+
+@pytest.mark.parametrize("precision", ["double", "float"])
+def test_generated_code_compiles_strictly_without_dynamic_memory(tmp_path, precision):
+    assert shutil.which("cc"), "a C compiler (cc) is required"
+    package = generate(resolve(posfb.load_scenario(set={"controller.kind": "lin_lc"})),
+                       "ctrl", precision)  # fmt: skip
+    for name, text in package.files.items():
+        (tmp_path / name).write_text(text)
+    result = _compile(tmp_path, "ctrl")
+    assert result.returncode == 0, result.stderr
+    symbols = subprocess.run(["nm", "ctrl.o"], cwd=tmp_path, capture_output=True, text=True,
+                             check=True).stdout  # fmt: skip
+    names = {line.split()[-1] for line in symbols.splitlines() if line.strip()}
+    assert not names & set(DYNAMIC_MEMORY), names
+    assert {"ctrl_start", "ctrl_step"} <= names
+    includes = {line for line in package.files["ctrl.c"].splitlines() if "#include <" in line}
+    assert includes == {"#include <math.h>", "#include <string.h>"}
+    built = subprocess.run(["make", "-s"], cwd=tmp_path, capture_output=True, text=True)
+    assert built.returncode == 0, built.stderr
+
+
+@pytest.fixture(scope="module")
+def paper_log():
+    """A 20 s Lin+LC run of the paper's arm and its log."""
+    scenario = posfb.load_scenario(set={"controller.kind": "lin_lc"})
+    run = posfb.simulate(scenario)
+    return scenario, run, run.frame()
+
+
+def test_c_step_reproduces_the_simulated_voltages(paper_log):
+    """Over the 20 s log: double to 1e-12 V, float to 1e-5 of the largest voltage."""
+    scenario, _, frame = paper_log
+    resolved = resolve(scenario)
+    double = check(generate(resolved, None, "double"), frame)
+    assert double.samples == len(frame) - 1 or double.samples == len(frame)
+    assert double.largest_difference_V <= 1e-12
+    single = check(generate(resolved, None, "float"), frame)
+    assert single.largest_relative <= 1e-5
+
+
+def test_software_in_the_loop_equals_the_simulated_controller(paper_log):
+    scenario, simulated, _ = paper_log
+    compiled = posfb.simulate(scenario, sil=True)
+    for name in ("q_true", "q_measured"):
+        np.testing.assert_allclose(getattr(compiled.result, name),
+                                   getattr(simulated.result, name), rtol=0, atol=1e-9)  # fmt: skip
+    for name in ("u_commanded", "u_applied"):
+        np.testing.assert_allclose(getattr(compiled.result, name),
+                                   getattr(simulated.result, name), rtol=0, atol=1e-9)  # fmt: skip
+    assert list(compiled.frame().columns) == list(simulated.frame().columns)
+
+
+def test_check_passes_on_a_log_of_other_settings(tmp_path):
+    """Another sample time, encoder and payload: the command's check replays the log."""
+    log = tmp_path / "log.csv"
+    settings = ["--set", "timing.sample_time=0.005", "--set", "sensor.encoder_counts=4096",
+                "--set", "plant.payload_mass=0.2"]  # fmt: skip
+    subprocess.run(
+        [*CLI, "simulate", "--controller", "lin_lc", "--duration", "5", *settings, "--out",
+         str(log), "--no-progress"], check=True, capture_output=True,
+    )  # fmt: skip
+    result = subprocess.run(
+        [*CLI, "codegen", "--controller", "lin_lc", *settings, "--out", str(tmp_path / "c"),
+         "--check", str(log), "--json"], capture_output=True, text=True, check=True,
+    )  # fmt: skip
+    found = json.loads(result.stdout)["check"]
+    assert found["samples"] >= 1000
+    assert found["largest_difference_V"] <= 1e-12
