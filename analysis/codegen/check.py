@@ -74,18 +74,24 @@ int main(void) {{
 """
 
 
-def build(package: Package, folder: Path) -> Path:
-    """Compile the check harness against ``package``'s files in ``folder``; the program."""
-    folder = folder.resolve()
-    (folder / "check_main.c").write_text(_harness(package.name, package.precision))
-    program = folder / f"{package.name}_check"
-    command = [compiler(), *CFLAGS.split(), "-o", str(program), "check_main.c",
-               f"{package.name}.c", "-lm"]  # fmt: skip
+def compile_c(folder: Path, output: Path, sources: list[str], *flags: str) -> Path:
+    """``output`` built from ``sources`` in ``folder`` by the ``cc`` on the PATH with the
+    flags the code is written for (``CFLAGS``) and ``flags``; ``RuntimeError`` with the
+    compiler's first line if it fails."""
+    command = [compiler(), *CFLAGS.split(), *flags, "-o", str(output), *sources, "-lm"]
     result = subprocess.run(command, cwd=folder, capture_output=True, text=True)
     if result.returncode != 0:
         first = (result.stderr.strip().splitlines() or ["(no message)"])[0]
         raise RuntimeError(f"the generated code did not compile: {first}")
-    return program
+    return output
+
+
+def build(package: Package, folder: Path) -> Path:
+    """Compile the check harness against ``package``'s files in ``folder``; the program."""
+    folder = folder.resolve()
+    (folder / "check_main.c").write_text(_harness(package.name, package.precision))
+    return compile_c(folder, folder / f"{package.name}_check",
+                     ["check_main.c", f"{package.name}.c"])  # fmt: skip
 
 
 def log_inputs(table: object, joints: int) -> tuple[np.ndarray, np.ndarray]:

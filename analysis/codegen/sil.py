@@ -8,12 +8,11 @@ from __future__ import annotations
 
 import atexit
 import shutil
-import subprocess
 import tempfile
 from pathlib import Path
 
-from posfb.analysis.codegen.check import compiler
-from posfb.analysis.codegen.package import CFLAGS, generate
+from posfb.analysis.codegen.check import compile_c
+from posfb.analysis.codegen.package import generate
 from posfb.diagrams.resolve import ResolvedScenario
 from posfb.models.controllers import make_controller
 from posfb.models.laws.compiled import CompiledController
@@ -26,14 +25,7 @@ def shared_library(files: dict[str, str], name: str) -> Path:
     atexit.register(shutil.rmtree, folder, ignore_errors=True)
     for file, text in files.items():
         (folder / file).write_text(text)
-    library = folder / f"lib{name}.so"
-    command = [compiler(), *CFLAGS.split(), "-shared", "-fPIC", "-o", str(library),
-               f"{name}.c", "-lm"]  # fmt: skip
-    result = subprocess.run(command, cwd=folder, capture_output=True, text=True)
-    if result.returncode != 0:
-        first = (result.stderr.strip().splitlines() or ["(no message)"])[0]
-        raise RuntimeError(f"the generated code did not compile: {first}")
-    return library
+    return compile_c(folder, folder / f"lib{name}.so", [f"{name}.c"], "-shared", "-fPIC")
 
 
 def compiled_controller(
