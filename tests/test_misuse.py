@@ -330,12 +330,12 @@ CASES = {
     ),
     "C of a controller without a law yet": Case(
         ("codegen", "--controller", "proposed", "--out", "{tmp}/c"),
-        "controller 'proposed' has no generated code yet (posfb codegen covers lin_lc)",
+        "controller 'proposed' has no generated code yet (posfb codegen covers pid, lin_lc)",
     ),
     "C of a URDF arm's model": Case(
         ("codegen", "--scenario", "six_joint_tuned", "--controller", "lin_lc", "--out",
          "{tmp}/c"),
-        "C is generated for the paper's theta model so far",
+        "evaluates a URDF arm's model with Drake, which is not an expression",
     ),
     "C into a file": Case(
         ("codegen", "--controller", "lin_lc", "--out", "{tmp}/a_file"),

@@ -28,18 +28,15 @@ class NominalTorques:
 
     def __init__(self, model: LumpedModel) -> None:
         from posfb.models.laws.law import Evaluator
-        from posfb.models.laws.nominal import (
-            desired_torque_function,
-            theta_linearization_function,
-        )
+        from posfb.models.laws.nominal import theta_functions
 
         p = model.parameters
         self.parameters = p
         self._t = (p.theta3, p.theta8)
         self._M0 = model.M0()
         self._B = model.B()
-        self._linearization = Evaluator(theta_linearization_function(p))
-        self._desired = Evaluator(desired_torque_function(self._M0, self._B))
+        linearization, desired = theta_functions(p)
+        self._linearization, self._desired = Evaluator(linearization), Evaluator(desired)
 
     def linearization(self, q: np.ndarray, qd_dot: np.ndarray, qd_ddot: np.ndarray) -> np.ndarray:
         """Eq. 4: ``M1*(q) qdd_d + C*(q, qd_d) qd_d + G*(q) + F*(qd_d)`` at the measured ``q``

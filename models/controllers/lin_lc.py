@@ -12,11 +12,9 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from posfb.models.controllers.base import SampledController, joint_names
-from posfb.models.controllers.feedforward import nominal_torques
 from posfb.models.controllers.registry import ControllerSpec
 from posfb.models.design import Design, cached_design, designed_feedback
 from posfb.models.design.settings import LinLc
-from posfb.models.lumped import LumpedParameters
 
 if TYPE_CHECKING:
     from posfb.models.laws.law import Law
@@ -30,35 +28,31 @@ def lin_lc_internals(joints: int) -> tuple[str, ...]:
 def lin_lc_law(design: Design) -> Law:
     """The controller's update as a ``models.laws`` law (the one description the
     simulation evaluates and ``posfb codegen`` prints): memory ``w`` of the filter,
-    ``eta~ = C w + D q~``, ``w' = A w + B q~``, ``u = tau_Lin + tau_d + eta~``. On a URDF
-    arm ``tau_Lin`` enters as the law's ``model`` input (``SerialTorques``, evaluated by
-    Drake)."""
+    ``eta~ = C w + D q~``, ``w' = A w + B q~``, ``u = tau_Lin + tau_d + eta~`` (Eq. 4,
+    7, 13) on the nominal model's ``models.laws.nominal`` form."""
     import casadi as ca
 
     from posfb.models.laws.law import law
-    from posfb.models.laws.nominal import desired_torque, theta_linearization
+    from posfb.models.laws.nominal import desired_torque, symbolic_model
 
     design.require_linear_torque()
     f = design.lin_lc_filter
     n = design.config.joints
-    q, desired, memory = ca.SX.sym("q", n), ca.SX.sym("desired", 3 * n), ca.SX.sym("w", len(f.A))
+    model = symbolic_model(design.config.nominal)
+    q, desired, memory = model.symbol("q", n), model.symbol("desired", 3 * n), model.symbol(
+        "w", len(f.A))  # fmt: skip
     q_d, qd_dot, qd_ddot = desired[:n], desired[n : 2 * n], desired[2 * n :]
     error = q - q_d
-    nominal = design.config.nominal
-    if isinstance(nominal, LumpedParameters):
-        model = ca.SX.sym("model", 0)
-        tau_lin = theta_linearization(nominal, q, qd_dot, qd_ddot)
-    else:
-        model = ca.SX.sym("tau_lin", n)
-        tau_lin = model
+    tau_lin = model.linearization(q, qd_dot, qd_ddot)
     eta = ca.mtimes(ca.DM(f.C), memory) + ca.mtimes(ca.DM(f.D), error)
-    tau_lc = desired_torque(design.M0, design.B, qd_dot, qd_ddot) + eta
-    start_q, start_desired = ca.SX.sym("q", n), ca.SX.sym("desired", 3 * n)
+    tau_lc = desired_torque(model.M0, model.B, qd_dot, qd_ddot) + eta
+    start_q, start_desired = model.symbol("q", n), model.symbol("desired", 3 * n)
     return law(
         "lin_lc", n,
         (start_q, start_desired, ca.mtimes(ca.DM(f.initial), start_q - start_desired[:n])),
-        (memory, q, desired, model, tau_lin + tau_lc, ca.vertcat(tau_lin, tau_lc),
+        (memory, q, desired, tau_lin + tau_lc, ca.vertcat(tau_lin, tau_lc),
          ca.mtimes(ca.DM(f.A), memory) + ca.mtimes(ca.DM(f.B), error)),
+        model,
     )  # fmt: skip
 
 
@@ -77,8 +71,6 @@ class LinLcController(SampledController):
         super().__init__(design.config.sample_time, n, lin_lc_internals(n), self.law.memory)
         self.set_name("lin_lc_controller")
         self._stepper = Stepper(self.law)
-        self._torques = None if self.law.model_inputs == 0 else nominal_torques(
-            design.config.nominal)  # fmt: skip
 
     def _start(self, q: np.ndarray, desired: np.ndarray) -> np.ndarray:
         return self._stepper.start(q, desired)
@@ -86,11 +78,7 @@ class LinLcController(SampledController):
     def _step(
         self, q: np.ndarray, desired: np.ndarray, memory: np.ndarray
     ) -> tuple[np.ndarray, np.ndarray]:
-        model = None
-        if self._torques is not None:
-            _, qd_dot, qd_ddot = self.split_desired(desired)
-            model = self._torques.linearization(q, qd_dot, qd_ddot)
-        return self._stepper.step(q, desired, memory, model)
+        return self._stepper.step(q, desired, memory)
 
 
 #: Lin + LC (Eq. 4 + 13): the paper's ablation without the nonlinear torque.

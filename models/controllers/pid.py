@@ -17,6 +17,8 @@ q~_(k-1)) / T_s``.
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
 
 from posfb.models.controllers.base import SampledController, joint_names
@@ -26,43 +28,71 @@ from posfb.models.design.realisation import DiscreteFilter
 from posfb.models.design.settings import Pid
 from posfb.models.nominal import NominalModel, joint_count, nominal_model
 
+if TYPE_CHECKING:
+    from posfb.models.laws.law import Law
+
 
 def pid_internals(joints: int) -> tuple[str, ...]:
     """Columns of the ``internals`` output for ``joints`` joints."""
     return joint_names("qdot_est", joints) + joint_names("error_integral", joints)
 
 
+def pid_law(nominal: NominalModel, gains: PidGains, sample_time: float) -> Law:
+    """Eq. 26 as a ``models.laws`` law (the one description the simulation evaluates and
+    ``posfb codegen`` prints), memory ``[q_(k-1), I_k]``: ``qdot = (q - q_(k-1)) / T_s``,
+    ``u = M*(q) (qdd_d - K_v (qdot - qd_d) - K_p q~ - K_I I) + C*(q, qdot) qdot + G*(q) +
+    B* qdot + F*(qdot)`` (the nominal model's inverse dynamics, ``models.laws.nominal``),
+    ``I' = I + T_s q~``."""
+    import casadi as ca
+
+    from posfb.models.laws.law import law
+    from posfb.models.laws.nominal import symbolic_model
+
+    model = symbolic_model(nominal)
+    n, T = joint_count(nominal), sample_time
+    Kp, Kv, KI = (ca.DM(np.asarray(g, dtype=float)) for g in (gains.Kp, gains.Kv, gains.KI))
+    q, desired, memory = model.symbol("q", n), model.symbol("desired", 3 * n), model.symbol(
+        "memory", 2 * n)  # fmt: skip
+    q_d, qd_dot, qd_ddot = desired[:n], desired[n : 2 * n], desired[2 * n :]
+    error = q - q_d
+    qdot = (q - memory[:n]) / T
+    integral = memory[n:]
+    command = qd_ddot - Kv * (qdot - qd_dot) - Kp * error - KI * integral
+    voltage = model.inverse_dynamics(q, qdot, command)
+    start_q, start_desired = model.symbol("q", n), model.symbol("desired", 3 * n)
+    return law(
+        "pid", n,
+        (start_q, start_desired, ca.vertcat(start_q, ca.DM.zeros(n))),
+        (memory, q, desired, voltage, ca.vertcat(qdot, integral),
+         ca.vertcat(q, integral + T * error)),
+        model,
+    )  # fmt: skip
+
+
 class PidController(SampledController):
-    """``u = tau_PID`` of Eq. 26 from measured positions only."""
+    """``u = tau_PID`` of Eq. 26 from measured positions only; its step evaluates
+    ``pid_law``."""
 
     #: ``qdot_est``: the backward-difference velocity; ``error_integral = T_s sum q~``.
     INTERNAL_UNITS = {"qdot_est": "rad_per_s", "error_integral": "rad_s"}
 
     def __init__(self, nominal: NominalModel, gains: PidGains, sample_time: float) -> None:
+        from posfb.models.laws.law import Stepper
+
         n = joint_count(nominal)
+        self.law = pid_law(nominal, gains, sample_time)
         # memory: [q_{k-1}, I_k]
         super().__init__(sample_time, n, pid_internals(n), 2 * n)
         self.set_name("pid_controller")
-        self._model = nominal_model(nominal)
-        self._Kp, self._Kv, self._KI = (
-            np.asarray(g, dtype=float) for g in (gains.Kp, gains.Kv, gains.KI)
-        )
+        self._stepper = Stepper(self.law)
 
     def _start(self, q: np.ndarray, desired: np.ndarray) -> np.ndarray:
-        return np.concatenate([q, np.zeros(self.joints)])
+        return self._stepper.start(q, desired)
 
     def _step(
         self, q: np.ndarray, desired: np.ndarray, memory: np.ndarray
     ) -> tuple[np.ndarray, np.ndarray]:
-        q_d, qd_dot, qd_ddot = self.split_desired(desired)
-        error, n = q - q_d, self.joints
-        qdot = (q - memory[:n]) / self.sample_time
-        integral = memory[n:].copy()
-        command = qd_ddot - self._Kv * (qdot - qd_dot) - self._Kp * error - self._KI * integral
-        voltage = self._model.inverse_dynamics(q, qdot, command, friction=True)
-        memory[:n] = q
-        memory[n:] = integral + self.sample_time * error
-        return voltage, np.concatenate([qdot, integral])
+        return self._stepper.step(q, desired, memory)
 
 
 def pid_feedback(build: ControllerBuild) -> DiscreteFilter:
@@ -98,4 +128,5 @@ SPEC = ControllerSpec(
     internals=pid_internals,
     settings=Pid,
     linear=pid_feedback,
+    law=lambda build: pid_law(build.design.nominal, build.design.pid, build.design.sample_time),
 )

@@ -1,12 +1,12 @@
 """One controller's law as two CasADi functions, and their numeric evaluation.
 
 ``Law.start``: ``(q[n], desired[3n]) -> memory[m]``; ``Law.step``: ``(memory[m], q[n],
-desired[3n], model[p]) -> (voltage[n], internals[k], memory_next[m])``. ``model`` holds
-the nominal-model terms a law takes as numbers where the model is not written
-symbolically (``p = 0`` where it is: only such a law can be printed as C).
+desired[3n]) -> (voltage[n], internals[k], memory_next[m])``. A law on the paper's theta
+model is an ``SX`` graph (``printable``: ``posfb codegen`` prints it as C); one on a URDF
+arm an ``MX`` graph whose model terms Drake evaluates (``models.laws.nominal``).
 
-``Stepper`` evaluates both through CasADi's function buffers (no copies, about a
-microsecond a call), for the simulated controller.
+``Stepper`` evaluates both through CasADi's function buffers (no copies; about a
+microsecond a call for an ``SX`` law), for the simulated controller.
 """
 
 from __future__ import annotations
@@ -19,12 +19,14 @@ import numpy as np
 
 @dataclass(frozen=True, eq=False)
 class Law:
-    """A controller's ``start`` and ``step`` (module docstring) for ``joints`` joints."""
+    """A controller's ``start`` and ``step`` (module docstring) for ``joints`` joints;
+    ``model``: the nominal model it was built on (it keeps Drake's callbacks alive)."""
 
     name: str
     joints: int
     start: ca.Function
     step: ca.Function
+    model: object = None
 
     @property
     def memory(self) -> int:
@@ -35,29 +37,31 @@ class Law:
         return int(self.step.size1_out(1))
 
     @property
-    def model_inputs(self) -> int:
-        """The nominal-model terms the step takes as numbers (0: fully symbolic)."""
-        return int(self.step.size1_in(3))
+    def printable(self) -> bool:
+        """Whether the law is one expression graph (``SX``), which C can print."""
+        return bool(self.step.is_a("SXFunction"))
 
 
 def law(
     name: str,
     joints: int,
-    start: tuple[ca.SX, ca.SX, ca.SX],
-    step: tuple[ca.SX, ca.SX, ca.SX, ca.SX, ca.SX, ca.SX, ca.SX],
+    start: tuple[object, object, object],
+    step: tuple[object, object, object, object, object, object],
+    model: object = None,
 ) -> Law:
     """A ``Law`` from its symbols and expressions: ``start = (q, desired, memory0)``,
-    ``step = (memory, q, desired, model, voltage, internals, memory_next)``."""
+    ``step = (memory, q, desired, voltage, internals, memory_next)``."""
     q0, desired0, memory0 = start
-    memory, q, desired, model, voltage, internals, memory_next = step
+    memory, q, desired, voltage, internals, memory_next = step
     return Law(
         name,
         joints,
         ca.Function(f"{name}_start", [q0, desired0], [memory0], ["q", "desired"], ["memory"]),
         ca.Function(
-            f"{name}_step", [memory, q, desired, model], [voltage, internals, memory_next],
-            ["memory", "q", "desired", "model"], ["voltage", "internals", "memory_next"],
+            f"{name}_step", [memory, q, desired], [voltage, internals, memory_next],
+            ["memory", "q", "desired"], ["voltage", "internals", "memory_next"],
         ),  # fmt: skip
+        model,
     )
 
 
@@ -87,20 +91,17 @@ class Stepper:
     controller."""
 
     def __init__(self, law: Law) -> None:
+        self.law = law  # keeps the model's callbacks alive
         self._start = Evaluator(law.start)
         self._step = Evaluator(law.step)
-        self._none = np.zeros(law.model_inputs)
 
     def start(self, q: np.ndarray, desired: np.ndarray) -> np.ndarray:
         """The memory before the first sample."""
         return self._start(q, desired)[0]
 
     def step(
-        self, q: np.ndarray, desired: np.ndarray, memory: np.ndarray,
-        model: np.ndarray | None = None,
-    ) -> tuple[np.ndarray, np.ndarray]:  # fmt: skip
+        self, q: np.ndarray, desired: np.ndarray, memory: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray]:
         """``(voltage, internals)`` at this sample; advances ``memory`` in place."""
-        voltage, internals, memory[:] = self._step(
-            memory, q, desired, self._none if model is None else model
-        )
+        voltage, internals, memory[:] = self._step(memory, q, desired)
         return voltage, internals

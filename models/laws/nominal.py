@@ -1,59 +1,171 @@
-"""The nominal model's torques of the paper's two-link theta model (``models.lumped``),
-written once as CasADi expressions: the simulated controllers evaluate them
-(``models.controllers.feedforward.NominalTorques``) and the generated C prints them::
+"""The nominal model of Eq. 2 as the laws' building block (``models.nominal``'s two forms):
+
+* ``ThetaModel``: the paper's two-link theta model (``models.lumped``) written out as
+  CasADi ``SX`` expressions, which the generated C prints;
+* ``UrdfModel``: a serial URDF arm's model evaluated by Drake (``models.serial_model``)
+  inside the law, as CasADi callbacks in an ``MX`` graph; such a law runs in the
+  simulation but is not printed as C (its model is Drake's code, not an expression).
+
+Both give the terms the controllers use::
 
     tau_Lin = M1*(q) qdd_d + C*(q, qd_d) qd_d + G*(q) + F*(qd_d)      (Eq. 4)
     tau_d   = M0* qdd_d + B* qd_d                                     (Eq. 7)
+    u       = M*(q) a + C*(q, v) v + G*(q) + B* v + F*(v)             (Eq. 2, inverse dynamics)
 
-with ``M1*(q) = cos q2 [[2 theta3, theta3], [theta8, 0]]``, ``C*``, ``G*`` and ``F*`` of
-``models.lumped`` (``sgn 0 = 0``).
+with ``M1* = M* - M0*`` and ``F*(v) = f_c* sgn v`` (``sgn 0 = 0``).
 """
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
 import casadi as ca
 import numpy as np
 
-from posfb.models.lumped import LumpedParameters
+from posfb.models.lumped import LumpedModel, LumpedParameters
+from posfb.models.nominal import NominalModel, nominal_model
+from posfb.models.serial_model import SerialArmModel
+
+#: A CasADi symbol or expression of either kind.
+Symbolic = ca.SX | ca.MX
 
 
-def theta_linearization(
-    parameters: LumpedParameters, q: ca.SX, qd_dot: ca.SX, qd_ddot: ca.SX
-) -> ca.SX:
-    """Eq. 4 of the theta model at the measured ``q`` (2-vectors of symbols)."""
-    p = parameters
-    q1, q2 = q[0], q[1]
-    v1, v2 = qd_dot[0], qd_dot[1]
-    a1, a2 = qd_ddot[0], qd_ddot[1]
-    c2, s2, c12 = ca.cos(q2), ca.sin(q2), ca.cos(q1 + q2)
-    ratio = p.g / p.l1
-    inertia = ca.vertcat(2.0 * p.theta3 * c2 * a1 + p.theta3 * c2 * a2, p.theta8 * c2 * a1)
-    coriolis = ca.vertcat(
-        -p.theta3 * v2 * s2 * v1 - p.theta3 * (v1 + v2) * s2 * v2, p.theta8 * v1 * s2 * v1
-    )
-    gravity = ca.vertcat(p.theta4 * ca.cos(q1) + ratio * p.theta3 * c12, ratio * p.theta8 * c12)
-    friction = ca.vertcat(p.theta6 * ca.sign(v1), p.theta11 * ca.sign(v2))
-    return inertia + coriolis + gravity + friction
-
-
-def desired_torque(M0: np.ndarray, B: np.ndarray, qd_dot: ca.SX, qd_ddot: ca.SX) -> ca.SX:
+def desired_torque(M0: np.ndarray, B: np.ndarray, qd_dot: Symbolic, qd_ddot: Symbolic) -> Symbolic:
     """Eq. 7: ``M0* qdd_d + B* qd_d``."""
     return ca.mtimes(ca.DM(M0), qd_ddot) + ca.mtimes(ca.DM(B), qd_dot)
 
 
-def theta_linearization_function(parameters: LumpedParameters) -> ca.Function:
-    """``(q, qd_d, qdd_d) -> tau_Lin`` (Eq. 4) as a CasADi function."""
+class ThetaModel:
+    """The theta model of ``parameters`` as ``SX`` expressions (module docstring)."""
+
+    printable = True
+
+    def __init__(self, parameters: LumpedParameters) -> None:
+        self.parameters = parameters
+        lumped = LumpedModel(parameters)
+        self.M0, self.B = lumped.M0(), lumped.B()
+        self.joints = 2
+
+    @staticmethod
+    def symbol(name: str, size: int) -> ca.SX:
+        return ca.SX.sym(name, size)
+
+    def _terms(self, q: Symbolic, v: Symbolic) -> tuple[Symbolic, ...]:
+        """``cos q2``, the Coriolis/centrifugal vector ``C*(q, v) v``, ``G*(q)``, ``F*(v)``."""
+        p = self.parameters
+        c2, s2, c12 = ca.cos(q[1]), ca.sin(q[1]), ca.cos(q[0] + q[1])
+        ratio = p.g / p.l1
+        coriolis = ca.vertcat(
+            -p.theta3 * v[1] * s2 * v[0] - p.theta3 * (v[0] + v[1]) * s2 * v[1],
+            p.theta8 * v[0] * s2 * v[0],
+        )
+        gravity = ca.vertcat(p.theta4 * ca.cos(q[0]) + ratio * p.theta3 * c12,
+                             ratio * p.theta8 * c12)  # fmt: skip
+        friction = ca.vertcat(p.theta6 * ca.sign(v[0]), p.theta11 * ca.sign(v[1]))
+        return c2, coriolis, gravity, friction
+
+    def _M1(self, c2: Symbolic, a: Symbolic) -> Symbolic:
+        """``M1*(q) a`` with ``M1* = cos q2 [[2 theta3, theta3], [theta8, 0]]``."""
+        p = self.parameters
+        return ca.vertcat(2.0 * p.theta3 * c2 * a[0] + p.theta3 * c2 * a[1], p.theta8 * c2 * a[0])
+
+    def linearization(self, q: Symbolic, qd_dot: Symbolic, qd_ddot: Symbolic) -> Symbolic:
+        """Eq. 4 at the measured ``q``."""
+        c2, coriolis, gravity, friction = self._terms(q, qd_dot)
+        return self._M1(c2, qd_ddot) + coriolis + gravity + friction
+
+    def inverse_dynamics(self, q: Symbolic, v: Symbolic, a: Symbolic) -> Symbolic:
+        """Eq. 2's voltage for ``(q, v, a)``, Coulomb friction included."""
+        c2, coriolis, gravity, friction = self._terms(q, v)
+        return (ca.mtimes(ca.DM(self.M0), a) + self._M1(c2, a) + coriolis + gravity
+                + ca.mtimes(ca.DM(self.B), v) + friction)  # fmt: skip
+
+
+class _Numeric(ca.Callback):
+    """A function of ``inputs`` n-vectors to one n-vector, evaluated in Python."""
+
+    def __init__(self, name: str, joints: int, inputs: int,
+                 function: Callable[..., np.ndarray]) -> None:  # fmt: skip
+        ca.Callback.__init__(self)
+        self._joints, self._inputs, self._function = joints, inputs, function
+        self.construct(name, {})
+
+    def get_n_in(self) -> int:
+        return self._inputs
+
+    def get_n_out(self) -> int:
+        return 1
+
+    def get_sparsity_in(self, i: int) -> ca.Sparsity:
+        return ca.Sparsity.dense(self._joints, 1)
+
+    def get_sparsity_out(self, i: int) -> ca.Sparsity:
+        return ca.Sparsity.dense(self._joints, 1)
+
+    def eval(self, arguments: list[ca.DM]) -> list[ca.DM]:
+        values = [np.asarray(a, dtype=float).ravel() for a in arguments]
+        return [ca.DM(self._function(*values))]
+
+    def has_eval_buffer(self) -> bool:
+        return True
+
+    def eval_buffer(self, arguments: list[memoryview], results: list[memoryview]) -> int:
+        """``eval`` on CasADi's own buffers (no conversions)."""
+        values = [np.frombuffer(a, dtype=float) for a in arguments]
+        np.frombuffer(results[0], dtype=float)[:] = self._function(*values)
+        return 0
+
+
+class UrdfModel:
+    """A serial arm's model (``SerialArmModel``) evaluated by Drake inside ``MX`` laws
+    (module docstring). The callbacks live as long as this object: a law keeps it."""
+
+    printable = False
+
+    def __init__(self, model: SerialArmModel) -> None:
+        self.model = model
+        self.M0, self.B = model.M0(), model.B()
+        self.joints = model.size
+        n = model.size
+        self._linearization = _Numeric("urdf_linearization", n, 3, self._eq4)
+        self._inverse = _Numeric(
+            "urdf_inverse_dynamics", n, 3,
+            lambda q, v, a: model.inverse_dynamics(q, v, a, friction=True),
+        )  # fmt: skip
+
+    def _eq4(self, q: np.ndarray, velocity: np.ndarray, acceleration: np.ndarray) -> np.ndarray:
+        model = self.model
+        return ((model.M(q) - self.M0) @ acceleration + model.coriolis(q, velocity)
+                + model.G(q) + model.F(velocity))  # fmt: skip
+
+    @staticmethod
+    def symbol(name: str, size: int) -> ca.MX:
+        return ca.MX.sym(name, size)
+
+    def linearization(self, q: Symbolic, qd_dot: Symbolic, qd_ddot: Symbolic) -> Symbolic:
+        """Eq. 4 at the measured ``q``, by Drake."""
+        return self._linearization(q, qd_dot, qd_ddot)
+
+    def inverse_dynamics(self, q: Symbolic, v: Symbolic, a: Symbolic) -> Symbolic:
+        """Eq. 2's voltage, Coulomb friction included, by Drake."""
+        return self._inverse(q, v, a)
+
+
+def symbolic_model(nominal: NominalModel) -> ThetaModel | UrdfModel:
+    """The law's form of ``nominal`` (module docstring)."""
+    if isinstance(nominal, LumpedParameters):
+        return ThetaModel(nominal)
+    return UrdfModel(nominal_model(nominal))
+
+
+def theta_functions(parameters: LumpedParameters) -> tuple[ca.Function, ca.Function]:
+    """``(q, qd_d, qdd_d) -> tau_Lin`` (Eq. 4) and ``(qd_d, qdd_d) -> tau_d`` (Eq. 7) of the
+    theta model, as CasADi functions (``NominalTorques``)."""
+    model = ThetaModel(parameters)
     q, velocity, acceleration = (ca.SX.sym(name, 2) for name in ("q", "qd_dot", "qd_ddot"))
-    return ca.Function(
-        "tau_lin", [q, velocity, acceleration],
-        [theta_linearization(parameters, q, velocity, acceleration)],
+    return (
+        ca.Function("tau_lin", [q, velocity, acceleration],
+                    [model.linearization(q, velocity, acceleration)]),
+        ca.Function("tau_d", [velocity, acceleration],
+                    [desired_torque(model.M0, model.B, velocity, acceleration)]),
     )  # fmt: skip
-
-
-def desired_torque_function(M0: np.ndarray, B: np.ndarray) -> ca.Function:
-    """``(qd_d, qdd_d) -> tau_d`` (Eq. 7) as a CasADi function."""
-    n = len(M0)
-    velocity, acceleration = ca.SX.sym("qd_dot", n), ca.SX.sym("qd_ddot", n)
-    return ca.Function(
-        "tau_d", [velocity, acceleration], [desired_torque(M0, B, velocity, acceleration)]
-    )
