@@ -159,12 +159,13 @@ def test_torques_add_up_to_the_voltage(closed_loop_run):
 
 
 def test_scalar_feedforward_equals_the_lumped_model_matrices():
-    """``NominalTorques`` (scalar form, Eq. 4, 7, ||M1*||) against ``LumpedModel``."""
-    from posfb.models.controllers.feedforward import NominalTorques
+    """The theta model's law form (``models.laws.nominal``: Eq. 4, 7, ||M1*||) against
+    ``LumpedModel``'s matrices."""
+    from posfb.models.controllers.feedforward import nominal_torques
     from posfb.models.lumped import TABLE1, LumpedModel
 
     model = LumpedModel(TABLE1)
-    torques = NominalTorques(model)
+    torques = nominal_torques(TABLE1)
     rng = np.random.default_rng(4)
     for _ in range(50):
         q, v, a = rng.uniform(-3, 3, 2), rng.uniform(-2, 2, 2), rng.uniform(-5, 5, 2)

@@ -20,14 +20,17 @@ chatter. ``alpha(0) = alpha0`` (default 0: ``alpha~1(0) = -alpha*^2``).
 from __future__ import annotations
 
 import math
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from posfb.models.controllers.base import SampledController, joint_names
-from posfb.models.controllers.feedforward import nominal_torques
 from posfb.models.controllers.registry import ControllerSpec
 from posfb.models.design import ControllerConfig, Design, cached_design, designed_feedback
 from posfb.models.design.settings import Proposed
+
+if TYPE_CHECKING:
+    from posfb.models.laws.law import Law
 
 
 def proposed_internals(joints: int) -> tuple[str, ...]:
@@ -37,9 +40,62 @@ def proposed_internals(joints: int) -> tuple[str, ...]:
     return (*per_joint, "alpha", *joint_names("phi", joints), "U1", "U2", "delta_bar")
 
 
+def proposed_law(design: Design) -> Law:
+    """The controller's update (module docstring) as a ``models.laws`` law, the one
+    description the simulation evaluates and ``posfb codegen`` prints; memory ``[s,
+    max |p|, max |pbar|, y]`` (the filter's state, the running maxima of Eq. 24-25, ``y =
+    |alpha~1|``)."""
+    import casadi as ca
+
+    from posfb.models.laws.law import law
+    from posfb.models.laws.nominal import desired_torque, symbolic_model
+
+    design.require_nonlinear_torque()
+    f, n = design.proposed_filter, design.config.joints
+    states = len(f.A)
+    model = symbolic_model(design.config.nominal)
+    nonlinear = design.config.nonlinear
+    c = design.bound_filter.c
+    decay = math.exp(-design.config.sample_time / nonlinear.K_alpha)
+    rate = 2.0 * design.coupling_norm * (1.0 - decay)
+    q, desired = model.symbol("q", n), model.symbol("desired", 3 * n)
+    memory = model.symbol("memory", states + 2 * n + 1)
+    q_d, qd_dot, qd_ddot = desired[:n], desired[n : 2 * n], desired[2 * n :]
+    error, state = q - q_d, memory[:states]
+    outputs = ca.mtimes(ca.DM(f.C), state) + ca.mtimes(ca.DM(f.D), error)
+    eta, phi = outputs[0:n], outputs[n : 2 * n]
+    p_max = ca.fmax(memory[states : states + n], ca.fabs(outputs[2 * n : 3 * n]))
+    pbar_max = ca.fmax(memory[states + n : states + 2 * n], ca.fabs(outputs[3 * n :]))
+    U1 = ca.sqrt(ca.sumsqr(p_max)) / c
+    U2 = ca.sqrt(ca.sumsqr(pbar_max)) / c**2
+    delta_bar = design.bounds.delta_bar(
+        model.M1_norm(q), U1, U2, ca.sqrt(ca.sumsqr(qd_dot)), ca.sqrt(ca.sumsqr(qd_ddot))
+    )
+    U_x = ca.sqrt(ca.sumsqr(error) + U1 * U1 + ca.sumsqr(eta))
+    y = memory[-1]
+    alpha = nonlinear.alpha_star - ca.sqrt(y)
+    forcing = rate * U_x * (delta_bar + ca.sqrt(ca.sumsqr(phi)) * ca.sqrt(y))
+    tau_lin = model.linearization(q, qd_dot, qd_ddot)
+    tau_lc = desired_torque(model.M0, model.B, qd_dot, qd_ddot) + eta
+    tau_nc = -alpha * phi
+    start_q, start_desired = model.symbol("q", n), model.symbol("desired", 3 * n)
+    start = ca.vertcat(
+        ca.mtimes(ca.DM(f.initial), start_q - start_desired[:n]), ca.DM.zeros(2 * n),
+        (nonlinear.alpha_star - nonlinear.alpha0) ** 2,
+    )  # fmt: skip
+    return law(
+        "proposed", n, (start_q, start_desired, start),
+        (memory, q, desired, tau_lin + tau_lc + tau_nc,
+         ca.vertcat(tau_lin, tau_lc, tau_nc, alpha, phi, U1, U2, delta_bar),
+         ca.vertcat(ca.mtimes(ca.DM(f.A), state) + ca.mtimes(ca.DM(f.B), error), p_max,
+                    pbar_max, ca.fmax(0.0, decay * y - forcing))),
+        model,
+    )  # fmt: skip
+
+
 class ProposedController(SampledController):
     """``u = tau_Lin + tau_LC + tau_NC``; refuses a failed LQR design, a non-SPR ``H`` or
-    ``a <= ln 2 / T_s``."""
+    ``a <= ln 2 / T_s``. Its step evaluates ``proposed_law``."""
 
     #: Torques, ``phi`` and ``delta_bar`` are armature voltages (``tau_NC = -alpha phi``
     #: with a dimensionless ``alpha``); ``U1``, ``U2`` bound ``||q~'||``, ``||q~''||``.
@@ -49,59 +105,21 @@ class ProposedController(SampledController):
     }  # fmt: skip
 
     def __init__(self, design: Design) -> None:
-        design.require_nonlinear_torque()
-        self._filter = design.proposed_filter
-        self._states = len(self._filter.A)
+        from posfb.models.laws.law import Stepper
+
+        self.law = proposed_law(design)
         n = design.config.joints
-        # memory: [filter state, running max |p|, running max |pbar|, y = |alpha~1|]
-        super().__init__(
-            design.config.sample_time, n, proposed_internals(n), self._states + 2 * n + 1
-        )
+        super().__init__(design.config.sample_time, n, proposed_internals(n), self.law.memory)
         self.set_name("proposed_controller")
-        self._torques = nominal_torques(design.config.nominal)
-        self._bounds = design.bounds
-        self._c = design.bound_filter.c
-        nonlinear = design.config.nonlinear
-        self._alpha_star = nonlinear.alpha_star
-        self._y0 = (nonlinear.alpha_star - nonlinear.alpha0) ** 2
-        self._decay = math.exp(-design.config.sample_time / nonlinear.K_alpha)
-        self._rate = 2.0 * design.coupling_norm * (1.0 - self._decay)
+        self._stepper = Stepper(self.law)
 
     def _start(self, q: np.ndarray, desired: np.ndarray) -> np.ndarray:
-        memory = np.zeros(self._states + 2 * self.joints + 1)
-        memory[: self._states] = self._filter.initial @ (q - desired[: self.joints])
-        memory[-1] = self._y0
-        return memory
+        return self._stepper.start(q, desired)
 
     def _step(
         self, q: np.ndarray, desired: np.ndarray, memory: np.ndarray
     ) -> tuple[np.ndarray, np.ndarray]:
-        q_d, qd_dot, qd_ddot = self.split_desired(desired)
-        error, j = q - q_d, self.joints
-        f, n = self._filter, self._states
-        state = memory[:n]
-        outputs = f.C @ state + f.D @ error
-        memory[:n] = f.A @ state + f.B @ error
-        eta, phi = outputs[0:j], outputs[j : 2 * j]
-        p_max, pbar_max = memory[n : n + j], memory[n + j : n + 2 * j]
-        np.maximum(p_max, np.abs(outputs[2 * j : 3 * j]), out=p_max)
-        np.maximum(pbar_max, np.abs(outputs[3 * j :]), out=pbar_max)
-        U1 = math.sqrt(p_max @ p_max) / self._c
-        U2 = math.sqrt(pbar_max @ pbar_max) / self._c**2
-        delta_bar = self._bounds.delta_bar(
-            self._torques.M1_norm(q), U1, U2,
-            math.sqrt(qd_dot @ qd_dot), math.sqrt(qd_ddot @ qd_ddot),
-        )  # fmt: skip
-        U_x = math.sqrt(error @ error + U1 * U1 + eta @ eta)
-        y = memory[-1]
-        alpha = self._alpha_star - math.sqrt(y)
-        forcing = self._rate * U_x * (delta_bar + math.sqrt(phi @ phi) * math.sqrt(y))
-        memory[-1] = max(0.0, self._decay * y - forcing)
-        tau_lin = self._torques.linearization(q, qd_dot, qd_ddot)
-        tau_lc = self._torques.desired(qd_dot, qd_ddot) + eta
-        tau_nc = -alpha * phi
-        internals = np.concatenate([tau_lin, tau_lc, tau_nc, [alpha], phi, [U1, U2, delta_bar]])
-        return tau_lin + tau_lc + tau_nc, internals
+        return self._stepper.step(q, desired, memory)
 
 
 #: The label of the paper's controller with the paper's Sec. 4.2 settings.
@@ -140,4 +158,5 @@ SPEC = ControllerSpec(
     internals=proposed_internals,
     settings=Proposed,
     linear=lambda build: designed_feedback(cached_design(build.design), "proposed"),
+    law=lambda build: proposed_law(cached_design(build.design)),
 )

@@ -69,6 +69,16 @@ class ThetaModel:
         p = self.parameters
         return ca.vertcat(2.0 * p.theta3 * c2 * a[0] + p.theta3 * c2 * a[1], p.theta8 * c2 * a[0])
 
+    def M1_norm(self, q: Symbolic) -> Symbolic:
+        """``||M1*(q)||_2`` (Eq. 18) of ``M1* = cos q2 [[2 theta3, theta3], [theta8, 0]]`` in
+        closed form (the largest singular value of a 2 x 2 matrix)."""
+        p = self.parameters
+        c2 = ca.cos(q[1])
+        m11, m12, m21 = 2.0 * p.theta3 * c2, p.theta3 * c2, p.theta8 * c2
+        frobenius2 = m11 * m11 + m12 * m12 + m21 * m21
+        det = -m12 * m21
+        return ca.sqrt(0.5 * (frobenius2 + ca.sqrt(ca.fmax(frobenius2**2 - 4.0 * det * det, 0.0))))
+
     def linearization(self, q: Symbolic, qd_dot: Symbolic, qd_ddot: Symbolic) -> Symbolic:
         """Eq. 4 at the measured ``q``."""
         c2, coriolis, gravity, friction = self._terms(q, qd_dot)
@@ -82,12 +92,16 @@ class ThetaModel:
 
 
 class _Numeric(ca.Callback):
-    """A function of ``inputs`` n-vectors to one n-vector, evaluated in Python."""
+    """A function of ``inputs`` n-vectors to one vector of ``outputs`` (default n),
+    evaluated in Python."""
 
-    def __init__(self, name: str, joints: int, inputs: int,
-                 function: Callable[..., np.ndarray]) -> None:  # fmt: skip
+    def __init__(
+        self, name: str, joints: int, inputs: int, function: Callable[..., np.ndarray],
+        outputs: int | None = None,
+    ) -> None:  # fmt: skip
         ca.Callback.__init__(self)
         self._joints, self._inputs, self._function = joints, inputs, function
+        self._outputs = joints if outputs is None else outputs
         self.construct(name, {})
 
     def get_n_in(self) -> int:
@@ -100,7 +114,7 @@ class _Numeric(ca.Callback):
         return ca.Sparsity.dense(self._joints, 1)
 
     def get_sparsity_out(self, i: int) -> ca.Sparsity:
-        return ca.Sparsity.dense(self._joints, 1)
+        return ca.Sparsity.dense(self._outputs, 1)
 
     def eval(self, arguments: list[ca.DM]) -> list[ca.DM]:
         values = [np.asarray(a, dtype=float).ravel() for a in arguments]
@@ -132,6 +146,10 @@ class UrdfModel:
             "urdf_inverse_dynamics", n, 3,
             lambda q, v, a: model.inverse_dynamics(q, v, a, friction=True),
         )  # fmt: skip
+        self._M1_norm = _Numeric(
+            "urdf_M1_norm", n, 1,
+            lambda q: np.array([np.linalg.norm(model.M(q) - self.M0, 2)]), outputs=1,
+        )  # fmt: skip
 
     def _eq4(self, q: np.ndarray, velocity: np.ndarray, acceleration: np.ndarray) -> np.ndarray:
         model = self.model
@@ -150,6 +168,10 @@ class UrdfModel:
         """Eq. 2's voltage, Coulomb friction included, by Drake."""
         return self._inverse(q, v, a)
 
+    def M1_norm(self, q: Symbolic) -> Symbolic:
+        """``||M*(q) - M0*||_2`` (Eq. 18), by Drake."""
+        return self._M1_norm(q)
+
 
 def symbolic_model(nominal: NominalModel) -> ThetaModel | UrdfModel:
     """The law's form of ``nominal`` (module docstring)."""
@@ -158,14 +180,16 @@ def symbolic_model(nominal: NominalModel) -> ThetaModel | UrdfModel:
     return UrdfModel(nominal_model(nominal))
 
 
-def theta_functions(parameters: LumpedParameters) -> tuple[ca.Function, ca.Function]:
-    """``(q, qd_d, qdd_d) -> tau_Lin`` (Eq. 4) and ``(qd_d, qdd_d) -> tau_d`` (Eq. 7) of the
-    theta model, as CasADi functions (``NominalTorques``)."""
-    model = ThetaModel(parameters)
-    q, velocity, acceleration = (ca.SX.sym(name, 2) for name in ("q", "qd_dot", "qd_ddot"))
+def torque_functions(model: ThetaModel | UrdfModel) -> tuple[ca.Function, ...]:
+    """``(q, qd_d, qdd_d) -> tau_Lin`` (Eq. 4), ``(qd_d, qdd_d) -> tau_d`` (Eq. 7) and ``q
+    -> ||M1*(q)||`` (Eq. 18) of ``model`` as CasADi functions
+    (``models.controllers.feedforward.NominalTorques``)."""
+    n = model.joints
+    q, velocity, acceleration = (model.symbol(name, n) for name in ("q", "qd_dot", "qd_ddot"))
     return (
         ca.Function("tau_lin", [q, velocity, acceleration],
                     [model.linearization(q, velocity, acceleration)]),
         ca.Function("tau_d", [velocity, acceleration],
                     [desired_torque(model.M0, model.B, velocity, acceleration)]),
+        ca.Function("M1_norm", [q], [model.M1_norm(q)]),
     )  # fmt: skip
