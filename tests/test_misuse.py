@@ -328,11 +328,6 @@ CASES = {
         ("codegen", "--scenario", "{tmp}/plugin_broadcast.yaml", "--out", "{tmp}/c"),
         "controller 'Mine' has no generated code yet",
     ),
-    "C of a controller without a law yet": Case(
-        ("codegen", "--controller", "pd_gravity", "--out", "{tmp}/c"),
-        "controller 'pd_gravity' has no generated code yet (posfb codegen covers pid, lin_lc, "
-        "proposed)",
-    ),
     "C of a URDF arm's model": Case(
         ("codegen", "--scenario", "six_joint_tuned", "--controller", "lin_lc", "--out",
          "{tmp}/c"),

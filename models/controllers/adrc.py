@@ -39,6 +39,7 @@ inputs, a filter from the reading to the voltage.
 
 import math
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 from scipy.linalg import expm
@@ -56,6 +57,9 @@ from posfb.models.controllers.tuning import (
     require_below_nyquist,
 )
 from posfb.models.design.realisation import DiscreteFilter
+
+if TYPE_CHECKING:
+    from posfb.models.laws.law import Law
 
 
 @dataclass
@@ -113,22 +117,50 @@ class AdrcController(Controller):
         self.internals = tuple(f"disturbance_{j + 1}_V" for j in range(n)) + tuple(
             f"v_est_{j + 1}_rad_per_s" for j in range(n)
         )
+        from posfb.models.laws.law import Stepper
+
+        self.law = self._law()
+        self._stepper = Stepper(self.law)
+
+    def _law(self) -> "Law":  # noqa: UP037 (no future annotations here: Drake's YAML)
+        """The step as a ``models.laws`` law, the one description the simulation evaluates
+        and ``posfb codegen`` prints; memory ``[zbar_1, zbar_2, zbar_3]`` (n each: the
+        predicted position, velocity and total disturbance): ``z_r = zbar_r + L_r (q -
+        zbar_1)``, ``u = (K_p (q_d - z_1) + K_d (qdot_d - z_2) + qddot_d - z_3) / b0``,
+        ``zbar'_r = sum_c Phi_rc z_c + Gamma_r b0 clip(u)``."""
+        import casadi as ca
+
+        from posfb.models.laws.law import law
+
+        n = self.setup.joints
+        model = self.setup.nominal.symbolic()
+        q, desired, memory = (model.symbol(name, size) for name, size in
+                              (("q", n), ("desired", 3 * n), ("memory", 3 * n)))  # fmt: skip
+        rows = [memory[r * n : (r + 1) * n] for r in range(3)]
+        z = [rows[r] + float(self.L[r]) * (q - rows[0]) for r in range(3)]
+        q_d, qdot_d, qddot_d = desired[:n], desired[n : 2 * n], desired[2 * n :]
+        b0, limit = ca.DM(self.b0), ca.DM(self.limit)
+        u0 = self.Kp * (q_d - z[0]) + self.Kd * (qdot_d - z[1]) + qddot_d
+        voltage = (u0 - z[2]) / b0
+        applied = ca.fmin(ca.fmax(voltage, -limit), limit)
+        predicted = [
+            sum(float(self.Phi[r, c]) * z[c] for c in range(3)) + float(self.Gamma[r]) * (
+                b0 * applied) for r in range(3)
+        ]  # fmt: skip
+        start_q, start_desired = model.symbol("q", n), model.symbol("desired", 3 * n)
+        return law(
+            "adrc", n, (start_q, start_desired, ca.vertcat(start_q, ca.DM.zeros(2 * n))),
+            (memory, q, desired, voltage, ca.vertcat(z[2] / b0, z[1]), ca.vertcat(*predicted)),
+            model,
+        )  # fmt: skip
 
     def start(self, q: np.ndarray, desired: np.ndarray) -> np.ndarray:
-        return np.concatenate([q, np.zeros(2 * self.setup.joints)])
+        return self._stepper.start(q, desired)
 
     def step(
         self, q: np.ndarray, desired: np.ndarray, memory: np.ndarray
     ) -> tuple[np.ndarray, np.ndarray]:
-        n = self.setup.joints
-        predicted = memory.reshape(3, n)  # rows: position, velocity, total disturbance
-        z = predicted + np.outer(self.L, q - predicted[0])
-        q_d, qdot_d, qddot_d = desired[:n], desired[n : 2 * n], desired[2 * n :]
-        u0 = self.Kp * (q_d - z[0]) + self.Kd * (qdot_d - z[1]) + qddot_d
-        voltage = (u0 - z[2]) / self.b0
-        applied = np.clip(voltage, -self.limit, self.limit)
-        predicted[:] = self.Phi @ z + np.outer(self.Gamma, self.b0 * applied)
-        return voltage, np.concatenate([z[2] / self.b0, z[1]])
+        return self._stepper.step(q, desired, memory)
 
 
 def adrc_feedback(build: ControllerBuild) -> DiscreteFilter:
@@ -160,4 +192,5 @@ SPEC = ControllerSpec(
     style={"linestyle": (0, (3, 1, 1, 1, 1, 1)), "color": "tab:purple"},
     settings=Adrc,
     linear=adrc_feedback,
+    law=lambda build: plugin_instance(AdrcController, build).law,
 )

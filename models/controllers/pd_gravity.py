@@ -32,6 +32,7 @@ derivative of ``q~``.
 # No "from __future__ import annotations": Drake's YAML reads the settings field types.
 
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -48,6 +49,9 @@ from posfb.models.controllers.tuning import (
     require_below_nyquist,
 )
 from posfb.models.design.realisation import DiscreteFilter
+
+if TYPE_CHECKING:
+    from posfb.models.laws.law import Law
 
 
 @dataclass
@@ -86,20 +90,43 @@ class PdGravityController(Controller):
         self.internals = tuple(f"v_est_{j + 1}_rad_per_s" for j in range(n)) + tuple(
             f"gravity_{j + 1}_V" for j in range(n)
         )
+        from posfb.models.laws.law import Stepper
+
+        self.law = self._law()
+        self._stepper = Stepper(self.law)
+
+    def _law(self) -> "Law":  # noqa: UP037 (no future annotations here: Drake's YAML)
+        """The step (class docstring) as a ``models.laws`` law, the one description the
+        simulation evaluates and ``posfb codegen`` prints: ``v = (tau_f v_(k-1) + q -
+        q_(k-1)) / (tau_f + T_s)``, ``u = K_p q~ + K_d (qdot_d - v) + G(q)``."""
+        import casadi as ca
+
+        from posfb.models.laws.law import law
+
+        n, T_s = self.setup.joints, self.setup.sample_time
+        model = self.setup.nominal.symbolic()
+        q, desired, memory = (model.symbol(name, size) for name, size in
+                              (("q", n), ("desired", 3 * n), ("memory", 2 * n)))  # fmt: skip
+        q_d, qdot_d = desired[:n], desired[n : 2 * n]
+        Kp, Kd = ca.DM(self.Kp), ca.DM(self.Kd)
+        velocity = (self.tau_f * memory[n:] + q - memory[:n]) / (self.tau_f + T_s)
+        gravity = model.gravity(q)
+        voltage = Kp * (q_d - q) + Kd * (qdot_d - velocity) + gravity
+        start_q, start_desired = model.symbol("q", n), model.symbol("desired", 3 * n)
+        return law(
+            "pd_gravity", n, (start_q, start_desired, ca.vertcat(start_q, ca.DM.zeros(n))),
+            (memory, q, desired, voltage, ca.vertcat(velocity, gravity),
+             ca.vertcat(q, velocity)),
+            model,
+        )  # fmt: skip
 
     def start(self, q: np.ndarray, desired: np.ndarray) -> np.ndarray:
-        return np.concatenate([q, np.zeros(self.setup.joints)])
+        return self._stepper.start(q, desired)
 
     def step(
         self, q: np.ndarray, desired: np.ndarray, memory: np.ndarray
     ) -> tuple[np.ndarray, np.ndarray]:
-        n, T_s = self.setup.joints, self.setup.sample_time
-        q_d, qdot_d = desired[:n], desired[n : 2 * n]
-        velocity = (self.tau_f * memory[n:] + q - memory[:n]) / (self.tau_f + T_s)
-        gravity = self.setup.nominal.gravity(q)
-        voltage = self.Kp * (q_d - q) + self.Kd * (qdot_d - velocity) + gravity
-        memory[:n], memory[n:] = q, velocity
-        return voltage, np.concatenate([velocity, gravity])
+        return self._stepper.step(q, desired, memory)
 
 
 def pd_gravity_feedback(build: ControllerBuild) -> DiscreteFilter:
@@ -127,4 +154,5 @@ SPEC = ControllerSpec(
     style={"linestyle": (0, (5, 1, 1, 1)), "color": "tab:red"},
     settings=PdGravity,
     linear=pd_gravity_feedback,
+    law=lambda build: plugin_instance(PdGravityController, build).law,
 )

@@ -42,7 +42,7 @@ import traceback
 import types
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
-from typing import TypeVar
+from typing import TYPE_CHECKING, TypeVar
 
 import numpy as np
 
@@ -51,6 +51,9 @@ from posfb.models.controllers.registry import ControllerBuild, ControllerSpec
 from posfb.models.lumped import LumpedModel
 from posfb.models.nominal import nominal_model
 from posfb.models.serial_model import SerialArmModel
+
+if TYPE_CHECKING:
+    from posfb.models.laws.nominal import ThetaModel, UrdfModel
 
 _T = TypeVar("_T")
 
@@ -145,6 +148,15 @@ class NominalDynamics:
     def coulomb_levels(self) -> np.ndarray:
         """The Coulomb friction levels (n, V)."""
         return np.asarray(self._model.coulomb_levels(), dtype=float)
+
+    def symbolic(self) -> ThetaModel | UrdfModel:
+        """The model as CasADi expressions (``models.laws.nominal``: ``ThetaModel`` for
+        Table 1's form, ``UrdfModel``, Drake's, for a URDF arm), to write a step once as a
+        law that the simulation evaluates and ``posfb codegen`` prints (the baselines PD +
+        gravity and ADRC do)."""
+        from posfb.models.laws.nominal import symbolic_of
+
+        return symbolic_of(self._model)
 
     def mean_mass_matrix(self) -> np.ndarray:
         """``M0`` (n x n, V s^2/rad): the configuration-independent part of ``M(q)`` (Table

@@ -3,7 +3,8 @@
 ``Law.start``: ``(q[n], desired[3n]) -> memory[m]``; ``Law.step``: ``(memory[m], q[n],
 desired[3n]) -> (voltage[n], internals[k], memory_next[m])``. A law on the paper's theta
 model is an ``SX`` graph (``printable``: ``posfb codegen`` prints it as C); one on a URDF
-arm an ``MX`` graph whose model terms Drake evaluates (``models.laws.nominal``).
+arm an ``MX`` graph whose model terms Drake evaluates (``models.laws.nominal``), printable
+only where it uses none of them (``expanded``).
 
 ``Stepper`` evaluates both through CasADi's function buffers (no copies; about a
 microsecond a call for an ``SX`` law), for the simulated controller.
@@ -36,10 +37,22 @@ class Law:
     def internals(self) -> int:
         return int(self.step.size1_out(1))
 
+    def expanded(self) -> tuple[ca.Function, ca.Function] | None:
+        """``(start, step)`` as expression graphs (``SX``), which C can print; ``None``
+        where the law calls Drake's model (a URDF arm's terms), which no graph holds."""
+        try:
+            graphs = tuple(f if f.is_a("SXFunction") else f.expand()
+                           for f in (self.start, self.step))  # fmt: skip
+        except RuntimeError:
+            return None
+        calls = any(f.instruction_id(k) == ca.OP_CALL for f in graphs
+                    for k in range(f.n_instructions()))  # fmt: skip
+        return None if calls else graphs
+
     @property
     def printable(self) -> bool:
-        """Whether the law is one expression graph (``SX``), which C can print."""
-        return bool(self.step.is_a("SXFunction"))
+        """Whether C can print the law (``expanded``)."""
+        return self.expanded() is not None
 
 
 def law(

@@ -64,6 +64,10 @@ class ThetaModel:
         friction = ca.vertcat(p.theta6 * ca.sign(v[0]), p.theta11 * ca.sign(v[1]))
         return c2, coriolis, gravity, friction
 
+    def gravity(self, q: Symbolic) -> Symbolic:
+        """``G*(q)``."""
+        return self._terms(q, q)[2]
+
     def _M1(self, c2: Symbolic, a: Symbolic) -> Symbolic:
         """``M1*(q) a`` with ``M1* = cos q2 [[2 theta3, theta3], [theta8, 0]]``."""
         p = self.parameters
@@ -146,6 +150,7 @@ class UrdfModel:
             "urdf_inverse_dynamics", n, 3,
             lambda q, v, a: model.inverse_dynamics(q, v, a, friction=True),
         )  # fmt: skip
+        self._gravity = _Numeric("urdf_gravity", n, 1, model.G)
         self._M1_norm = _Numeric(
             "urdf_M1_norm", n, 1,
             lambda q: np.array([np.linalg.norm(model.M(q) - self.M0, 2)]), outputs=1,
@@ -172,12 +177,21 @@ class UrdfModel:
         """``||M*(q) - M0*||_2`` (Eq. 18), by Drake."""
         return self._M1_norm(q)
 
+    def gravity(self, q: Symbolic) -> Symbolic:
+        """``G*(q)``, by Drake."""
+        return self._gravity(q)
+
 
 def symbolic_model(nominal: NominalModel) -> ThetaModel | UrdfModel:
     """The law's form of ``nominal`` (module docstring)."""
-    if isinstance(nominal, LumpedParameters):
-        return ThetaModel(nominal)
-    return UrdfModel(nominal_model(nominal))
+    return symbolic_of(nominal_model(nominal))
+
+
+def symbolic_of(model: LumpedModel | SerialArmModel) -> ThetaModel | UrdfModel:
+    """The law's form of a numeric nominal model (``models.nominal.nominal_model``'s)."""
+    if isinstance(model, LumpedModel):
+        return ThetaModel(model.parameters)
+    return UrdfModel(model)
 
 
 def torque_functions(model: ThetaModel | UrdfModel) -> tuple[ca.Function, ...]:

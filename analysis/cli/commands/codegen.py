@@ -47,7 +47,7 @@ def run(args: argparse.Namespace) -> int:
     try:
         package = generate(resolved, args.name, args.precision)
     except ValueError as error:
-        raise UsageError(f"posfb codegen: {error}") from None
+        raise UsageError(str(error)) from None
     with staged_folder(out) as staged:
         for name, text in package.files.items():
             (staged.path / name).write_text(text)
