@@ -19,11 +19,10 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from posfb.analysis.common.loop_effects import left_out, nominal_effects
+from posfb.analysis.uncertainty.loops import nominal_loop
 from posfb.diagrams.resolve import ResolvedScenario
-from posfb.models.controllers import linear_feedback
 from posfb.models.design.loop_transfer import DiscreteSystem
 from posfb.models.design.margins import GRID_POINTS, LoopMargins, SampledFeedback
-from posfb.models.nominal import nominal_model
 
 if TYPE_CHECKING:
     import control
@@ -100,13 +99,6 @@ def linear_design(resolved: ResolvedScenario) -> LinearDesign:
     """The ``LinearDesign`` of the scenario's controller; ``ValueError`` (one line) for a
     controller without a linear design (a plug-in) or a design it refuses."""
     config = resolved.config
-    feedback = linear_feedback(
-        config.controller, config.design, voltage_limit=config.voltage_limit,
-        settings=config.controller_settings,
-    )  # fmt: skip
-    model = nominal_model(config.design.nominal)
-    loop = SampledFeedback(
-        model.M0(), model.B(), config.sample_time, nominal_effects(resolved), feedback
-    )
+    loop = nominal_loop(config, nominal_effects(resolved))
     label = config.spec.label_for(config.design)
     return LinearDesign(config.controller, label, loop, tuple(left_out(config)))

@@ -43,19 +43,18 @@ def _title(figure: Figure, design: LinearDesign, what: str) -> None:
                     f"(nominal linear plant held over T_s)")  # fmt: skip
 
 
-def _columns(joints: int) -> int:
-    """Panels per row: up to three, so that a six-joint arm stays readable."""
-    return min(joints, 3)
+def _per_joint(design: LinearDesign) -> tuple[np.ndarray, np.ndarray, int, int]:
+    """The drawn grid, the loop at the plant input on it, and the panels' columns (up to
+    three, so that a six-joint arm stays readable) and rows: one panel per joint."""
+    omega = frequency_grid(design.sample_time, DRAWN_POINTS)
+    columns = min(design.joints, 3)
+    return omega, _loops(design, omega)["input"], columns, math.ceil(design.joints / columns)
 
 
 def margins_bode(design: LinearDesign, margins: LoopMargins) -> Figure:
     """Bode plot of each joint's loop-at-a-time transfer at the plant input (module
     docstring)."""
-    omega = frequency_grid(design.sample_time, DRAWN_POINTS)
-    F = _loops(design, omega)["input"]
-    n = design.joints
-    columns = _columns(n)
-    rows = math.ceil(n / columns)
+    omega, F, columns, rows = _per_joint(design)
     figure = Figure(figsize=(4.2 * columns, 5.2 * rows), layout="constrained")
     grid = figure.subfigures(rows, columns, squeeze=False)
     nyquist = math.pi / design.sample_time
@@ -102,11 +101,8 @@ def margins_bode(design: LinearDesign, margins: LoopMargins) -> Figure:
 def margins_nyquist(design: LinearDesign, margins: LoopMargins) -> Figure:
     """Nyquist plot of each joint's loop-at-a-time transfer near ``-1`` (module
     docstring)."""
-    omega = frequency_grid(design.sample_time, DRAWN_POINTS)
-    F = _loops(design, omega)["input"]
+    omega, F, columns, rows = _per_joint(design)
     n = design.joints
-    columns = _columns(n)
-    rows = math.ceil(n / columns)
     figure = Figure(figsize=(4.2 * columns, 4.4 * rows), layout="constrained")
     axes = figure.subplots(rows, columns, squeeze=False).ravel()
     circle = np.exp(1j * np.linspace(0.0, 2.0 * math.pi, 400))

@@ -46,13 +46,11 @@ def _break(margins: BreakMargins) -> dict[str, object]:
     }
 
 
-def margins_to_dict(design: LinearDesign, margins: LoopMargins) -> dict[str, object]:
-    """The ``margins`` object of ``--json`` (module docstring): the loop-wide figures (the
-    worse break's), ``channels`` loop at a time at the plant input, and ``at`` both breaks
-    in full."""
+def loop_figures(margins: LoopMargins) -> dict[str, object]:
+    """The loop-wide figures (the worse break's) with the spectral radius (module
+    docstring), every margin ``null`` for an unstable loop: ``margins_to_dict``'s head,
+    and ``posfb tune``'s ``margins_before``/``margins_after``."""
     result: dict[str, object] = {
-        "controller": design.controller,
-        "sample_time": design.sample_time,
         "spectral_radius": margins.radius,
         "stable": margins.stable,
         "delay_margin_s": _number(margins.delay_margin_s),
@@ -62,6 +60,18 @@ def margins_to_dict(design: LinearDesign, margins: LoopMargins) -> dict[str, obj
         "disk_phase_margin_deg": _number(margins.disk_phase_margin_deg),
         "peak_sensitivity": _number(margins.peak_sensitivity),
         "peak_complementary_sensitivity": _number(margins.peak_complementary_sensitivity),
+    }
+    return result if margins.stable else _nulled(result)
+
+
+def margins_to_dict(design: LinearDesign, margins: LoopMargins) -> dict[str, object]:
+    """The ``margins`` object of ``--json`` (module docstring): the loop-wide figures
+    (``loop_figures``), ``channels`` loop at a time at the plant input, and ``at`` both
+    breaks in full."""
+    result: dict[str, object] = {
+        "controller": design.controller,
+        "sample_time": design.sample_time,
+        **loop_figures(margins),
         "channels": [_channel(c) for c in margins.at_input.channels],
         "at": {b.where: _break(b) for b in margins.breaks},
         "left_out": list(design.left_out),

@@ -146,22 +146,10 @@ def _evaluation_dict(evaluation: Evaluation) -> dict[str, object]:
 
 
 def _margins_dict(margins: LoopMargins | None) -> dict[str, object] | None:
-    """The loop-wide margins of ``--json``'s ``margins`` object (``null`` where none)."""
-    if margins is None:
-        return None
-    stable = margins.stable
+    """The loop-wide margins (``margins_report.loop_figures``; ``null`` where none)."""
+    from posfb.analysis.design.margins_report import loop_figures
 
-    def number(value: float) -> float | None:
-        return value if stable and math.isfinite(value) else None
-
-    return {
-        "spectral_radius": margins.radius,
-        "stable": stable,
-        "disk_margin": number(margins.disk_margin),
-        "delay_margin_s": number(margins.delay_margin_s),
-        "peak_sensitivity": number(margins.peak_sensitivity),
-        "peak_complementary_sensitivity": number(margins.peak_complementary_sensitivity),
-    }
+    return None if margins is None else loop_figures(margins)
 
 
 def result_dict(result: TuneResult) -> dict[str, object]:

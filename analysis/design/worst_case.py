@@ -78,9 +78,10 @@ def _value(axis: BoxAxis, parameters: ArmParameters) -> float:
     return float(getattr(parameters, scalar.key)[scalar.joint])
 
 
-def _disk(loop: SampledFeedback) -> float:
-    """The loop's disk margin (the worse break's), 0 when it is unstable."""
-    return loop.robustness(STUDY_GRID_POINTS, delay=False)[1]
+def _radius_and_disk(loop: SampledFeedback) -> tuple[float, float]:
+    """The loop's spectral radius and disk margin (the worse break's; 0 when unstable)."""
+    radius, disk, _ = loop.robustness(STUDY_GRID_POINTS, delay=False)
+    return radius, disk
 
 
 def worst_case(
@@ -108,10 +109,8 @@ def worst_case(
     def describe(source: str, parameters: ArmParameters) -> Plant:
         nonlocal count
         count += 1
-        loop = loops.loop(parameters)
-        radius = loop.radius()
-        return Plant(source, radius, _disk(loop) if radius < 1.0 else 0.0,
-                     tuple(_value(a, parameters) for a in axes))  # fmt: skip
+        radius, disk = _radius_and_disk(loops.loop(parameters))
+        return Plant(source, radius, disk, tuple(_value(a, parameters) for a in axes))
 
     drawn = [sample_plant(family, loops.nominal_parameters, i).parameters for i in range(plants)]
     sampled = [describe(f"sampled {i}", p) for i, p in enumerate(drawn)]
@@ -132,8 +131,7 @@ def worst_case(
         return -loops.loop(loops.parameters_at(axes, u)).radius()
 
     def disk(u: np.ndarray) -> float:
-        loop = loops.loop(loops.parameters_at(axes, u))
-        return 0.0 if loop.radius() >= 1.0 else _disk(loop)
+        return _radius_and_disk(loops.loop(loops.parameters_at(axes, u)))[1]
 
     worst_radius = loops.parameters_at(axes, search(negative_radius, drawn[by_radius]))
     worst_disk = loops.parameters_at(axes, search(disk, drawn[by_disk]))

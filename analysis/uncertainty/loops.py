@@ -37,7 +37,7 @@ from posfb.diagrams.closed_loop import ClosedLoopConfig
 from posfb.diagrams.resolve import LoadedScenario, resolve
 from posfb.diagrams.scenario import with_controller
 from posfb.models.controllers import linear_feedback
-from posfb.models.design.closed_loop import NO_EFFECTS
+from posfb.models.design.closed_loop import NO_EFFECTS, LoopEffects
 from posfb.models.design.margins import SampledFeedback
 from posfb.models.identify import linear_part_model
 from posfb.models.lumped import LumpedModel, LumpedParameters
@@ -63,6 +63,18 @@ class BoxAxis:
     high: float
 
 
+def nominal_loop(config: ClosedLoopConfig, effects: LoopEffects) -> SampledFeedback:
+    """``config``'s controller's linear feedback (``ControllerSpec.linear``) around its
+    nominal model's linear part with ``effects``; ``ValueError`` (one line) for a
+    controller without one."""
+    feedback = linear_feedback(
+        config.controller, config.design, voltage_limit=config.voltage_limit,
+        settings=config.controller_settings,
+    )  # fmt: skip
+    model = nominal_model(config.design.nominal)
+    return SampledFeedback(model.M0(), model.B(), config.sample_time, effects, feedback)
+
+
 class StudyLoops:
     """The loops of ``controller`` (a name of the study's ``controllers``) on the study's
     plants (module docstring). ``ValueError`` (one line) for a controller without a linear
@@ -84,14 +96,7 @@ class StudyLoops:
         design: a study's draws may change it per sample)."""
         key = (config.design, repr(config.controller_settings), config.voltage_limit)
         if key not in self._feedback:
-            filter_ = linear_feedback(
-                config.controller, config.design, voltage_limit=config.voltage_limit,
-                settings=config.controller_settings,
-            )  # fmt: skip
-            model = nominal_model(config.design.nominal)
-            self._feedback[key] = SampledFeedback(
-                model.M0(), model.B(), config.sample_time, NO_EFFECTS, filter_
-            )
+            self._feedback[key] = nominal_loop(config, NO_EFFECTS)
         return self._feedback[key]
 
     def loop(

@@ -88,6 +88,25 @@ def linear_kinds() -> tuple[str, ...]:
     return tuple(kind for kind, entry in REGISTRY.items() if entry.linear is not None)
 
 
+def _built(
+    part: str,
+    missing: str,
+    kind: str,
+    config: ControllerConfig,
+    voltage_limit: tuple[float, ...],
+    settings: object | None,
+) -> object:
+    """``ControllerSpec.<part>`` of controller ``kind`` applied to ``make_controller``'s
+    inputs; ``ValueError`` with ``missing`` (one line) for a controller without one, or
+    the design's own refusal."""
+    entry = controller_spec(kind, settings)
+    build = getattr(entry, part)
+    if build is None:
+        raise ValueError(f"controller {kind!r} {missing}")
+    entry.refuse(config)
+    return build(ControllerBuild(config, tuple(voltage_limit), settings))
+
+
 def linear_feedback(
     kind: str,
     config: ControllerConfig,
@@ -99,14 +118,9 @@ def linear_feedback(
     (``ControllerSpec.linear``: a filter from ``q~`` to the feedback voltage) for the same
     inputs as ``make_controller``; ``ValueError`` (one line) for a controller without one
     (a plug-in of the user's) or a design it refuses."""
-    entry = controller_spec(kind, settings)
-    if entry.linear is None:
-        raise ValueError(
-            f"controller {kind!r} has no linear design (posfb cannot linearise a plug-in's "
-            f"step); the margins are computed for {', '.join(linear_kinds())}"
-        )
-    entry.refuse(config)
-    return entry.linear(ControllerBuild(config, tuple(voltage_limit), settings))
+    missing = ("has no linear design (posfb cannot linearise a plug-in's step); the margins "
+               f"are computed for {', '.join(linear_kinds())}")  # fmt: skip
+    return _built("linear", missing, kind, config, voltage_limit, settings)
 
 
 def controller_law(
@@ -119,13 +133,9 @@ def controller_law(
     """Controller ``kind``'s update as a ``models.laws`` law (``ControllerSpec.law``), for
     the same inputs as ``make_controller``; ``ValueError`` (one line) for a controller
     without one."""
-    entry = controller_spec(kind, settings)
-    if entry.law is None:
-        having = ", ".join(k for k, e in REGISTRY.items() if e.law is not None)
-        raise ValueError(f"controller {kind!r} has no generated code yet (posfb codegen "
-                         f"covers {having})")  # fmt: skip
-    entry.refuse(config)
-    return entry.law(ControllerBuild(config, tuple(voltage_limit), settings))
+    having = ", ".join(k for k, e in REGISTRY.items() if e.law is not None)
+    missing = f"has no generated code yet (posfb codegen covers {having})"
+    return _built("law", missing, kind, config, voltage_limit, settings)
 
 
 def make_controller(

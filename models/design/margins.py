@@ -37,6 +37,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable
 from dataclasses import dataclass, replace
+from functools import cached_property
 
 import numpy as np
 import scipy.optimize
@@ -401,12 +402,12 @@ class SampledFeedback:
     effects: LoopEffects
     feedback: DiscreteFilter
 
-    @property
+    @cached_property
     def plant(self) -> DiscreteSystem:
         held = held_plant(self.M0, self.B, self.sample_time, self.effects)
         return plant_system(held, self.sample_time)
 
-    @property
+    @cached_property
     def controller(self) -> DiscreteSystem:
         return feedback_system(self.feedback, self.sample_time)
 
