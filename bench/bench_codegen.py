@@ -2,10 +2,11 @@
 
     .venv/bin/python bench/bench_codegen.py [--steps 10000000]
 
-For each controller with generated code, on the paper's arm: the C (``cc -O2`` with the
-flags the code is written for) called ``--steps`` times in a loop on a changing
-position, wall nanoseconds per ``NAME_step`` (best of 3), beside the simulated
-controller's Python step (the ``Stepper`` the diagram calls, best of 3 x 10000 calls).
+For each controller with generated code, on the paper's arm (its theta model) and on the
+shipped six-joint arm (its URDF model): the C (``cc -O2`` with the flags the code is
+written for) called ``--steps`` times in a loop on a changing position, wall nanoseconds
+per ``NAME_step`` (best of 3), beside the simulated controller's Python step (the
+``Stepper`` the diagram calls, best of 3 x 10000 calls).
 """
 
 from __future__ import annotations
@@ -19,7 +20,8 @@ from pathlib import Path
 import numpy as np
 
 import posfb
-from posfb.analysis.codegen.package import CFLAGS, generate
+from posfb.analysis.codegen.package import CFLAGS, Package, generate
+from posfb.analysis.common.shipped import shipped_files
 from posfb.diagrams.resolve import resolve
 from posfb.models.controllers import REGISTRY
 from posfb.models.laws.law import Stepper
@@ -50,9 +52,18 @@ int main(int argc, char **argv) {{
 """
 
 
-def c_nanoseconds(kind: str, precision: str, steps: int) -> float:
-    package = generate(resolve(posfb.load_scenario(set={"controller.kind": kind})), None,
-                       precision)  # fmt: skip
+#: The arms, by the shipped scenario of each.
+ARMS = {"paper": "paper_nominal", "six-joint": "six_joint_nominal"}
+
+
+def package_of(arm: str, kind: str, precision: str) -> Package:
+    scenario = posfb.load_scenario(shipped_files("scenario")[ARMS[arm]],
+                                   set={"controller.kind": kind})  # fmt: skip
+    return generate(resolve(scenario), None, precision)
+
+
+def c_nanoseconds(arm: str, kind: str, precision: str, steps: int) -> float:
+    package = package_of(arm, kind, precision)
     with tempfile.TemporaryDirectory() as folder:
         path = Path(folder)
         for name, text in package.files.items():
@@ -67,9 +78,8 @@ def c_nanoseconds(kind: str, precision: str, steps: int) -> float:
     return min(float(r.split()[0]) for r in runs)
 
 
-def python_nanoseconds(kind: str) -> float:
-    package = generate(resolve(posfb.load_scenario(set={"controller.kind": kind})), None,
-                       "double")  # fmt: skip
+def python_nanoseconds(arm: str, kind: str) -> float:
+    package = package_of(arm, kind, "double")
     stepper = Stepper(package.law)
     q, desired = np.zeros(package.law.joints), np.zeros(3 * package.law.joints)
     memory = stepper.start(q, desired)
@@ -86,13 +96,15 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--steps", type=int, default=10_000_000)
     args = parser.parse_args()
-    print("| controller | C double, ns/step | C float, ns/step | Python Stepper, ns/step |")
-    print("|---|---:|---:|---:|")
-    for kind, spec in REGISTRY.items():
-        if spec.law is None:
-            continue
-        double, single = (c_nanoseconds(kind, p, args.steps) for p in ("double", "float"))
-        print(f"| {kind} | {double:.1f} | {single:.1f} | {python_nanoseconds(kind):.0f} |")
+    print("| arm | controller | C double, ns/step | C float, ns/step | Python Stepper, ns/step |")
+    print("|---|---|---:|---:|---:|")
+    for arm in ARMS:
+        for kind, spec in REGISTRY.items():
+            if spec.law is None:
+                continue
+            double, single = (c_nanoseconds(arm, kind, p, args.steps) for p in ("double", "float"))
+            python = python_nanoseconds(arm, kind)
+            print(f"| {arm} | {kind} | {double:.1f} | {single:.1f} | {python:.0f} |", flush=True)
 
 
 if __name__ == "__main__":

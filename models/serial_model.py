@@ -105,6 +105,17 @@ class SerialArmModel:
         self._M0: np.ndarray | None = None
         self._autodiff: tuple[MultibodyPlant, Context] | None = None
 
+    @property
+    def plant(self) -> MultibodyPlant:
+        """The arm's plant (its parameters are ``context``'s)."""
+        return self._plant
+
+    @property
+    def context(self) -> Context:
+        """The Context holding the model's parameters (its state is scratch: every call
+        sets it)."""
+        return self._context
+
     def _set_state(self, q: np.ndarray, v: np.ndarray | None = None) -> None:
         positions = np.zeros(self._plant.num_positions())
         positions[self._q_index] = q

@@ -38,9 +38,16 @@ def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:
 @pytest.fixture(autouse=True, scope="session")
 def _private_cache(tmp_path_factory: pytest.TempPathFactory):
     """The suite (and every command it starts) caches in a folder of its own, never the
-    user's cache directory, so a run neither reads nor leaves entries there."""
+    user's cache directory, so a run neither reads nor leaves entries there. The workers
+    of one ``pytest -n`` run share it (beside their own temporary folders; the cache
+    writes atomically), so a design one worker computed is not computed again."""
     previous = os.environ.get(CACHE_ENV)
-    os.environ[CACHE_ENV] = str(tmp_path_factory.mktemp("posfb_cache"))
+    if os.environ.get("PYTEST_XDIST_WORKER"):
+        shared = tmp_path_factory.getbasetemp().parent / "posfb_cache"
+        shared.mkdir(exist_ok=True)
+        os.environ[CACHE_ENV] = str(shared)
+    else:
+        os.environ[CACHE_ENV] = str(tmp_path_factory.mktemp("posfb_cache"))
     yield
     if previous is None:
         os.environ.pop(CACHE_ENV, None)

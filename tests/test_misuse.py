@@ -328,11 +328,6 @@ CASES = {
         ("codegen", "--scenario", "{tmp}/plugin_broadcast.yaml", "--out", "{tmp}/c"),
         "controller 'Mine' has no generated code yet",
     ),
-    "C of a URDF arm's model": Case(
-        ("codegen", "--scenario", "six_joint_tuned", "--controller", "lin_lc", "--out",
-         "{tmp}/c"),
-        "evaluates a URDF arm's model with Drake, which is not an expression",
-    ),
     "C into a file": Case(
         ("codegen", "--controller", "lin_lc", "--out", "{tmp}/a_file"),
         "a_file: is a file; a folder is required", untouched=("a_file",),

@@ -151,7 +151,6 @@ class AdrcController(Controller):
         return law(
             "adrc", n, (start_q, start_desired, ca.vertcat(start_q, ca.DM.zeros(2 * n))),
             (memory, q, desired, voltage, ca.vertcat(z[2] / b0, z[1]), ca.vertcat(*predicted)),
-            model,
         )  # fmt: skip
 
     def start(self, q: np.ndarray, desired: np.ndarray) -> np.ndarray:

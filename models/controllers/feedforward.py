@@ -4,8 +4,8 @@
     tau_d   = M0* qdd_d + B* qd_d                                     (Eq. 7)
 
 and ``||M1*(q)||_2`` (Eq. 18), from the one description the controllers' laws are built
-on (``models.laws.nominal``: the theta model's expressions, or a URDF arm's model by
-Drake), for scripts, tests and benchmarks that want the terms on their own.
+on (``models.laws.nominal``: the theta model's or a URDF arm's expressions), for
+scripts, tests and benchmarks that want the terms on their own.
 ``nominal_torques`` gives them for a nominal model.
 """
 
@@ -23,7 +23,7 @@ class NominalTorques:
         from posfb.models.laws.law import Evaluator
         from posfb.models.laws.nominal import torque_functions
 
-        self.model = model  # keeps a URDF model's callbacks alive
+        self.model = model
         self._linearization, self._desired, self._M1_norm = (
             Evaluator(f) for f in torque_functions(model))  # fmt: skip
 

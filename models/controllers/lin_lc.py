@@ -52,7 +52,6 @@ def lin_lc_law(design: Design) -> Law:
         (start_q, start_desired, ca.mtimes(ca.DM(f.initial), start_q - start_desired[:n])),
         (memory, q, desired, tau_lin + tau_lc, ca.vertcat(tau_lin, tau_lc),
          ca.mtimes(ca.DM(f.A), memory) + ca.mtimes(ca.DM(f.B), error)),
-        model,
     )  # fmt: skip
 
 

@@ -117,7 +117,6 @@ class PdGravityController(Controller):
             "pd_gravity", n, (start_q, start_desired, ca.vertcat(start_q, ca.DM.zeros(n))),
             (memory, q, desired, voltage, ca.vertcat(velocity, gravity),
              ca.vertcat(q, velocity)),
-            model,
         )  # fmt: skip
 
     def start(self, q: np.ndarray, desired: np.ndarray) -> np.ndarray:

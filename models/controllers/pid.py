@@ -65,7 +65,6 @@ def pid_law(nominal: NominalModel, gains: PidGains, sample_time: float) -> Law:
         (start_q, start_desired, ca.vertcat(start_q, ca.DM.zeros(n))),
         (memory, q, desired, voltage, ca.vertcat(qdot, integral),
          ca.vertcat(q, integral + T * error)),
-        model,
     )  # fmt: skip
 
 

@@ -89,7 +89,6 @@ def proposed_law(design: Design) -> Law:
          ca.vertcat(tau_lin, tau_lc, tau_nc, alpha, phi, U1, U2, delta_bar),
          ca.vertcat(ca.mtimes(ca.DM(f.A), state) + ca.mtimes(ca.DM(f.B), error), p_max,
                     pbar_max, ca.fmax(0.0, decay * y - forcing))),
-        model,
     )  # fmt: skip
 
 

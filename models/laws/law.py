@@ -1,10 +1,9 @@
 """One controller's law as two CasADi functions, and their numeric evaluation.
 
 ``Law.start``: ``(q[n], desired[3n]) -> memory[m]``; ``Law.step``: ``(memory[m], q[n],
-desired[3n]) -> (voltage[n], internals[k], memory_next[m])``. A law on the paper's theta
-model is an ``SX`` graph (``printable``: ``posfb codegen`` prints it as C); one on a URDF
-arm an ``MX`` graph whose model terms Drake evaluates (``models.laws.nominal``), printable
-only where it uses none of them (``expanded``).
+desired[3n]) -> (voltage[n], internals[k], memory_next[m])``, both ``SX`` expression
+graphs (the nominal model's terms too, on the theta model or any URDF arm:
+``models.laws.nominal``), which ``posfb codegen`` prints as C.
 
 ``Stepper`` evaluates both through CasADi's function buffers (no copies; about a
 microsecond a call for an ``SX`` law), for the simulated controller.
@@ -20,14 +19,12 @@ import numpy as np
 
 @dataclass(frozen=True, eq=False)
 class Law:
-    """A controller's ``start`` and ``step`` (module docstring) for ``joints`` joints;
-    ``model``: the nominal model it was built on (it keeps Drake's callbacks alive)."""
+    """A controller's ``start`` and ``step`` (module docstring) for ``joints`` joints."""
 
     name: str
     joints: int
     start: ca.Function
     step: ca.Function
-    model: object = None
 
     @property
     def memory(self) -> int:
@@ -37,30 +34,12 @@ class Law:
     def internals(self) -> int:
         return int(self.step.size1_out(1))
 
-    def expanded(self) -> tuple[ca.Function, ca.Function] | None:
-        """``(start, step)`` as expression graphs (``SX``), which C can print; ``None``
-        where the law calls Drake's model (a URDF arm's terms), which no graph holds."""
-        try:
-            graphs = tuple(f if f.is_a("SXFunction") else f.expand()
-                           for f in (self.start, self.step))  # fmt: skip
-        except RuntimeError:
-            return None
-        calls = any(f.instruction_id(k) == ca.OP_CALL for f in graphs
-                    for k in range(f.n_instructions()))  # fmt: skip
-        return None if calls else graphs
-
-    @property
-    def printable(self) -> bool:
-        """Whether C can print the law (``expanded``)."""
-        return self.expanded() is not None
-
 
 def law(
     name: str,
     joints: int,
     start: tuple[object, object, object],
     step: tuple[object, object, object, object, object, object],
-    model: object = None,
 ) -> Law:
     """A ``Law`` from its symbols and expressions: ``start = (q, desired, memory0)``,
     ``step = (memory, q, desired, voltage, internals, memory_next)``."""
@@ -74,7 +53,6 @@ def law(
             f"{name}_step", [memory, q, desired], [voltage, internals, memory_next],
             ["memory", "q", "desired"], ["voltage", "internals", "memory_next"],
         ),  # fmt: skip
-        model,
     )
 
 
@@ -104,7 +82,7 @@ class Stepper:
     controller."""
 
     def __init__(self, law: Law) -> None:
-        self.law = law  # keeps the model's callbacks alive
+        self.law = law
         self._start = Evaluator(law.start)
         self._step = Evaluator(law.step)
 

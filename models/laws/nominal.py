@@ -1,10 +1,12 @@
 """The nominal model of Eq. 2 as the laws' building block (``models.nominal``'s two forms):
 
-* ``ThetaModel``: the paper's two-link theta model (``models.lumped``) written out as
-  CasADi ``SX`` expressions, which the generated C prints;
-* ``UrdfModel``: a serial URDF arm's model evaluated by Drake (``models.serial_model``)
-  inside the law, as CasADi callbacks in an ``MX`` graph; such a law runs in the
-  simulation but is not printed as C (its model is Drake's code, not an expression).
+* ``ThetaModel``: the paper's two-link theta model (``models.lumped``) written out;
+* ``UrdfModel``: a serial URDF arm's model (``models.serial_model``), its rigid-body terms
+  by the recursive Newton-Euler algorithm on the Drake plant
+  (``models.laws.serial_dynamics``).
+
+Both are CasADi ``SX`` expressions, which the simulation evaluates and the generated C
+prints.
 
 Both give the terms the controllers use::
 
@@ -17,17 +19,17 @@ with ``M1* = M* - M0*`` and ``F*(v) = f_c* sgn v`` (``sgn 0 = 0``).
 
 from __future__ import annotations
 
-from collections.abc import Callable
-
 import casadi as ca
 import numpy as np
 
+from posfb.models.laws.serial_dynamics import SerialArmDynamics
+from posfb.models.laws.spectral_norm import spectral_norm
 from posfb.models.lumped import LumpedModel, LumpedParameters
 from posfb.models.nominal import NominalModel, nominal_model
 from posfb.models.serial_model import SerialArmModel
 
-#: A CasADi symbol or expression of either kind.
-Symbolic = ca.SX | ca.MX
+#: A CasADi symbol or expression.
+Symbolic = ca.SX
 
 
 def desired_torque(M0: np.ndarray, B: np.ndarray, qd_dot: Symbolic, qd_ddot: Symbolic) -> Symbolic:
@@ -37,8 +39,6 @@ def desired_torque(M0: np.ndarray, B: np.ndarray, qd_dot: Symbolic, qd_ddot: Sym
 
 class ThetaModel:
     """The theta model of ``parameters`` as ``SX`` expressions (module docstring)."""
-
-    printable = True
 
     def __init__(self, parameters: LumpedParameters) -> None:
         self.parameters = parameters
@@ -74,14 +74,10 @@ class ThetaModel:
         return ca.vertcat(2.0 * p.theta3 * c2 * a[0] + p.theta3 * c2 * a[1], p.theta8 * c2 * a[0])
 
     def M1_norm(self, q: Symbolic) -> Symbolic:
-        """``||M1*(q)||_2`` (Eq. 18) of ``M1* = cos q2 [[2 theta3, theta3], [theta8, 0]]`` in
-        closed form (the largest singular value of a 2 x 2 matrix)."""
-        p = self.parameters
-        c2 = ca.cos(q[1])
-        m11, m12, m21 = 2.0 * p.theta3 * c2, p.theta3 * c2, p.theta8 * c2
-        frobenius2 = m11 * m11 + m12 * m12 + m21 * m21
-        det = -m12 * m21
-        return ca.sqrt(0.5 * (frobenius2 + ca.sqrt(ca.fmax(frobenius2**2 - 4.0 * det * det, 0.0))))
+        """``||M1*(q)||_2`` (Eq. 18) of ``M1* = cos q2 [[2 theta3, theta3], [theta8, 0]]``."""
+        p, c2 = self.parameters, ca.cos(q[1])
+        return spectral_norm(ca.blockcat([[2.0 * p.theta3 * c2, p.theta3 * c2],
+                                          [p.theta8 * c2, ca.SX(0.0)]]))  # fmt: skip
 
     def linearization(self, q: Symbolic, qd_dot: Symbolic, qd_ddot: Symbolic) -> Symbolic:
         """Eq. 4 at the measured ``q``."""
@@ -95,91 +91,45 @@ class ThetaModel:
                 + ca.mtimes(ca.DM(self.B), v) + friction)  # fmt: skip
 
 
-class _Numeric(ca.Callback):
-    """A function of ``inputs`` n-vectors to one vector of ``outputs`` (default n),
-    evaluated in Python."""
-
-    def __init__(
-        self, name: str, joints: int, inputs: int, function: Callable[..., np.ndarray],
-        outputs: int | None = None,
-    ) -> None:  # fmt: skip
-        ca.Callback.__init__(self)
-        self._joints, self._inputs, self._function = joints, inputs, function
-        self._outputs = joints if outputs is None else outputs
-        self.construct(name, {})
-
-    def get_n_in(self) -> int:
-        return self._inputs
-
-    def get_n_out(self) -> int:
-        return 1
-
-    def get_sparsity_in(self, i: int) -> ca.Sparsity:
-        return ca.Sparsity.dense(self._joints, 1)
-
-    def get_sparsity_out(self, i: int) -> ca.Sparsity:
-        return ca.Sparsity.dense(self._outputs, 1)
-
-    def eval(self, arguments: list[ca.DM]) -> list[ca.DM]:
-        values = [np.asarray(a, dtype=float).ravel() for a in arguments]
-        return [ca.DM(self._function(*values))]
-
-    def has_eval_buffer(self) -> bool:
-        return True
-
-    def eval_buffer(self, arguments: list[memoryview], results: list[memoryview]) -> int:
-        """``eval`` on CasADi's own buffers (no conversions)."""
-        values = [np.frombuffer(a, dtype=float) for a in arguments]
-        np.frombuffer(results[0], dtype=float)[:] = self._function(*values)
-        return 0
-
-
 class UrdfModel:
-    """A serial arm's model (``SerialArmModel``) evaluated by Drake inside ``MX`` laws
-    (module docstring). The callbacks live as long as this object: a law keeps it."""
-
-    printable = False
+    """A serial URDF arm's model (``SerialArmModel``) as ``SX`` expressions: the rigid-body
+    terms by the recursive Newton-Euler algorithm on its Drake plant
+    (``models.laws.serial_dynamics``), each joint's row divided by its motor constant
+    (Eq. 2 in volts), with ``B*`` and ``F*``."""
 
     def __init__(self, model: SerialArmModel) -> None:
-        self.model = model
         self.M0, self.B = model.M0(), model.B()
         self.joints = model.size
-        n = model.size
-        self._linearization = _Numeric("urdf_linearization", n, 3, self._eq4)
-        self._inverse = _Numeric(
-            "urdf_inverse_dynamics", n, 3,
-            lambda q, v, a: model.inverse_dynamics(q, v, a, friction=True),
-        )  # fmt: skip
-        self._gravity = _Numeric("urdf_gravity", n, 1, model.G)
-        self._M1_norm = _Numeric(
-            "urdf_M1_norm", n, 1,
-            lambda q: np.array([np.linalg.norm(model.M(q) - self.M0, 2)]), outputs=1,
-        )  # fmt: skip
+        self._dynamics = SerialArmDynamics(model.plant, model.context, model.joints)
+        self._scale = ca.DM(1.0 / model.motor_constant)
+        self._coulomb = ca.DM(model.coulomb_levels())
 
-    def _eq4(self, q: np.ndarray, velocity: np.ndarray, acceleration: np.ndarray) -> np.ndarray:
-        model = self.model
-        return ((model.M(q) - self.M0) @ acceleration + model.coriolis(q, velocity)
-                + model.G(q) + model.F(velocity))  # fmt: skip
+    symbol = staticmethod(ThetaModel.symbol)
 
-    @staticmethod
-    def symbol(name: str, size: int) -> ca.MX:
-        return ca.MX.sym(name, size)
+    def _friction(self, v: Symbolic) -> Symbolic:
+        """``F*(v) = diag(f_c*) sgn v``."""
+        return self._coulomb * ca.sign(v)
 
     def linearization(self, q: Symbolic, qd_dot: Symbolic, qd_ddot: Symbolic) -> Symbolic:
-        """Eq. 4 at the measured ``q``, by Drake."""
-        return self._linearization(q, qd_dot, qd_ddot)
+        """Eq. 4 at the measured ``q``: ``M*(q) qdd_d + C*(q, qd_d) qd_d + G*(q)`` less
+        ``M0* qdd_d``, plus ``F*(qd_d)``."""
+        rigid = self._scale * self._dynamics.torques(q, qd_dot, qd_ddot)
+        return rigid - ca.mtimes(ca.DM(self.M0), qd_ddot) + self._friction(qd_dot)
 
     def inverse_dynamics(self, q: Symbolic, v: Symbolic, a: Symbolic) -> Symbolic:
-        """Eq. 2's voltage, Coulomb friction included, by Drake."""
-        return self._inverse(q, v, a)
+        """Eq. 2's voltage for ``(q, v, a)``, Coulomb friction included."""
+        rigid = self._scale * self._dynamics.torques(q, v, a)
+        return rigid + ca.mtimes(ca.DM(self.B), v) + self._friction(v)
 
     def M1_norm(self, q: Symbolic) -> Symbolic:
-        """``||M*(q) - M0*||_2`` (Eq. 18), by Drake."""
-        return self._M1_norm(q)
+        """``||M*(q) - M0*||_2`` (Eq. 18)."""
+        mass = self._scale * self._dynamics.mass_matrix(q)  # row j divided by kappa_j
+        return spectral_norm(mass - ca.DM(self.M0))
 
     def gravity(self, q: Symbolic) -> Symbolic:
-        """``G*(q)``, by Drake."""
-        return self._gravity(q)
+        """``G*(q)``."""
+        zero = ca.SX.zeros(self.joints)
+        return self._scale * self._dynamics.torques(q, zero, zero)
 
 
 def symbolic_model(nominal: NominalModel) -> ThetaModel | UrdfModel:

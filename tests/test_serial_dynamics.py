@@ -1,0 +1,121 @@
+"""A URDF arm's model as CasADi expressions (``models.laws.serial_dynamics`` and
+``models.laws.nominal.UrdfModel``, which the generated C prints) against Drake's own
+evaluation (``models.serial_model.SerialArmModel``: ``CalcMassMatrix``,
+``CalcBiasTerm``, ``CalcGravityGeneralizedForces``), and Eq. 18's spectral norm against
+LAPACK's SVD."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import casadi as ca
+import numpy as np
+import pytest
+from pydrake.multibody.parsing import Parser
+from pydrake.multibody.plant import MultibodyPlant
+
+from posfb.models.laws.nominal import UrdfModel
+from posfb.models.laws.serial_dynamics import SerialArmDynamics
+from posfb.models.laws.spectral_norm import spectral_norm
+from posfb.models.serial_model import SerialArmModel
+from tests.helpers.spatial_arm import spatial_arm_urdf
+
+URDF = Path(__file__).resolve().parent.parent / "urdf"
+
+
+def _terms(model: UrdfModel, joints: int) -> ca.Function:
+    """``(q, v, a) -> (Eq. 2's voltage, Eq. 4, G*, ||M1*||)`` of the expressions."""
+    q, v, a = (ca.SX.sym(name, joints) for name in "qva")
+    terms = [model.inverse_dynamics(q, v, a), model.linearization(q, v, a), model.gravity(q),
+             model.M1_norm(q)]  # fmt: skip
+    return ca.Function("terms", [q, v, a], terms)
+
+
+def _drake_terms(model: SerialArmModel, q, v, a) -> list[np.ndarray]:
+    """The same four terms from Drake's numbers (and numpy's 2-norm)."""
+    M1 = model.M(q) - model.M0()
+    return [
+        model.inverse_dynamics(q, v, a),
+        M1 @ a + model.coriolis(q, v) + model.G(q) + model.F(v),
+        model.G(q),
+        np.array([np.linalg.norm(M1, 2)]),
+    ]
+
+
+def _assert_equal_to_drake(model: SerialArmModel, seed: int) -> None:
+    n = model.size
+    terms = _terms(UrdfModel(model), n)
+    rng = np.random.default_rng(seed)
+    for _ in range(15):
+        state = rng.normal(size=(3, n)) * 2.0
+        got = [np.asarray(value).ravel() for value in terms(*state)]
+        for value, expected in zip(got, _drake_terms(model, *state), strict=True):
+            scale = max(float(np.max(np.abs(expected))), 1e-300)
+            assert np.max(np.abs(value - expected)) <= 1e-12 * scale
+
+
+@pytest.mark.parametrize("name", ["two_link_arm", "three_link_arm", "six_joint_arm"])
+def test_shipped_arms_equal_drake(name):
+    _assert_equal_to_drake(SerialArmModel(URDF / f"{name}.urdf"), seed=1)
+
+
+@pytest.mark.parametrize(("joints", "seed"), [(2, 11), (4, 12), (7, 13)])
+def test_random_spatial_arms_equal_drake(tmp_path, joints, seed):
+    """Tilted joint frames, skew axes, full inertias about rotated frames, and welded
+    mount, flange and tool bodies (``tests.helpers.spatial_arm``)."""
+    _assert_equal_to_drake(SerialArmModel(spatial_arm_urdf(joints, tmp_path, seed)), seed)
+
+
+def test_parameters_come_from_the_context(tmp_path):
+    """A sampled plant (``SerialArmModel.of_plant``): masses, inertias and rotor inertias
+    changed in a Context, not in the file, reach the expressions."""
+    nominal = SerialArmModel(spatial_arm_urdf(3, tmp_path, 5))
+    plant, context = nominal.plant, nominal.plant.CreateDefaultContext()
+    for name in ("link2", "tool"):
+        body = plant.GetBodyByName(name)
+        body.SetSpatialInertiaInBodyFrame(
+            context, body.default_spatial_inertia().Shift([0.03, -0.02, 0.05]))  # fmt: skip
+        body.SetMass(context, 1.7 * body.default_mass())
+    actuator = plant.GetJointActuatorByName("motor3")
+    actuator.SetRotorInertia(context, 4.0 * actuator.default_rotor_inertia())
+    coulomb = nominal.coulomb_levels() * nominal.motor_constant  # N m, as of_plant takes them
+    sampled = SerialArmModel.of_plant(plant, context, nominal.joints, nominal.motor_constant,
+                                      coulomb)  # fmt: skip
+    assert not np.allclose(sampled.M(np.ones(3)), nominal.M(np.ones(3)))
+    _assert_equal_to_drake(sampled, seed=5)
+
+
+def test_a_joint_that_is_neither_revolute_nor_welded_is_refused():
+    plant = MultibodyPlant(time_step=0.0)
+    Parser(plant).AddModelsFromString("""<robot name="slider">
+      <link name="base"/><link name="carriage"><inertial><mass value="1"/>
+      <inertia ixx="1" ixy="0" ixz="0" iyy="1" iyz="0" izz="1"/></inertial></link>
+      <joint name="slide" type="prismatic"><parent link="base"/><child link="carriage"/>
+      <axis xyz="1 0 0"/></joint></robot>""", "urdf")  # fmt: skip
+    plant.WeldFrames(plant.world_frame(), plant.GetFrameByName("base"))
+    plant.Finalize()
+    with pytest.raises(ValueError, match="joint 'slide' is a prismatic joint; a serial arm "
+                                         "has revolute and weld joints only"):  # fmt: skip
+        SerialArmDynamics(plant, plant.CreateDefaultContext(), ("slide",))
+
+
+@pytest.mark.parametrize("rows", range(1, 9))
+def test_spectral_norm_equals_lapack(rows):
+    """Random, graded (columns over eight decades), nearly degenerate (the two largest
+    singular values 1e-9 apart) and sparse symmetric matrices: to round-off."""
+    A = ca.SX.sym("A", rows, rows)
+    norm = ca.Function("norm", [A], [spectral_norm(A)])
+    rng = np.random.default_rng(rows)
+    for trial in range(80):
+        matrix = rng.normal(size=(rows, rows))
+        if trial % 4 == 1:
+            matrix = matrix * np.logspace(0, -8, rows)[None, :]
+        elif trial % 4 == 2:
+            U, _, Vt = np.linalg.svd(matrix)
+            singular = np.linspace(1.0, 0.1, rows)
+            singular[1:2] = 1.0 - 1e-9
+            matrix = U @ np.diag(singular) @ Vt
+        elif trial % 4 == 3:
+            matrix = (matrix + matrix.T) * (np.abs(matrix + matrix.T) > 1.0)
+        expected = np.linalg.norm(matrix, 2)
+        assert abs(float(norm(matrix)) - expected) <= 4e-15 * max(expected, 1e-300)
