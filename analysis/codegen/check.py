@@ -16,12 +16,16 @@ from pathlib import Path
 import numpy as np
 
 from posfb.analysis.codegen.package import CFLAGS, Package
+from posfb.analysis.common.export import (
+    Q_DESIRED,
+    Q_MEASURED,
+    QD_DESIRED,
+    QDD_DESIRED,
+    U_COMMANDED,
+)  # fmt: skip
 
 #: The columns a replay reads, per joint (``analysis.common.export``).
-REPLAY_COLUMNS = (
-    "q{j}_measured_rad", "q{j}_desired_rad", "q{j}_desired_velocity_rad_per_s",
-    "q{j}_desired_acceleration_rad_per_s2", "u{j}_commanded_V",
-)  # fmt: skip
+REPLAY_COLUMNS = (Q_MEASURED, Q_DESIRED, QD_DESIRED, QDD_DESIRED, U_COMMANDED)
 
 
 @dataclass(frozen=True)

@@ -70,12 +70,13 @@ _CSV_READ_OPTIONS = (
 )
 
 
-#: The first columns of every exported run, in this order.
-#: The leading column groups: a per-joint name pattern each, in order.
-_LEADING = (
-    "q{j}_desired_rad", "q{j}_rad", "q{j}_measured_rad", "u{j}_commanded_V", "u{j}_applied_V",
-    "q{j}_desired_velocity_rad_per_s", "q{j}_desired_acceleration_rad_per_s2",
-)  # fmt: skip
+#: The per-joint name pattern of each leading column group (``j`` the joint, from 1).
+Q_DESIRED, Q_TRUE, Q_MEASURED = "q{j}_desired_rad", "q{j}_rad", "q{j}_measured_rad"
+U_COMMANDED, U_APPLIED = "u{j}_commanded_V", "u{j}_applied_V"
+QD_DESIRED, QDD_DESIRED = "q{j}_desired_velocity_rad_per_s", "q{j}_desired_acceleration_rad_per_s2"
+
+#: The first column groups of every exported run, in this order.
+_LEADING = (Q_DESIRED, Q_TRUE, Q_MEASURED, U_COMMANDED, U_APPLIED, QD_DESIRED, QDD_DESIRED)
 
 
 def leading_columns(joints: int) -> tuple[str, ...]:

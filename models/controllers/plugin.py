@@ -151,7 +151,7 @@ class NominalDynamics:
 
     def symbolic(self) -> ThetaModel | UrdfModel:
         """The model as CasADi expressions (``models.laws.nominal``: ``ThetaModel`` for
-        Table 1's form, ``UrdfModel``, Drake's, for a URDF arm), to write a step once as a
+        Table 1's form, ``UrdfModel`` for a URDF arm), to write a step once as a
         law that the simulation evaluates and ``posfb codegen`` prints (the baselines PD +
         gravity and ADRC do)."""
         from posfb.models.laws.nominal import symbolic_of
