@@ -133,25 +133,21 @@ class AdrcController(Controller):
         from posfb.models.laws.law import law
 
         n = self.setup.joints
-        model = self.setup.nominal.symbolic()
-        q, desired, memory = (model.symbol(name, size) for name, size in
-                              (("q", n), ("desired", 3 * n), ("memory", 3 * n)))  # fmt: skip
-        rows = [memory[r * n : (r + 1) * n] for r in range(3)]
-        z = [rows[r] + float(self.L[r]) * (q - rows[0]) for r in range(3)]
-        q_d, qdot_d, qddot_d = desired[:n], desired[n : 2 * n], desired[2 * n :]
         b0, limit = ca.DM(self.b0), ca.DM(self.limit)
-        u0 = self.Kp * (q_d - z[0]) + self.Kd * (qdot_d - z[1]) + qddot_d
-        voltage = (u0 - z[2]) / b0
-        applied = ca.fmin(ca.fmax(voltage, -limit), limit)
-        predicted = [
-            sum(float(self.Phi[r, c]) * z[c] for c in range(3)) + float(self.Gamma[r]) * (
-                b0 * applied) for r in range(3)
-        ]  # fmt: skip
-        start_q, start_desired = model.symbol("q", n), model.symbol("desired", 3 * n)
-        return law(
-            "adrc", n, (start_q, start_desired, ca.vertcat(start_q, ca.DM.zeros(2 * n))),
-            (memory, q, desired, voltage, ca.vertcat(z[2] / b0, z[1]), ca.vertcat(*predicted)),
-        )  # fmt: skip
+
+        def step(memory, q, q_d, qdot_d, qddot_d):
+            rows = [memory[r * n : (r + 1) * n] for r in range(3)]
+            z = [rows[r] + float(self.L[r]) * (q - rows[0]) for r in range(3)]
+            u0 = self.Kp * (q_d - z[0]) + self.Kd * (qdot_d - z[1]) + qddot_d
+            voltage = (u0 - z[2]) / b0
+            applied = ca.fmin(ca.fmax(voltage, -limit), limit)
+            predicted = [
+                sum(float(self.Phi[r, c]) * z[c] for c in range(3)) + float(self.Gamma[r]) * (
+                    b0 * applied) for r in range(3)
+            ]  # fmt: skip
+            return voltage, ca.vertcat(z[2] / b0, z[1]), ca.vertcat(*predicted)
+
+        return law("adrc", n, 3 * n, lambda q, q_d: ca.vertcat(q, ca.DM.zeros(2 * n)), step)
 
     def start(self, q: np.ndarray, desired: np.ndarray) -> np.ndarray:
         return self._stepper.start(q, desired)

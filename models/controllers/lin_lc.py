@@ -39,20 +39,16 @@ def lin_lc_law(design: Design) -> Law:
     f = design.lin_lc_filter
     n = design.config.joints
     model = symbolic_model(design.config.nominal)
-    q, desired, memory = model.symbol("q", n), model.symbol("desired", 3 * n), model.symbol(
-        "w", len(f.A))  # fmt: skip
-    q_d, qd_dot, qd_ddot = desired[:n], desired[n : 2 * n], desired[2 * n :]
-    error = q - q_d
-    tau_lin = model.linearization(q, qd_dot, qd_ddot)
-    eta = ca.mtimes(ca.DM(f.C), memory) + ca.mtimes(ca.DM(f.D), error)
-    tau_lc = desired_torque(model.M0, model.B, qd_dot, qd_ddot) + eta
-    start_q, start_desired = model.symbol("q", n), model.symbol("desired", 3 * n)
-    return law(
-        "lin_lc", n,
-        (start_q, start_desired, ca.mtimes(ca.DM(f.initial), start_q - start_desired[:n])),
-        (memory, q, desired, tau_lin + tau_lc, ca.vertcat(tau_lin, tau_lc),
-         ca.mtimes(ca.DM(f.A), memory) + ca.mtimes(ca.DM(f.B), error)),
-    )  # fmt: skip
+
+    def step(w, q, q_d, qd_dot, qd_ddot):
+        error = q - q_d
+        tau_lin = model.linearization(q, qd_dot, qd_ddot)
+        eta = ca.mtimes(ca.DM(f.C), w) + ca.mtimes(ca.DM(f.D), error)
+        tau_lc = desired_torque(model.M0, model.B, qd_dot, qd_ddot) + eta
+        return (tau_lin + tau_lc, ca.vertcat(tau_lin, tau_lc),
+                ca.mtimes(ca.DM(f.A), w) + ca.mtimes(ca.DM(f.B), error))  # fmt: skip
+
+    return law("lin_lc", n, len(f.A), lambda q, q_d: ca.mtimes(ca.DM(f.initial), q - q_d), step)
 
 
 class LinLcController(SampledController):

@@ -105,19 +105,15 @@ class PdGravityController(Controller):
 
         n, T_s = self.setup.joints, self.setup.sample_time
         model = self.setup.nominal.symbolic()
-        q, desired, memory = (model.symbol(name, size) for name, size in
-                              (("q", n), ("desired", 3 * n), ("memory", 2 * n)))  # fmt: skip
-        q_d, qdot_d = desired[:n], desired[n : 2 * n]
         Kp, Kd = ca.DM(self.Kp), ca.DM(self.Kd)
-        velocity = (self.tau_f * memory[n:] + q - memory[:n]) / (self.tau_f + T_s)
-        gravity = model.gravity(q)
-        voltage = Kp * (q_d - q) + Kd * (qdot_d - velocity) + gravity
-        start_q, start_desired = model.symbol("q", n), model.symbol("desired", 3 * n)
-        return law(
-            "pd_gravity", n, (start_q, start_desired, ca.vertcat(start_q, ca.DM.zeros(n))),
-            (memory, q, desired, voltage, ca.vertcat(velocity, gravity),
-             ca.vertcat(q, velocity)),
-        )  # fmt: skip
+
+        def step(memory, q, q_d, qdot_d, qddot_d):
+            velocity = (self.tau_f * memory[n:] + q - memory[:n]) / (self.tau_f + T_s)
+            gravity = model.gravity(q)
+            voltage = Kp * (q_d - q) + Kd * (qdot_d - velocity) + gravity
+            return voltage, ca.vertcat(velocity, gravity), ca.vertcat(q, velocity)
+
+        return law("pd_gravity", n, 2 * n, lambda q, q_d: ca.vertcat(q, ca.DM.zeros(n)), step)
 
     def start(self, q: np.ndarray, desired: np.ndarray) -> np.ndarray:
         return self._stepper.start(q, desired)

@@ -51,21 +51,16 @@ def pid_law(nominal: NominalModel, gains: PidGains, sample_time: float) -> Law:
     model = symbolic_model(nominal)
     n, T = joint_count(nominal), sample_time
     Kp, Kv, KI = (ca.DM(np.asarray(g, dtype=float)) for g in (gains.Kp, gains.Kv, gains.KI))
-    q, desired, memory = model.symbol("q", n), model.symbol("desired", 3 * n), model.symbol(
-        "memory", 2 * n)  # fmt: skip
-    q_d, qd_dot, qd_ddot = desired[:n], desired[n : 2 * n], desired[2 * n :]
-    error = q - q_d
-    qdot = (q - memory[:n]) / T
-    integral = memory[n:]
-    command = qd_ddot - Kv * (qdot - qd_dot) - Kp * error - KI * integral
-    voltage = model.inverse_dynamics(q, qdot, command)
-    start_q, start_desired = model.symbol("q", n), model.symbol("desired", 3 * n)
-    return law(
-        "pid", n,
-        (start_q, start_desired, ca.vertcat(start_q, ca.DM.zeros(n))),
-        (memory, q, desired, voltage, ca.vertcat(qdot, integral),
-         ca.vertcat(q, integral + T * error)),
-    )  # fmt: skip
+
+    def step(memory, q, q_d, qd_dot, qd_ddot):
+        error = q - q_d
+        qdot = (q - memory[:n]) / T
+        integral = memory[n:]
+        command = qd_ddot - Kv * (qdot - qd_dot) - Kp * error - KI * integral
+        voltage = model.inverse_dynamics(q, qdot, command)
+        return voltage, ca.vertcat(qdot, integral), ca.vertcat(q, integral + T * error)
+
+    return law("pid", n, 2 * n, lambda q, q_d: ca.vertcat(q, ca.DM.zeros(n)), step)
 
 
 class PidController(SampledController):

@@ -58,38 +58,37 @@ def proposed_law(design: Design) -> Law:
     c = design.bound_filter.c
     decay = math.exp(-design.config.sample_time / nonlinear.K_alpha)
     rate = 2.0 * design.coupling_norm * (1.0 - decay)
-    q, desired = model.symbol("q", n), model.symbol("desired", 3 * n)
-    memory = model.symbol("memory", states + 2 * n + 1)
-    q_d, qd_dot, qd_ddot = desired[:n], desired[n : 2 * n], desired[2 * n :]
-    error, state = q - q_d, memory[:states]
-    outputs = ca.mtimes(ca.DM(f.C), state) + ca.mtimes(ca.DM(f.D), error)
-    eta, phi = outputs[0:n], outputs[n : 2 * n]
-    p_max = ca.fmax(memory[states : states + n], ca.fabs(outputs[2 * n : 3 * n]))
-    pbar_max = ca.fmax(memory[states + n : states + 2 * n], ca.fabs(outputs[3 * n :]))
-    U1 = ca.sqrt(ca.sumsqr(p_max)) / c
-    U2 = ca.sqrt(ca.sumsqr(pbar_max)) / c**2
-    delta_bar = design.bounds.delta_bar(
-        model.M1_norm(q), U1, U2, ca.sqrt(ca.sumsqr(qd_dot)), ca.sqrt(ca.sumsqr(qd_ddot))
-    )
-    U_x = ca.sqrt(ca.sumsqr(error) + U1 * U1 + ca.sumsqr(eta))
-    y = memory[-1]
-    alpha = nonlinear.alpha_star - ca.sqrt(y)
-    forcing = rate * U_x * (delta_bar + ca.sqrt(ca.sumsqr(phi)) * ca.sqrt(y))
-    tau_lin = model.linearization(q, qd_dot, qd_ddot)
-    tau_lc = desired_torque(model.M0, model.B, qd_dot, qd_ddot) + eta
-    tau_nc = -alpha * phi
-    start_q, start_desired = model.symbol("q", n), model.symbol("desired", 3 * n)
-    start = ca.vertcat(
-        ca.mtimes(ca.DM(f.initial), start_q - start_desired[:n]), ca.DM.zeros(2 * n),
-        (nonlinear.alpha_star - nonlinear.alpha0) ** 2,
-    )  # fmt: skip
-    return law(
-        "proposed", n, (start_q, start_desired, start),
-        (memory, q, desired, tau_lin + tau_lc + tau_nc,
-         ca.vertcat(tau_lin, tau_lc, tau_nc, alpha, phi, U1, U2, delta_bar),
-         ca.vertcat(ca.mtimes(ca.DM(f.A), state) + ca.mtimes(ca.DM(f.B), error), p_max,
-                    pbar_max, ca.fmax(0.0, decay * y - forcing))),
-    )  # fmt: skip
+
+    def step(memory, q, q_d, qd_dot, qd_ddot):
+        error, state = q - q_d, memory[:states]
+        outputs = ca.mtimes(ca.DM(f.C), state) + ca.mtimes(ca.DM(f.D), error)
+        eta, phi = outputs[0:n], outputs[n : 2 * n]
+        p_max = ca.fmax(memory[states : states + n], ca.fabs(outputs[2 * n : 3 * n]))
+        pbar_max = ca.fmax(memory[states + n : states + 2 * n], ca.fabs(outputs[3 * n :]))
+        U1 = ca.sqrt(ca.sumsqr(p_max)) / c
+        U2 = ca.sqrt(ca.sumsqr(pbar_max)) / c**2
+        delta_bar = design.bounds.delta_bar(
+            model.M1_norm(q), U1, U2, ca.sqrt(ca.sumsqr(qd_dot)), ca.sqrt(ca.sumsqr(qd_ddot))
+        )
+        U_x = ca.sqrt(ca.sumsqr(error) + U1 * U1 + ca.sumsqr(eta))
+        y = memory[-1]
+        alpha = nonlinear.alpha_star - ca.sqrt(y)
+        forcing = rate * U_x * (delta_bar + ca.sqrt(ca.sumsqr(phi)) * ca.sqrt(y))
+        tau_lin = model.linearization(q, qd_dot, qd_ddot)
+        tau_lc = desired_torque(model.M0, model.B, qd_dot, qd_ddot) + eta
+        tau_nc = -alpha * phi
+        return (
+            tau_lin + tau_lc + tau_nc,
+            ca.vertcat(tau_lin, tau_lc, tau_nc, alpha, phi, U1, U2, delta_bar),
+            ca.vertcat(ca.mtimes(ca.DM(f.A), state) + ca.mtimes(ca.DM(f.B), error), p_max,
+                       pbar_max, ca.fmax(0.0, decay * y - forcing)),
+        )  # fmt: skip
+
+    def start(q, q_d):
+        return ca.vertcat(ca.mtimes(ca.DM(f.initial), q - q_d), ca.DM.zeros(2 * n),
+                          (nonlinear.alpha_star - nonlinear.alpha0) ** 2)  # fmt: skip
+
+    return law("proposed", n, states + 2 * n + 1, start, step)
 
 
 class ProposedController(SampledController):

@@ -11,6 +11,7 @@ microsecond a call for an ``SX`` law), for the simulated controller.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import casadi as ca
@@ -35,22 +36,26 @@ class Law:
         return int(self.step.size1_out(1))
 
 
-def law(
-    name: str,
-    joints: int,
-    start: tuple[object, object, object],
-    step: tuple[object, object, object, object, object, object],
-) -> Law:
-    """A ``Law`` from its symbols and expressions: ``start = (q, desired, memory0)``,
-    ``step = (memory, q, desired, voltage, internals, memory_next)``."""
-    q0, desired0, memory0 = start
-    memory, q, desired, voltage, internals, memory_next = step
+#: ``(q, q_d) -> memory_0``: a law's memory before the first sample.
+Start = Callable[[ca.SX, ca.SX], ca.SX]
+#: ``(memory, q, q_d, qd_dot, qd_ddot) -> (voltage, internals, memory_next)``: one sample.
+Step = Callable[[ca.SX, ca.SX, ca.SX, ca.SX, ca.SX], tuple[ca.SX, ca.SX, ca.SX]]
+
+
+def law(name: str, joints: int, memory: int, start: Start, step: Step) -> Law:
+    """A ``Law`` of ``joints`` joints and ``memory`` numbers kept between samples, from
+    ``start`` and ``step`` written on CasADi ``SX`` symbols (which this function makes:
+    the position, the desired signals split in ``[q_d, qd_dot, qd_ddot]``, the memory)."""
+    q, desired, state = (ca.SX.sym(label, size) for label, size in
+                         (("q", joints), ("desired", 3 * joints), ("memory", memory)))  # fmt: skip
+    q_d, qd_dot, qd_ddot = (desired[k * joints : (k + 1) * joints] for k in range(3))
+    voltage, internals, following = step(state, q, q_d, qd_dot, qd_ddot)
     return Law(
         name,
         joints,
-        ca.Function(f"{name}_start", [q0, desired0], [memory0], ["q", "desired"], ["memory"]),
+        ca.Function(f"{name}_start", [q, desired], [start(q, q_d)], ["q", "desired"], ["memory"]),
         ca.Function(
-            f"{name}_step", [memory, q, desired], [voltage, internals, memory_next],
+            f"{name}_step", [state, q, desired], [voltage, internals, following],
             ["memory", "q", "desired"], ["voltage", "internals", "memory_next"],
         ),  # fmt: skip
     )

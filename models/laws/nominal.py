@@ -46,10 +46,6 @@ class ThetaModel:
         self.M0, self.B = lumped.M0(), lumped.B()
         self.joints = 2
 
-    @staticmethod
-    def symbol(name: str, size: int) -> ca.SX:
-        return ca.SX.sym(name, size)
-
     def _terms(self, q: Symbolic, v: Symbolic) -> tuple[Symbolic, ...]:
         """``cos q2``, the Coriolis/centrifugal vector ``C*(q, v) v``, ``G*(q)``, ``F*(v)``."""
         p = self.parameters
@@ -104,8 +100,6 @@ class UrdfModel:
         self._scale = ca.DM(1.0 / model.motor_constant)
         self._coulomb = ca.DM(model.coulomb_levels())
 
-    symbol = staticmethod(ThetaModel.symbol)
-
     def _friction(self, v: Symbolic) -> Symbolic:
         """``F*(v) = diag(f_c*) sgn v``."""
         return self._coulomb * ca.sign(v)
@@ -149,7 +143,7 @@ def torque_functions(model: ThetaModel | UrdfModel) -> tuple[ca.Function, ...]:
     -> ||M1*(q)||`` (Eq. 18) of ``model`` as CasADi functions
     (``models.controllers.feedforward.NominalTorques``)."""
     n = model.joints
-    q, velocity, acceleration = (model.symbol(name, n) for name in ("q", "qd_dot", "qd_ddot"))
+    q, velocity, acceleration = (ca.SX.sym(name, n) for name in ("q", "qd_dot", "qd_ddot"))
     return (
         ca.Function("tau_lin", [q, velocity, acceleration],
                     [model.linearization(q, velocity, acceleration)]),
