@@ -201,6 +201,18 @@ def test_generated_code_compiles_strictly_without_dynamic_memory(tmp_path, arm, 
         assert built.returncode == 0, built.stderr
 
 
+def test_readme_names_the_limit_and_the_design():
+    """The folder's README gives what the code alone does not: the limit to clip the
+    voltage to, joint by joint, and the nominal model the controller was designed on."""
+    paper = generate(resolve(posfb.load_scenario(set={"actuator.voltage_limit": [24, 12]})),
+                     None, "double").files["README.md"]  # fmt: skip
+    assert "±(24, 12) V, joint by joint" in paper
+    assert "the theta model of Eq. 2" in paper
+    six = generate(resolve(_scenario("six_joint", "pid")), None, "float").files["README.md"]
+    assert "±24 V on every joint" in six  # the shipped scenario's limit
+    assert "six_joint_arm.urdf" in six
+
+
 @pytest.fixture(scope="module", params=[(arm, kind) for arm in ARMS for kind in KINDS],
                 ids=lambda param: "-".join(param))  # fmt: skip
 def closed_loop_log(request):
