@@ -336,6 +336,11 @@ CASES = {
         ("codegen", "--controller", "lin_lc", "--out", "{tmp}/c", "--check", "{tmp}/log.csv"),
         "--check needs a C compiler: no 'cc' on the PATH", path="/nonexistent",
     ),
+    "C check of a log of another arm": Case(
+        ("codegen", "--controller", "lin_lc", "--out", "{tmp}/c", "--check",
+         "{tmp}/log_three.csv"),
+        "the log is of a 3-joint arm (up to q3_measured_rad) and the controller has 2 joints",
+    ),
     "C check of a log without the desired signals": Case(
         ("codegen", "--controller", "lin_lc", "--out", "{tmp}/c", "--check", "{tmp}/log.csv"),
         "the log lacks q1_desired_velocity_rad_per_s",

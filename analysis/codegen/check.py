@@ -7,6 +7,7 @@ arm, with the columns of ``posfb simulate --out``.
 
 from __future__ import annotations
 
+import re
 import shutil
 import subprocess
 import tempfile
@@ -100,7 +101,17 @@ def build(package: Package, folder: Path) -> Path:
 
 def log_inputs(table: object, joints: int) -> tuple[np.ndarray, np.ndarray]:
     """The log's rows as ``(inputs, voltages)``: ``[q, q_d, qdot_d, qddot_d]`` and the
-    commanded voltages; ``ValueError`` naming the missing columns."""
+    commanded voltages; ``ValueError`` for a log of another joint count (its measured
+    positions' columns) or naming the missing columns."""
+    measured = re.compile(re.escape(Q_MEASURED).replace(r"\{j\}", r"([0-9]+)"))
+    logged = [int(found[1]) for found in map(measured.fullmatch, map(str, table.columns))
+              if found]  # fmt: skip
+    if logged and max(logged) != joints:
+        raise ValueError(
+            f"the log is of a {max(logged)}-joint arm (up to "
+            f"{Q_MEASURED.format(j=max(logged))}) and the controller has {joints} joints; a "
+            "log of the scenario's arm is required"
+        )
     columns = [[p.format(j=j + 1) for j in range(joints)] for p in REPLAY_COLUMNS]
     missing = [c for group in columns for c in group if c not in table.columns]
     if missing:

@@ -48,6 +48,13 @@ def run(args: argparse.Namespace) -> int:
         package = generate(resolved, args.name, args.precision)
     except ValueError as error:
         raise UsageError(str(error)) from None
+    if table is not None:  # a log of another arm is refused before anything is written
+        from posfb.analysis.codegen.check import log_inputs
+
+        try:
+            log_inputs(table, package.law.joints)
+        except ValueError as error:
+            raise UsageError(f"--check {args.check}: {error}") from None
     with staged_folder(out) as staged:
         for name, text in package.files.items():
             (staged.path / name).write_text(text)
