@@ -341,6 +341,11 @@ CASES = {
          "{tmp}/log_three.csv"),
         "the log is of a 3-joint arm (up to q3_measured_rad) and the controller has 2 joints",
     ),
+    "C check of a log at another sample time": Case(
+        ("codegen", "--controller", "lin_lc", "--set", "timing.sample_time=0.005", "--out",
+         "{tmp}/c", "--check", "{tmp}/log.csv"),
+        "the log's rows are 0.01 s apart and the controller samples every 0.005 s",
+    ),
     "C check of a log without the desired signals": Case(
         ("codegen", "--controller", "lin_lc", "--out", "{tmp}/c", "--check", "{tmp}/log.csv"),
         "the log lacks q1_desired_velocity_rad_per_s",

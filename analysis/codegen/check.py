@@ -99,10 +99,17 @@ def build(package: Package, folder: Path) -> Path:
                      ["check_main.c", f"{package.name}.c"])  # fmt: skip
 
 
-def log_inputs(table: object, joints: int) -> tuple[np.ndarray, np.ndarray]:
+#: How far the median spacing of a log's rows may be from the sample time (relative).
+SPACING_TOLERANCE = 0.01
+
+
+def log_inputs(table: object, package: Package) -> tuple[np.ndarray, np.ndarray]:
     """The log's rows as ``(inputs, voltages)``: ``[q, q_d, qdot_d, qddot_d]`` and the
     commanded voltages; ``ValueError`` for a log of another joint count (its measured
-    positions' columns) or naming the missing columns."""
+    positions' columns), one whose rows are not the controller's samples (the median
+    spacing of ``time_s`` off the sample time by more than ``SPACING_TOLERANCE``), or
+    naming the missing columns."""
+    joints, sample_time = package.law.joints, package.sample_time
     measured = re.compile(re.escape(Q_MEASURED).replace(r"\{j\}", r"([0-9]+)"))
     logged = [int(found[1]) for found in map(measured.fullmatch, map(str, table.columns))
               if found]  # fmt: skip
@@ -112,6 +119,14 @@ def log_inputs(table: object, joints: int) -> tuple[np.ndarray, np.ndarray]:
             f"{Q_MEASURED.format(j=max(logged))}) and the controller has {joints} joints; a "
             "log of the scenario's arm is required"
         )
+    if "time_s" in table.columns and len(table) > 1:
+        spacing = float(np.median(np.diff(table["time_s"].to_numpy(dtype=float))))
+        if not abs(spacing - sample_time) <= SPACING_TOLERANCE * sample_time:
+            raise ValueError(
+                f"the log's rows are {spacing:g} s apart and the controller samples every "
+                f"{sample_time:g} s; a log of one row per sample is required (posfb simulate "
+                "--out writes one)"
+            )
     columns = [[p.format(j=j + 1) for j in range(joints)] for p in REPLAY_COLUMNS]
     missing = [c for group in columns for c in group if c not in table.columns]
     if missing:
@@ -134,7 +149,7 @@ def replay(program: Path, inputs: np.ndarray) -> np.ndarray:
 def check(package: Package, table: object) -> CheckResult:
     """Replay the log ``table`` through the compiled ``package`` (module docstring), built
     in a temporary folder."""
-    inputs, logged = log_inputs(table, package.law.joints)
+    inputs, logged = log_inputs(table, package)
     if not np.all(np.isfinite(inputs)):
         kept = int(np.argmin(np.all(np.isfinite(inputs), axis=1)))
         inputs, logged = inputs[:kept], logged[:kept]

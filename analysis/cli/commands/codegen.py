@@ -52,7 +52,7 @@ def run(args: argparse.Namespace) -> int:
         from posfb.analysis.codegen.check import log_inputs
 
         try:
-            log_inputs(table, package.law.joints)
+            log_inputs(table, package)
         except ValueError as error:
             raise UsageError(f"--check {args.check}: {error}") from None
     with staged_folder(out) as staged:
