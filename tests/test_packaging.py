@@ -13,8 +13,7 @@ from pathlib import Path
 import pytest
 
 import posfb
-from posfb.analysis.common import shipped
-from posfb.analysis.montecarlo import provenance
+from posfb.analysis.common import provenance, shipped
 
 ROOT = Path(__file__).resolve().parents[1]
 

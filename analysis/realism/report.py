@@ -18,7 +18,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from posfb.analysis.common.plots import joint_panels, legend_below, save_report_figure
-from posfb.analysis.montecarlo.provenance import code_version
+from posfb.analysis.common.provenance import code_version
 from posfb.analysis.montecarlo.sensitivity import sensitivities
 from posfb.analysis.realism.findings import (
     CLEAR_RATIO,

@@ -6,7 +6,7 @@ import sys
 from pathlib import Path
 
 from posfb.analysis.common.errors import UsageError
-from posfb.analysis.montecarlo.provenance import code_version
+from posfb.analysis.common.provenance import code_version
 from posfb.analysis.montecarlo.scheduler import interrupted, run_study
 from posfb.analysis.montecarlo.store import ResultStore
 from posfb.analysis.realism.spec import RealismStudies

@@ -122,7 +122,7 @@ def available_cores() -> int:
 
 
 def run_command(args: argparse.Namespace) -> int:
-    from posfb.analysis.montecarlo.provenance import code_version
+    from posfb.analysis.common.provenance import code_version
     from posfb.analysis.montecarlo.scheduler import interrupted, run_study
     from posfb.analysis.montecarlo.store import ResultStore
     from posfb.analysis.uncertainty.study import load_study, with_overrides
@@ -232,7 +232,7 @@ def report_command(args: argparse.Namespace) -> int:
 def replay_command(args: argparse.Namespace) -> int:
     """Rebuild sample ``--sample`` from the store's study, compare it with the stored rows
     (one line each), write its files; 0 if every row matches, 1 if any differs."""
-    from posfb.analysis.montecarlo.provenance import code_version
+    from posfb.analysis.common.provenance import code_version
     from posfb.analysis.montecarlo.replay import (
         chosen_controllers,
         compare,

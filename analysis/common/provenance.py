@@ -9,7 +9,7 @@ import subprocess
 from importlib import metadata
 from pathlib import Path
 
-#: The checkout's root when posfb runs from one (``analysis/montecarlo/`` is two below
+#: The checkout's root when posfb runs from one (``analysis/common/`` is two below
 #: it); in an installed wheel, the folder ``posfb/`` in site-packages.
 _ROOT = Path(__file__).resolve().parents[2]
 
