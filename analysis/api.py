@@ -319,12 +319,26 @@ def _figure(results: Mapping[str, ClosedLoopResult], figure: str, title: str) ->
     return draw[figure](results, title)
 
 
+def _sil_precision(sil: object) -> str | None:
+    """The precision of ``simulate``'s ``sil`` (``None``: no software in the loop);
+    ``ValueError`` for another value."""
+    if sil is False or sil is None:
+        return None
+    if sil is True:
+        return "double"
+    from posfb.models.laws.c_code import PRECISIONS
+
+    if isinstance(sil, str) and sil in PRECISIONS:
+        return sil
+    raise ValueError(f"sil = {sil!r}; False, True (double), 'double' or 'float' is required")
+
+
 def simulate(
     scenario: ScenarioSource = None,
     controller: str | None = None,
     *,
     progress: bool = False,
-    sil: bool = False,
+    sil: bool | str = False,
 ) -> Run:
     """Run a scenario's closed loop on its true arm, as ``posfb simulate`` does.
 
@@ -338,7 +352,8 @@ def simulate(
         Show a progress bar on stderr.
     sil
         Software in the loop: the controller generated as C (``posfb codegen``),
-        compiled by the ``cc`` on the PATH and run as the diagram's controller.
+        compiled by the ``cc`` on the PATH and run as the diagram's controller; ``True``
+        or ``"double"`` in double precision, ``"float"`` in single.
 
     Returns
     -------
@@ -363,11 +378,11 @@ def simulate(
     loaded = _scenario(scenario, controller)
     resolved = _resolve_for_run(loaded)
     config = resolved.config
-    compiled = None
-    if sil:
+    compiled, precision = None, _sil_precision(sil)
+    if precision is not None:
         from posfb.analysis.codegen.sil import compiled_controller
 
-        compiled = compiled_controller(resolved)
+        compiled = compiled_controller(resolved, precision)
     with progress_bars.run_progress(config.duration, config.spec.label, progress) as update:
         result = ClosedLoopRunner(config, controller=compiled).run(progress=update)
     run = Run(result, loaded)
@@ -525,7 +540,7 @@ def compare(
     controllers: Sequence[str] = DEFAULT_COMPARISON,
     *,
     progress: bool = False,
-    sil: bool = False,
+    sil: bool | str = False,
 ) -> Comparison:
     """Run several controllers on one scenario (each as ``simulate`` runs it).
 
@@ -566,6 +581,7 @@ def compare(
     duplicates = sorted({kind for kind in kinds if kinds.count(kind) > 1})
     if duplicates:
         raise ValueError(f"controllers = {kinds}: {', '.join(duplicates)} named twice")
+    _sil_precision(sil)
     loaded = load_scenario(scenario)
     comparison = Comparison(loaded)
     for kind in kinds:

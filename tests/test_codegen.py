@@ -261,6 +261,45 @@ def test_software_in_the_loop_equals_the_simulated_controller(closed_loop_log):
     assert list(compiled.frame().columns) == list(simulated.frame().columns)
 
 
+#: The spread of a 20 s run's RMS error under perturbations of round-off size (the
+#: integrator study, docs/guide/performance.md: PID's 7.7 %, the largest).
+ROUND_OFF_SPREAD = 0.08
+
+
+def test_float_software_in_the_loop_tracks_as_the_double_one(closed_loop_log):
+    """The float build perturbs the voltage by about 1e-5 of its size: a perturbation of
+    the round-off kind, so each joint's RMS error stays within the round-off spread of
+    the double run's, plus half an encoder count (the errors are near one count)."""
+    scenario, simulated, _ = closed_loop_log
+    single = posfb.simulate(scenario, sil="float")
+    assert single.status == "ok"
+    counts = np.asarray(resolve(scenario).config.sensor.encoder_counts, dtype=float)
+    half_count = np.pi / counts
+    double = np.asarray(simulated.rms_q)
+    assert np.all(np.abs(np.asarray(single.rms_q) - double)
+                  <= ROUND_OFF_SPREAD * double + half_count)  # fmt: skip
+
+
+def test_compare_runs_float_software_in_the_loop_from_the_command_line():
+    """``posfb compare --sil float``: every run's controller is the float C; its RMS
+    errors equal the API's float run's (``posfb.simulate(..., sil="float")``)."""
+    result = subprocess.run(
+        [*CLI, "compare", "--controllers", "lin_lc,pid", "--duration", "1", "--sil", "float",
+         "--json", "--no-progress"], capture_output=True, text=True, check=True,
+    )  # fmt: skip
+    runs = json.loads(result.stdout)
+    short = posfb.load_scenario(set={"timing.duration": 1})
+    for kind in ("lin_lc", "pid"):
+        expected = posfb.simulate(short, kind, sil="float").rms_q
+        np.testing.assert_allclose(runs[kind]["rms_q"], expected, rtol=1e-12)
+
+
+def test_sil_precision_is_validated():
+    with pytest.raises(ValueError, match="sil = 'quad'; False, True \\(double\\), 'double' or "
+                                         "'float' is required"):  # fmt: skip
+        posfb.simulate(sil="quad")
+
+
 #: Settings unlike the shipped scenario's: sample time, encoder, payload, and for the
 #: paper's controller the second study's alpha* (Sec. 4.3) and a filter pole above
 #: ln 2 / T_s (which the shorter sample time requires).

@@ -9,7 +9,11 @@ from __future__ import annotations
 import argparse
 import json
 
-from posfb.analysis.cli.commands.scenario_args import add_scenario_arguments, scenario_from_args
+from posfb.analysis.cli.commands.scenario_args import (
+    add_scenario_arguments,
+    add_sil_argument,
+    scenario_from_args,
+)
 from posfb.analysis.cli.commands.warnings_io import printed_warnings
 from posfb.analysis.common.errors import UsageError, run_exit_code
 from posfb.analysis.common.outputs import output_folder
@@ -28,10 +32,7 @@ def configure(parser: argparse.ArgumentParser) -> None:
     )  # fmt: skip
     parser.add_argument("--json", action="store_true", help="print one JSON object per run")
     parser.add_argument("--no-progress", action="store_true", help="no progress bars on stderr")
-    parser.add_argument(
-        "--sil", action="store_true", help="software in the loop: the controller generated as "
-        "C (posfb codegen), compiled by the cc on the PATH and run in the diagram",
-    )  # fmt: skip
+    add_sil_argument(parser)
     parser.set_defaults(handler=run)
 
 

@@ -54,6 +54,16 @@ def add_scenario_arguments(parser: argparse.ArgumentParser, shortcuts: tuple[str
         parser.add_argument(flag, type=kind, metavar=metavar, help=f"{text} (= --set {key}=...)")
 
 
+def add_sil_argument(parser: argparse.ArgumentParser) -> None:
+    """``--sil [double|float]``: software in the loop (``posfb.simulate``'s ``sil``)."""
+    parser.add_argument(
+        "--sil", nargs="?", const="double", choices=("double", "float"), metavar="PRECISION",
+        help="software in the loop: the controller generated as C (posfb codegen) in "
+        "PRECISION (double, the default, or float), compiled by the cc on the PATH and run "
+        "in the diagram",
+    )  # fmt: skip
+
+
 def scenario_from_args(args: argparse.Namespace) -> LoadedScenario:
     """The scenario the command line describes, validated."""
     if args.scenario and args.case:

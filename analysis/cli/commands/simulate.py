@@ -14,7 +14,11 @@ import argparse
 import json
 import sys
 
-from posfb.analysis.cli.commands.scenario_args import add_scenario_arguments, scenario_from_args
+from posfb.analysis.cli.commands.scenario_args import (
+    add_scenario_arguments,
+    add_sil_argument,
+    scenario_from_args,
+)
 from posfb.analysis.cli.commands.warnings_io import printed_warnings
 from posfb.analysis.common.errors import run_exit_code
 from posfb.analysis.common.outputs import EXPORT_FORMATS, output_file, output_folder, staged_folder
@@ -36,10 +40,7 @@ def configure(parser: argparse.ArgumentParser) -> None:
     )
     parser.add_argument("--json", action="store_true", help="print one JSON object")
     parser.add_argument("--no-progress", action="store_true", help="no progress bar on stderr")
-    parser.add_argument(
-        "--sil", action="store_true", help="software in the loop: the controller generated as "
-        "C (posfb codegen), compiled by the cc on the PATH and run in the diagram",
-    )  # fmt: skip
+    add_sil_argument(parser)
     parser.set_defaults(handler=run)
 
 
