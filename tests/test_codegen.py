@@ -165,8 +165,14 @@ def test_adrc_law_is_its_equations():
         np.testing.assert_allclose(memory, following.ravel(), rtol=1e-12, atol=1e-10)
 
 
+#: The strict flags the issue names, at the compiler's default optimisation (the check
+#: and the software-in-the-loop library compile with ``CFLAGS``, ``-O2`` included, so
+#: both levels' warnings are errors somewhere in this file).
+STRICT = ("-std=c99", "-Wall", "-Wextra", "-Werror", "-pedantic")
+
+
 def _compile(folder, name: str) -> subprocess.CompletedProcess:
-    return subprocess.run(["cc", *CFLAGS.split(), "-c", f"{name}.c", "-o", f"{name}.o"],
+    return subprocess.run(["cc", *STRICT, "-c", f"{name}.c", "-o", f"{name}.o"],
                           cwd=folder, capture_output=True, text=True)  # fmt: skip
 
 
@@ -184,6 +190,7 @@ def _scenario(arm: str, kind: str):
 @pytest.mark.parametrize("precision", ["double", "float"])
 def test_generated_code_compiles_strictly_without_dynamic_memory(tmp_path, arm, kind, precision):
     assert shutil.which("cc"), "a C compiler (cc) is required"
+    assert set(STRICT) <= set(CFLAGS.split())  # the check and --sil are as strict
     package = generate(resolve(_scenario(arm, kind)), "ctrl", precision)
     for name, text in package.files.items():
         (tmp_path / name).write_text(text)
