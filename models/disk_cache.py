@@ -63,21 +63,27 @@ def _read(path: Path) -> dict[str, float] | None:
     return stored
 
 
-def _write(path: Path, values: Mapping[str, float]) -> None:
-    """Write ``values`` atomically (a temporary file in the same folder, then a rename),
-    so that a concurrent reader sees the old entry or the whole new one."""
+def store_entry(path: Path, write: Callable[[Path], None]) -> None:
+    """A cache entry at ``path`` written atomically: ``write`` fills a temporary file in
+    the same folder, then a rename, so that a concurrent reader sees the old entry or the
+    whole new one. A cache that cannot be written is skipped."""
     try:
         path.parent.mkdir(parents=True, exist_ok=True)
         handle, temporary = tempfile.mkstemp(dir=path.parent, suffix=".tmp")
+        os.close(handle)
         try:
-            with os.fdopen(handle, "w") as stream:
-                json.dump(dict(values), stream)
+            write(Path(temporary))
             os.replace(temporary, path)
         except BaseException:
             Path(temporary).unlink(missing_ok=True)
             raise
     except OSError:
         return
+
+
+def _write(path: Path, values: Mapping[str, float]) -> None:
+    """``values`` as the JSON entry at ``path`` (``store_entry``)."""
+    store_entry(path, lambda temporary: temporary.write_text(json.dumps(dict(values))))
 
 
 def cached_floats(

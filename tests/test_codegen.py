@@ -22,6 +22,7 @@ from posfb.models.controllers.lin_lc import lin_lc_law
 from posfb.models.controllers.pid import pid_law
 from posfb.models.design import compute_design
 from posfb.models.design.config import PidGains
+from posfb.models.disk_cache import CACHE_ENV
 from posfb.models.laws.law import Stepper
 from posfb.models.lumped import TABLE1, LumpedModel
 
@@ -206,6 +207,28 @@ def test_generated_code_compiles_strictly_without_dynamic_memory(tmp_path, arm, 
     if arm == "paper":  # the example's Makefile (the same code on either arm)
         built = subprocess.run(["make", "-s"], cwd=tmp_path, capture_output=True, text=True)
         assert built.returncode == 0, built.stderr
+
+
+def test_the_controller_object_is_compiled_once_per_source(tmp_path, monkeypatch):
+    """``analysis.codegen.build.compiled_object``: the same generated source is compiled
+    once (a check and a --sil run share it); another source is compiled anew."""
+    from posfb.analysis.codegen import build
+
+    monkeypatch.setenv(CACHE_ENV, str(tmp_path / "cache"))
+    packages = [generate(resolve(posfb.load_scenario(set={"controller.kind": kind})), None,
+                         "double") for kind in ("lin_lc", "pid")]  # fmt: skip
+    compiled = []
+    real_compile = build.compile_c
+    monkeypatch.setattr(build, "compile_c", lambda *a: compiled.append(a) or real_compile(*a))
+    for package, folder in zip([*packages, packages[0]], ("a", "b", "c"), strict=True):
+        (tmp_path / folder).mkdir()
+        for name, text in package.files.items():
+            (tmp_path / folder / name).write_text(text)
+        build.compiled_object(tmp_path / folder, package.files, package.name)
+    assert [call[0].name for call in compiled] == ["a", "b"]  # "c" came from the cache
+    assert len(list((tmp_path / "cache" / "c_objects").glob("*.o"))) == 2
+    first, third = ((tmp_path / f / f"{packages[0].name}.o").read_bytes() for f in "ac")
+    assert first == third
 
 
 def test_readme_names_the_limit_and_the_design():

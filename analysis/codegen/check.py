@@ -8,7 +8,6 @@ arm, with the columns of ``posfb simulate --out``.
 from __future__ import annotations
 
 import re
-import shutil
 import subprocess
 import tempfile
 from dataclasses import dataclass
@@ -16,7 +15,8 @@ from pathlib import Path
 
 import numpy as np
 
-from posfb.analysis.codegen.package import CFLAGS, Package
+from posfb.analysis.codegen.build import compile_c, compiled_object
+from posfb.analysis.codegen.package import Package
 from posfb.analysis.common.export import (
     Q_DESIRED,
     Q_MEASURED,
@@ -38,15 +38,6 @@ class CheckResult:
     largest_difference_V: float
     largest_relative: float
     at_sample: int
-
-
-def compiler() -> str:
-    """The C compiler on the PATH (``cc``); ``ValueError`` without one."""
-    found = shutil.which("cc")
-    if found is None:
-        raise ValueError("--check needs a C compiler: no 'cc' on the PATH (install gcc or "
-                         "clang)")  # fmt: skip
-    return found
 
 
 def _harness(name: str, real: str) -> str:
@@ -79,24 +70,13 @@ int main(void) {{
 """
 
 
-def compile_c(folder: Path, output: Path, sources: list[str], *flags: str) -> Path:
-    """``output`` built from ``sources`` in ``folder`` by the ``cc`` on the PATH with the
-    flags the code is written for (``CFLAGS``) and ``flags``; ``RuntimeError`` with the
-    compiler's first line if it fails."""
-    command = [compiler(), *CFLAGS.split(), *flags, "-o", str(output), *sources, "-lm"]
-    result = subprocess.run(command, cwd=folder, capture_output=True, text=True)
-    if result.returncode != 0:
-        first = (result.stderr.strip().splitlines() or ["(no message)"])[0]
-        raise RuntimeError(f"the generated code did not compile: {first}")
-    return output
-
-
 def build(package: Package, folder: Path) -> Path:
-    """Compile the check harness against ``package``'s files in ``folder``; the program."""
+    """Compile the check harness against ``package``'s files in ``folder`` (the
+    controller's object from ``compiled_object``); the program."""
     folder = folder.resolve()
     (folder / "check_main.c").write_text(_harness(package.name, package.precision))
-    return compile_c(folder, folder / f"{package.name}_check",
-                     ["check_main.c", f"{package.name}.c"])  # fmt: skip
+    controller = compiled_object(folder, package.files, package.name)
+    return compile_c(folder, folder / f"{package.name}_check", ["check_main.c", controller.name])
 
 
 #: How far the median spacing of a log's rows may be from the sample time (relative).

@@ -11,7 +11,7 @@ import shutil
 import tempfile
 from pathlib import Path
 
-from posfb.analysis.codegen.check import compile_c
+from posfb.analysis.codegen.build import compile_c, compiled_object
 from posfb.analysis.codegen.package import generate
 from posfb.diagrams.resolve import ResolvedScenario
 from posfb.models.controllers import make_controller
@@ -25,7 +25,8 @@ def shared_library(files: dict[str, str], name: str) -> Path:
     atexit.register(shutil.rmtree, folder, ignore_errors=True)
     for file, text in files.items():
         (folder / file).write_text(text)
-    return compile_c(folder, folder / f"lib{name}.so", [f"{name}.c"], "-shared", "-fPIC")
+    controller = compiled_object(folder, files, name)
+    return compile_c(folder, folder / f"lib{name}.so", [controller.name], "-shared")
 
 
 def compiled_controller(

@@ -35,7 +35,7 @@ def run(args: argparse.Namespace) -> int:
     out = output_folder("--out", args.out)
     table = None
     if args.check is not None:
-        from posfb.analysis.codegen.check import compiler
+        from posfb.analysis.codegen.build import compiler
         from posfb.analysis.common.export import read_run
 
         try:
