@@ -135,7 +135,8 @@ class AdrcController(Controller):
         n = self.setup.joints
         b0, limit = ca.DM(self.b0), ca.DM(self.limit)
 
-        def step(memory, q, q_d, qdot_d, qddot_d):
+        def step(memory: ca.SX, q: ca.SX, q_d: ca.SX, qdot_d: ca.SX,
+                 qddot_d: ca.SX) -> tuple[ca.SX, ca.SX, ca.SX]:  # fmt: skip
             rows = [memory[r * n : (r + 1) * n] for r in range(3)]
             z = [rows[r] + float(self.L[r]) * (q - rows[0]) for r in range(3)]
             u0 = self.Kp * (q_d - z[0]) + self.Kd * (qdot_d - z[1]) + qddot_d

@@ -40,7 +40,8 @@ def lin_lc_law(design: Design) -> Law:
     n = design.config.joints
     model = symbolic_model(design.config.nominal)
 
-    def step(w, q, q_d, qd_dot, qd_ddot):
+    def step(w: ca.SX, q: ca.SX, q_d: ca.SX, qd_dot: ca.SX,
+             qd_ddot: ca.SX) -> tuple[ca.SX, ca.SX, ca.SX]:  # fmt: skip
         error = q - q_d
         tau_lin = model.linearization(q, qd_dot, qd_ddot)
         eta = ca.mtimes(ca.DM(f.C), w) + ca.mtimes(ca.DM(f.D), error)

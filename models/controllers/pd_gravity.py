@@ -107,7 +107,8 @@ class PdGravityController(Controller):
         model = self.setup.nominal.symbolic()
         Kp, Kd = ca.DM(self.Kp), ca.DM(self.Kd)
 
-        def step(memory, q, q_d, qdot_d, qddot_d):
+        def step(memory: ca.SX, q: ca.SX, q_d: ca.SX, qdot_d: ca.SX,
+                 qddot_d: ca.SX) -> tuple[ca.SX, ca.SX, ca.SX]:  # fmt: skip
             velocity = (self.tau_f * memory[n:] + q - memory[:n]) / (self.tau_f + T_s)
             gravity = model.gravity(q)
             voltage = Kp * (q_d - q) + Kd * (qdot_d - velocity) + gravity

@@ -52,7 +52,8 @@ def pid_law(nominal: NominalModel, gains: PidGains, sample_time: float) -> Law:
     n, T = joint_count(nominal), sample_time
     Kp, Kv, KI = (ca.DM(np.asarray(g, dtype=float)) for g in (gains.Kp, gains.Kv, gains.KI))
 
-    def step(memory, q, q_d, qd_dot, qd_ddot):
+    def step(memory: ca.SX, q: ca.SX, q_d: ca.SX, qd_dot: ca.SX,
+             qd_ddot: ca.SX) -> tuple[ca.SX, ca.SX, ca.SX]:  # fmt: skip
         error = q - q_d
         qdot = (q - memory[:n]) / T
         integral = memory[n:]

@@ -59,7 +59,8 @@ def proposed_law(design: Design) -> Law:
     decay = math.exp(-design.config.sample_time / nonlinear.K_alpha)
     rate = 2.0 * design.coupling_norm * (1.0 - decay)
 
-    def step(memory, q, q_d, qd_dot, qd_ddot):
+    def step(memory: ca.SX, q: ca.SX, q_d: ca.SX, qd_dot: ca.SX,
+             qd_ddot: ca.SX) -> tuple[ca.SX, ca.SX, ca.SX]:  # fmt: skip
         error, state = q - q_d, memory[:states]
         outputs = ca.mtimes(ca.DM(f.C), state) + ca.mtimes(ca.DM(f.D), error)
         eta, phi = outputs[0:n], outputs[n : 2 * n]
@@ -84,7 +85,7 @@ def proposed_law(design: Design) -> Law:
                        pbar_max, ca.fmax(0.0, decay * y - forcing)),
         )  # fmt: skip
 
-    def start(q, q_d):
+    def start(q: ca.SX, q_d: ca.SX) -> ca.SX:
         return ca.vertcat(ca.mtimes(ca.DM(f.initial), q - q_d), ca.DM.zeros(2 * n),
                           (nonlinear.alpha_star - nonlinear.alpha0) ** 2)  # fmt: skip
 
