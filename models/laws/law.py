@@ -45,11 +45,13 @@ Step = Callable[[ca.SX, ca.SX, ca.SX, ca.SX, ca.SX], tuple[ca.SX, ca.SX, ca.SX]]
 def law(name: str, joints: int, memory: int, start: Start, step: Step) -> Law:
     """A ``Law`` of ``joints`` joints and ``memory`` numbers kept between samples, from
     ``start`` and ``step`` written on CasADi ``SX`` symbols (which this function makes:
-    the position, the desired signals split in ``[q_d, qd_dot, qd_ddot]``, the memory)."""
+    the position, the desired signals split in ``[q_d, qd_dot, qd_ddot]``, the memory).
+    Equal subexpressions of the step's outputs are computed once (``casadi.cse``): a URDF
+    arm's kinematics, which Eq. 4 and Eq. 18's mass matrix both build from ``q``."""
     q, desired, state = (ca.SX.sym(label, size) for label, size in
                          (("q", joints), ("desired", 3 * joints), ("memory", memory)))  # fmt: skip
     q_d, qd_dot, qd_ddot = (desired[k * joints : (k + 1) * joints] for k in range(3))
-    voltage, internals, following = step(state, q, q_d, qd_dot, qd_ddot)
+    voltage, internals, following = ca.cse(list(step(state, q, q_d, qd_dot, qd_ddot)))
     return Law(
         name,
         joints,
