@@ -23,7 +23,6 @@ class NominalTorques:
         from posfb.models.laws.law import Evaluator
         from posfb.models.laws.nominal import torque_functions
 
-        self.model = model
         self._linearization, self._desired, self._M1_norm = (
             Evaluator(f) for f in torque_functions(model))  # fmt: skip
 

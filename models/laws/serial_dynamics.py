@@ -71,6 +71,12 @@ def _rodrigues(axis: np.ndarray, angle: ca.SX) -> ca.SX:
     return ca.DM.eye(3) + ca.sin(angle) * K + (1.0 - ca.cos(angle)) * ca.mtimes(K, K)
 
 
+def _point_acceleration(a_O: ca.SX, dw: ca.SX, w: ca.SX, r: ca.SX) -> ca.SX:
+    """The acceleration of the point at ``r`` from a point ``O`` of the same body (both
+    fixed in it), ``a_O + w' x r + w x (w x r)``."""
+    return a_O + ca.cross(dw, r) + ca.cross(w, ca.cross(w, r))
+
+
 class SerialArmDynamics:
     """The arm joint torques of a serial arm's plant (module docstring) as ``SX``
     expressions; ``joints`` names the arm joints in the order of ``q``."""
@@ -140,8 +146,7 @@ class SerialArmDynamics:
             R_WP, p_WP, w_P, dw_P, a_P = frames[body.parent]
             R_WF = ca.mtimes(R_WP, ca.DM(body.R_PF))
             p_WF = p_WP + ca.mtimes(R_WP, ca.DM(body.p_PF))
-            r = p_WF - p_WP
-            a_F = a_P + ca.cross(dw_P, r) + ca.cross(w_P, ca.cross(w_P, r))
+            a_F = _point_acceleration(a_P, dw_P, w_P, p_WF - p_WP)
             if body.axis is None:
                 R_WM = ca.mtimes(R_WF, ca.DM(body.R_FM))
                 w, dw = w_P, dw_P
@@ -152,17 +157,15 @@ class SerialArmDynamics:
                 w = w_P + axis * v[j]
                 dw = dw_P + axis * a[j] + ca.cross(w_P, axis * v[j])
             p_WM = p_WF + ca.mtimes(R_WF, ca.DM(body.p_FM))
-            r = p_WM - p_WF
-            a_M = a_F + ca.cross(dw, r) + ca.cross(w, ca.cross(w, r))
+            a_M = _point_acceleration(a_F, dw, w, p_WM - p_WF)
             R_WC = ca.mtimes(R_WM, ca.DM(body.R_MC))
             p_WC = p_WM + ca.mtimes(R_WM, ca.DM(body.p_MC))
-            r = p_WC - p_WM
-            a_C = a_M + ca.cross(dw, r) + ca.cross(w, ca.cross(w, r))
+            a_C = _point_acceleration(a_M, dw, w, p_WC - p_WM)
             frames[k] = (R_WC, p_WC, w, dw, a_C)
             if body.joint is not None:
                 joint_data[k] = (body.joint, axis, p_WM)
             r_com = ca.mtimes(R_WC, ca.DM(body.com))
-            a_com = a_C + ca.cross(dw, r_com) + ca.cross(w, ca.cross(w, r_com))
+            a_com = _point_acceleration(a_C, dw, w, r_com)
             I_W = ca.mtimes([R_WC, ca.DM(body.inertia), R_WC.T])
             force = body.mass * a_com
             moment = (ca.mtimes(I_W, dw) + ca.cross(w, ca.mtimes(I_W, w))
