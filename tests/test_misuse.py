@@ -334,7 +334,8 @@ CASES = {
     ),
     "C check without a compiler": Case(
         ("codegen", "--controller", "lin_lc", "--out", "{tmp}/c", "--check", "{tmp}/log.csv"),
-        "--check needs a C compiler: no 'cc' on the PATH", path="/nonexistent",
+        "log.csv: a C compiler is required to build the generated code: no 'cc' on the PATH",
+        path="/nonexistent",
     ),
     "C check of a log of another arm": Case(
         ("codegen", "--controller", "lin_lc", "--out", "{tmp}/c", "--check",

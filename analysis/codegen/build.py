@@ -31,8 +31,8 @@ def compiler() -> str:
     """The C compiler on the PATH (``cc``); ``ValueError`` without one."""
     found = shutil.which("cc")
     if found is None:
-        raise ValueError("--check needs a C compiler: no 'cc' on the PATH (install gcc or "
-                         "clang)")  # fmt: skip
+        raise ValueError("a C compiler is required to build the generated code: no 'cc' on "
+                         "the PATH (install gcc or clang)")  # fmt: skip
     return found
 
 
