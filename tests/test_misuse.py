@@ -337,6 +337,10 @@ CASES = {
         "log.csv: a C compiler is required to build the generated code: no 'cc' on the PATH",
         path="/nonexistent",
     ),
+    "software in the loop in an unknown precision": Case(
+        ("simulate", "--sil", "quad"),
+        "argument --sil: invalid choice: 'quad' (choose from 'double', 'float')",
+    ),
     "C check of a log of another arm": Case(
         ("codegen", "--controller", "lin_lc", "--out", "{tmp}/c", "--check",
          "{tmp}/log_three.csv"),
