@@ -21,6 +21,7 @@ from posfb.diagrams.actuator import (
 )
 from posfb.diagrams.encoder import DEFAULT_ENCODER_COUNTS, per_joint_counts
 from posfb.models.design import ControllerConfig
+from posfb.models.design.configurations import CONFIGURATION_SPACING
 from posfb.models.design.settings import default_of
 from posfb.models.validation import (
     per_joint,
@@ -128,7 +129,9 @@ class Timing:
     as diverged, the verdict's bounds on a run that finished (``lost_bound``: a
     joint's RMS ``|q~|`` (rad) over the run's second half; ``saturated_share``: the
     share of the second half's samples with a commanded voltage beyond the limit;
-    ``analysis.common.metrics.run_verdict``), and Drake's integrator settings."""
+    ``analysis.common.metrics.run_verdict``), Drake's integrator settings, and the
+    spacing (s) of the path's configurations at which the linear verdicts freeze
+    ``M*(q)`` (``configuration_spacing``, ``models.design.configurations``)."""
 
     sample_time: float = field(default_factory=default_of(ControllerConfig, "sample_time"))
     duration: float = DURATION
@@ -136,6 +139,7 @@ class Timing:
     lost_bound: float = LOST_BOUND
     saturated_share: float = SATURATED_SHARE
     simulator: SimulatorConfig = field(default_factory=default_simulator)
+    configuration_spacing: float = CONFIGURATION_SPACING
 
     def __eq__(self, other: object) -> bool:
         """By value (Drake's ``SimulatorConfig`` itself compares by identity)."""
@@ -145,7 +149,8 @@ class Timing:
         def values(timing: Timing) -> tuple:
             simulator = tuple(getattr(timing.simulator, f.name) for f in SimulatorConfig.__fields__)
             bounds = timing.divergence_bound, timing.lost_bound, timing.saturated_share
-            return timing.sample_time, timing.duration, bounds, simulator
+            spacing = timing.configuration_spacing
+            return timing.sample_time, timing.duration, bounds, simulator, spacing
 
         return values(self) == values(other)
 
@@ -175,6 +180,7 @@ class Timing:
         share = require_finite("timing.saturated_share", self.saturated_share)
         if not 0.0 <= share <= 1.0:
             raise ValueError(f"timing.saturated_share = {share!r}; a share in [0, 1] is required")
+        require_positive("timing.configuration_spacing", self.configuration_spacing)
         self._check_simulator()
 
     def _check_simulator(self) -> None:

@@ -1,7 +1,7 @@
 """Robust tuning (``posfb tune``, ``analysis.design``): the guarantee holds at its stated
 confidence on a family whose violation probability is known, the predicted error is
 the loop's stationary variance (checked against an independent sum), and on an arm that
-no file of the repository describes, ``scenario init`` + ``tune --budget 120`` give a
+no file of the repository describes, ``scenario init`` + ``tune --budget 600`` give a
 scenario whose paper's controller is stable, passes ``scenario check``, runs all three
 controllers with bounded error, and beats the tuned Lin+LC where a model error makes
 robustness matter (issue 20's "done when"; on the exact model both designed loops sit
@@ -147,7 +147,7 @@ def test_knobs_scale_the_weights_and_keep_them_valid():
 
 @pytest.fixture(scope="module")
 def four_link(tmp_path_factory):
-    """A generated 4-link arm: ``scenario init``, then ``tune --budget 120``."""
+    """A generated 4-link arm: ``scenario init``, then ``tune --budget 600``."""
     folder = tmp_path_factory.mktemp("four_link")
     urdf = planar_arm_urdf(4, folder)
     initial = folder / "arm.yaml"
@@ -155,7 +155,7 @@ def four_link(tmp_path_factory):
     made = subprocess.run([*CLI, "scenario", "init", "--urdf", str(urdf), "--out", str(initial)],
                           capture_output=True, text=True, timeout=600)  # fmt: skip
     assert made.returncode == 0, made.stderr
-    run = subprocess.run([*CLI, "tune", str(initial), "--budget", "120", "--out", str(tuned),
+    run = subprocess.run([*CLI, "tune", str(initial), "--budget", "600", "--out", str(tuned),
                           "--json"], capture_output=True, text=True, timeout=900)  # fmt: skip
     assert run.returncode == 0, run.stderr
     return tuned, run.stdout

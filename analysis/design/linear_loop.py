@@ -4,6 +4,11 @@ and the controller's linear feedback (``ControllerSpec.linear``), its margins
 (``models.design.margins``) and the two halves as python-control ``StateSpace`` and Drake
 ``LinearSystem`` objects.
 
+The configurations the arm visits (``models.design.configurations``) come with it:
+``frozen_radii`` is the loop's spectral radius with ``M*(q)`` frozen at each of them, and
+``frozen_margins`` the margins (on ``STUDY_GRID_POINTS`` frequencies) at the configurations
+that bound them: the one with the worst radius and the lightest and heaviest of the path.
+
 The exported plant maps the held voltage ``u`` (V) to the reading ``y`` (rad: the
 measured position error the controller takes, sensor delay included) and the
 controller maps ``y`` to ``u``; the loop closes with ``u = K y``, i.e.
@@ -18,11 +23,23 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from posfb.analysis.common.configurations import scenario_configurations
 from posfb.analysis.common.loop_effects import left_out, nominal_effects
 from posfb.analysis.uncertainty.loops import nominal_loop
 from posfb.diagrams.resolve import ResolvedScenario
+from posfb.models.design.configurations import (
+    Configuration,
+    ConfigurationSet,
+    FrozenFigures,
+    frozen_figures,
+)
 from posfb.models.design.loop_transfer import DiscreteSystem
-from posfb.models.design.margins import GRID_POINTS, LoopMargins, SampledFeedback
+from posfb.models.design.margins import (
+    GRID_POINTS,
+    STUDY_GRID_POINTS,
+    LoopMargins,
+    SampledFeedback,
+)
 
 if TYPE_CHECKING:
     import control
@@ -32,12 +49,43 @@ if TYPE_CHECKING:
 @dataclass(frozen=True, eq=False)
 class LinearDesign:
     """The linear sampled loop of a scenario's ``controller`` (module docstring);
-    ``left_out``: the scenario's nonlinear settings the loop leaves out (``key = value``)."""
+    ``left_out``: the scenario's nonlinear settings the loop leaves out (``key = value``);
+    ``configurations``: the path's (``None``: the loop at ``M0*`` only)."""
 
     controller: str
     label: str
     loop: SampledFeedback
     left_out: tuple[str, ...]
+    configurations: ConfigurationSet | None = None
+
+    def at(self, M: np.ndarray) -> SampledFeedback:
+        """The loop with ``M*`` frozen at ``M`` (the design's feedback, effects and ``B*``)."""
+        return self.loop.with_plant(M, self.loop.B, self.loop.effects)
+
+    def frozen_radii(self) -> FrozenFigures | None:
+        """The spectral radius at every configuration (``None`` without a set)."""
+        if self.configurations is None:
+            return None
+        return frozen_figures(lambda M: self.at(M).radius(), self.configurations)
+
+    def frozen_margins(
+        self, points: int = STUDY_GRID_POINTS
+    ) -> list[tuple[Configuration, LoopMargins]]:
+        """The margins at the configurations that bound them (module docstring), each with
+        its configuration; empty without a set."""
+        radii = self.frozen_radii()
+        if radii is None or self.configurations is None:
+            return []
+        chosen = [radii.worst_index] + [
+            i for i, c in enumerate(self.configurations.configurations)
+            if c.role in ("lightest", "heaviest")
+        ]  # fmt: skip
+        unique = list(dict.fromkeys(chosen))
+        return [
+            (self.configurations.configurations[i],
+             self.at(self.configurations.masses[i]).margins(points))
+            for i in unique
+        ]  # fmt: skip
 
     @property
     def sample_time(self) -> float:
@@ -101,4 +149,5 @@ def linear_design(resolved: ResolvedScenario) -> LinearDesign:
     config = resolved.config
     loop = nominal_loop(config, nominal_effects(resolved))
     label = config.spec.label_for(config.design)
-    return LinearDesign(config.controller, label, loop, tuple(left_out(config)))
+    return LinearDesign(config.controller, label, loop, tuple(left_out(config)),
+                        scenario_configurations(config))  # fmt: skip

@@ -4,6 +4,11 @@ scenario check``): ``models.design.margins`` computes them, this module only wri
 JSON (``margins_to_dict``): ``null`` where a margin is infinite (no crossover, a delay
 beyond the scan) or undefined; with an unstable nominal loop (``stable: false``) the
 margins do not apply and every one of them is ``null``.
+
+Over the configurations the arm visits (``LinearDesign.frozen_margins``: ``M*(q)`` frozen
+at the path's configurations that bound them), the worst of each loop-wide figure and
+where it occurs (``frozen_worst``; an unstable frozen loop has no margin: 0): the
+``configurations`` object of the JSON and a block of the text.
 """
 
 from __future__ import annotations
@@ -11,6 +16,7 @@ from __future__ import annotations
 import math
 
 from posfb.analysis.design.linear_loop import LinearDesign
+from posfb.models.design.configurations import Configuration
 from posfb.models.design.margins import (
     MAX_DELAY_SAMPLES,
     BreakMargins,
@@ -64,10 +70,60 @@ def loop_figures(margins: LoopMargins) -> dict[str, object]:
     return result if margins.stable else _nulled(result)
 
 
-def margins_to_dict(design: LinearDesign, margins: LoopMargins) -> dict[str, object]:
+#: The loop-wide figures judged over the configurations: (name, worse end, unit).
+FROZEN_FIGURES = (
+    ("spectral_radius", "max"),
+    ("disk_margin", "min"),
+    ("delay_margin_s", "min"),
+    ("peak_sensitivity", "max"),
+    ("peak_complementary_sensitivity", "max"),
+)
+
+Frozen = list[tuple[Configuration, LoopMargins]]
+
+
+def _figure(margins: LoopMargins, name: str) -> float:
+    """A loop-wide figure of ``margins``; a margin of an unstable loop is 0."""
+    if name == "spectral_radius":
+        return margins.radius
+    if not margins.stable:
+        return 0.0 if name in ("disk_margin", "delay_margin_s") else math.inf
+    return float(getattr(margins, name))
+
+
+def frozen_worst(design: LinearDesign, frozen: Frozen) -> dict[str, tuple[float, Configuration]]:
+    """Each ``FROZEN_FIGURES`` figure's worst over the ``frozen`` margins (the radius over
+    every configuration of the design's set) and the configuration where it occurs."""
+    worst: dict[str, tuple[float, Configuration]] = {}
+    radii = design.frozen_radii()
+    if radii is not None and design.configurations is not None:
+        worst["spectral_radius"] = (
+            radii.worst, design.configurations.configurations[radii.worst_index]
+        )
+    for name, end in FROZEN_FIGURES[1:]:
+        values = [(_figure(m, name), c) for c, m in frozen]
+        if values:
+            pick = max if end == "max" else min
+            worst[name] = pick(values, key=lambda item: item[0])
+    return worst
+
+
+def _frozen_dict(design: LinearDesign, frozen: Frozen) -> dict[str, object]:
+    worst = frozen_worst(design, frozen)
+    return {
+        name: {"value": _number(value), "time": where.time, "q": list(where.q),
+               "role": where.role}
+        for name, (value, where) in worst.items()
+    } | {"evaluated_at": [{"time": c.time, "q": list(c.q), "role": c.role} for c, _ in frozen]}
+
+
+def margins_to_dict(
+    design: LinearDesign, margins: LoopMargins, frozen: Frozen | None = None
+) -> dict[str, object]:
     """The ``margins`` object of ``--json`` (module docstring): the loop-wide figures
-    (``loop_figures``), ``channels`` loop at a time at the plant input, and ``at`` both
-    breaks in full."""
+    (``loop_figures``), ``channels`` loop at a time at the plant input, ``at`` both
+    breaks in full, and with ``frozen`` (``LinearDesign.frozen_margins``) the worst over
+    the configurations (``configurations``; ``null`` without)."""
     result: dict[str, object] = {
         "controller": design.controller,
         "sample_time": design.sample_time,
@@ -78,6 +134,7 @@ def margins_to_dict(design: LinearDesign, margins: LoopMargins) -> dict[str, obj
     }
     if not margins.stable:
         result = _nulled(result)
+    result["configurations"] = None if frozen is None else _frozen_dict(design, frozen)
     return result
 
 
@@ -111,14 +168,42 @@ def _delay(seconds: float, sample_time: float) -> str:
     return f"{seconds * 1e3:.3g} ms ({seconds / sample_time:.3g} T_s)"
 
 
-def format_margins(design: LinearDesign, margins: LoopMargins) -> str:
+def _frozen_lines(design: LinearDesign, frozen: Frozen) -> list[str]:
+    """The worst figures over the configurations, one line each."""
+    worst = frozen_worst(design, frozen)
+    if not worst:
+        return []
+    T = design.sample_time
+    shown = {
+        "spectral_radius": lambda v: radius_text(v) + (" UNSTABLE" if v >= 1.0 else ""),
+        "disk_margin": lambda v: f"{v:.3f}",
+        "delay_margin_s": lambda v: _delay(v, T),
+        "peak_sensitivity": lambda v: _value(v, ".3f"),
+        "peak_complementary_sensitivity": lambda v: _value(v, ".3f"),
+    }
+    names = {"spectral_radius": "spectral radius", "disk_margin": "disk margin",
+             "delay_margin_s": "delay margin", "peak_sensitivity": "peak |S|",
+             "peak_complementary_sensitivity": "peak |T|"}  # fmt: skip
+    lines = ["  over the path's configurations (M*(q) frozen; margins at "
+             f"{len(frozen)} of them, the worst radius's and the path's lightest and heaviest):"]
+    lines += [f"    worst {names[n]} {shown[n](v)} at {c.describe()}"
+              for n, (v, c) in worst.items()]  # fmt: skip
+    if design.configurations is not None:
+        lines.append(f"    {design.configurations.describe_range()}")
+    return lines
+
+
+def format_margins(design: LinearDesign, margins: LoopMargins, frozen: Frozen | None = None) -> str:
     """The margins in words: the loop-wide line, then per break the disk margin, the
-    sensitivity peaks and one line per joint."""
+    sensitivity peaks and one line per joint; with ``frozen``, first the worst over the
+    configurations."""
     T = design.sample_time
     lines = [f"Margins of the sampled loop ({design.label}, T_s = {T:g} s, nominal linear "
-             f"plant held over T_s): spectral radius {radius_text(margins.radius)}"]  # fmt: skip
+             f"plant held over T_s): spectral radius {radius_text(margins.radius)} "
+             "at M0*"]  # fmt: skip
     if design.left_out:
         lines.append(f"  left out (nonlinear): {', '.join(design.left_out)}")
+    lines += _frozen_lines(design, frozen or [])
     if not margins.stable:
         lines.append("  the nominal loop is UNSTABLE (radius >= 1): no margin applies")
         return "\n".join(lines)

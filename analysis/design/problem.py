@@ -29,9 +29,19 @@ by the intensities of its two inputs), driven by
   per joint (and the sensor's noise, when it has some).
 
 **Constraints**: ``rho <= 1 - margin`` on the nominal model and on every design plant
-(``analysis.uncertainty.plants``), and the voltage limit along the trajectory: per joint, the
-nominal inverse dynamics' peak voltage plus three standard deviations of the feedback
-voltage the two inputs cause stays within the limit.
+(``analysis.uncertainty.plants``), each at its ``M0*`` and with its ``M*(q)`` frozen at the
+configurations of the scenario's path (``models.design.configurations``), and the voltage
+limit along the trajectory: per joint, the nominal inverse dynamics' peak voltage plus
+three standard deviations of the feedback voltage the two inputs cause stays within the
+limit.
+
+The configurations are judged by an **active set** (so that a search costs about the same
+whatever their number): a design is judged at the ``active`` pairs only, each a plant
+(``NOMINAL``: the nominal model; otherwise an index into ``plants``) and a configuration
+(at first the nominal model at the path's lightest and heaviest and where the entry's own
+loop is worst), the discretised plant at every configuration made once; ``violated``
+judges a chosen design at all of them, on every plant, and ``analysis.design.tune`` adds
+each plant's worst configuration that breaks the constraint and searches again.
 """
 
 from __future__ import annotations
@@ -50,10 +60,14 @@ from posfb.diagrams.resolve import ResolvedScenario
 from posfb.models.controllers import require_design
 from posfb.models.design import Design, cached_design, held_design_loop, held_design_radius
 from posfb.models.design.bounds import bound_filter_constants
-from posfb.models.design.closed_loop import held_plant, stationary_deviations
+from posfb.models.design.closed_loop import HeldPlant, held_plant, stationary_deviations
+from posfb.models.design.configurations import ConfigurationSet
 from posfb.models.design.initial import filter_pole
 from posfb.models.design.settings import LinearTorqueInputs, Proposed
 from posfb.models.nominal import nominal_model, trajectory_voltages
+
+#: The plant index of the nominal model in an active pair (``TuningProblem.active``).
+NOMINAL = -1
 
 #: Standard deviations of the feedback voltage kept below the limit with the peak.
 VOLTAGE_SIGMAS = 3.0
@@ -165,7 +179,9 @@ def judging_seconds(
 class TuningProblem:
     """The tuning of ``controller`` (``proposed`` or ``lin_lc``) starting from the
     scenario's ``entry``, checked on ``plants`` with ``margin``; ``deadline`` (``None``:
-    none) is checked before each plant a design is judged on (``radii``)."""
+    none) is checked before each plant a design is judged on (``radii``);
+    ``configurations``: the path's (each plant's ``held_at`` holds its loop at them),
+    judged at the ``active`` ones during the search (module docstring)."""
 
     resolved: ResolvedScenario
     controller: str
@@ -173,6 +189,8 @@ class TuningProblem:
     plants: list[LinearPlant]
     margin: float
     deadline: Deadline | None = None
+    configurations: ConfigurationSet | None = None
+    active: tuple[tuple[int, int], ...] = ()
 
     def __post_init__(self) -> None:
         config = self.resolved.config
@@ -182,6 +200,10 @@ class TuningProblem:
         model = nominal_model(self.nominal)
         self.effects = nominal_effects(self.resolved)
         self.nominal_held = held_plant(model.M0(), model.B(), self.sample_time, self.effects)
+        masses = () if self.configurations is None else self.configurations.masses
+        self.nominal_held_at = tuple(
+            held_plant(M, model.B(), self.sample_time, self.effects) for M in masses
+        )
         times = np.arange(config.samples + 1) * config.sample_time
         needed = trajectory_voltages(model, config.trajectory, times)
         self.peak_voltage = np.max(np.abs(needed), axis=0)
@@ -224,7 +246,7 @@ class TuningProblem:
         except ValueError as error:
             return Evaluation(math.inf, math.inf, math.inf, (), math.inf, False, str(error))
         design = cached_design(config)
-        nominal_radius = (
+        at_M0 = (
             (
                 design.sampled_data_spectral_radius
                 if self.controller == "proposed"
@@ -232,6 +254,10 @@ class TuningProblem:
             )
             if self.effects.ideal
             else held_design_radius(design, self.controller, self.nominal_held)
+        )
+        nominal_radius = max(
+            [at_M0] + [self._radius(design, self.nominal_held_at[c])
+                       for owner, c in self.active if owner == NOMINAL]  # fmt: skip
         )
         worst = max(self.radii(design, self.plants), default=math.nan)
         if nominal_radius >= 1.0:
@@ -252,17 +278,59 @@ class TuningProblem:
             feasible=bool(stable and ratio <= 1.0),
         )
 
-    def radii(self, design: Design, plants: list[LinearPlant]) -> list[float]:
-        """The spectral radius of the controller's loop around each of ``plants``
-        (``BudgetError`` once ``deadline`` has passed)."""
+    def _radius(self, design: Design, plant: HeldPlant) -> float:
+        return held_design_radius(design, self.controller, plant)
+
+    def radii(
+        self, design: Design, plants: list[LinearPlant], everywhere: bool = False
+    ) -> list[float]:
+        """The spectral radius of the controller's loop around each of ``plants``, the
+        worst of its ``M0*`` and its ``active`` configurations (``everywhere``: all of
+        them) (``BudgetError`` once ``deadline`` has passed)."""
         found = []
         for index, plant in enumerate(plants):
             if self.deadline is not None and self.deadline.passed():
                 raise self.deadline.error(
                     f"judging a {self.controller} design on plant {index + 1} of {len(plants)}"
                 )
-            found.append(held_design_radius(design, self.controller, plant.held))
+            frozen = plant.held_at if everywhere else [
+                plant.held_at[c] for owner, c in self.active if owner == index]  # fmt: skip
+            found.append(max(self._radius(design, h) for h in (plant.held, *frozen)))
         return found
+
+    def violated(self, entry: LinearTorqueInputs) -> tuple[tuple[int, int], ...]:
+        """The pairs (plant, configuration) where ``entry``'s loop breaks ``rho <= 1 -
+        margin``, judged at every configuration of the nominal model and every design
+        plant: for each, its worst configuration when that one breaks it and is not
+        active yet."""
+        if self.configurations is None:
+            return ()
+        design = self.design(entry)
+        limit = 1.0 - self.margin
+        owners = [(NOMINAL, self.nominal_held_at)] + [
+            (index, plant.held_at) for index, plant in enumerate(self.plants)]  # fmt: skip
+        found = []
+        for owner, held_at in owners:
+            radii = [self._radius(design, held) for held in held_at]
+            pair = (owner, int(np.argmax(radii)))
+            if radii[pair[1]] > limit and pair not in self.active:
+                found.append(pair)
+        return tuple(found)
+
+    def initial_active(self) -> tuple[tuple[int, int], ...]:
+        """The pairs the search starts with: the nominal model at the path's lightest and
+        heaviest configurations and at the one where the entry's own loop is worst."""
+        if self.configurations is None:
+            return ()
+        extremes = [i for i, c in enumerate(self.configurations.configurations)
+                    if c.role in ("lightest", "heaviest")]  # fmt: skip
+        try:
+            design = self.design(self.entry)
+            radii = [self._radius(design, held) for held in self.nominal_held_at]
+            extremes.append(int(np.argmax(radii)))
+        except ValueError:
+            pass  # an entry the design refuses: its search starts from the extremes
+        return tuple((NOMINAL, c) for c in dict.fromkeys(extremes))
 
     def violations(self, evaluation: Evaluation) -> np.ndarray:
         """How far ``evaluation`` is from each constraint (``<= 0``: met): the nominal and

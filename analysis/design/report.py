@@ -17,6 +17,7 @@ if TYPE_CHECKING:
     from posfb.diagrams.closed_loop import ClosedLoopConfig
     from posfb.diagrams.resolve import ResolvedScenario
     from posfb.models.design import Design
+    from posfb.models.design.common_lyapunov import LyapunovCertificate
 
 
 def relevant_checks(config: ClosedLoopConfig) -> tuple[str, ...]:
@@ -38,11 +39,26 @@ def relevant_checks(config: ClosedLoopConfig) -> tuple[str, ...]:
 def nominal_design(resolved: ResolvedScenario) -> Design:
     """The design of the scenario's entry, its sampled-data checks on the nominal loop with
     the scenario's linear effects (``analysis.common.loop_effects``; a compliant gear the
-    nominal model cannot carry is refused)."""
+    nominal model cannot carry is refused), at ``M0*`` and with ``M*(q)`` frozen at every
+    configuration of the scenario's path (``analysis.common.configurations``)."""
+    from posfb.analysis.common.configurations import scenario_configurations
     from posfb.analysis.common.loop_effects import nominal_effects
-    from posfb.models.design import cached_design, with_effects
+    from posfb.models.design import cached_design, with_configurations
 
-    return with_effects(cached_design(resolved.config.design), nominal_effects(resolved))
+    config = resolved.config
+    return with_configurations(
+        cached_design(config.design),
+        nominal_effects(resolved),
+        scenario_configurations(config),
+        certify=tuple(
+            name for name, check in CERTIFIED_LOOPS.items() if check in config.spec.checks
+        ),
+    )
+
+
+#: The loop certified (``models.design.common_lyapunov``) for a controller whose checks hold
+#: its check: the proposed controller's and Lin+LC's.
+CERTIFIED_LOOPS = {"proposed": "sampled_data", "lin_lc": "sampled_data_lin_lc"}
 
 
 def _poles(poles: np.ndarray) -> list[list[float]]:
@@ -55,8 +71,43 @@ NONLINEAR_CHECKS = frozenset({"spr", "bound_filter", "continuous_with_nc", "samp
 
 #: The ``--json`` keys that belong to the nonlinear torque.
 _NONLINEAR_KEYS = ("alpha_star", "E", "E1", "E2", "E3", "Gamma", "kyp_gamma", "P2_M0inv_norm",
-                   "continuous_poles_with_nc", "sampled_data_spectral_radius", "bound_filter",
+                   "continuous_poles_with_nc", "sampled_data_spectral_radius",
+                   "sampled_data_spectral_radius_at_M0", "bound_filter",
                    "uncertainty_bounds")  # fmt: skip
+
+#: The ``--json`` key of each loop's radii (the worst over the configurations; ``_at_M0``:
+#: at the design's ``M0*``).
+_RADIUS_KEYS = {"proposed": "sampled_data_spectral_radius",
+                "lin_lc": "sampled_data_spectral_radius_lin_lc"}  # fmt: skip
+
+
+def _configurations_dict(design: Design) -> dict:
+    """The ``--json`` keys of the configuration set: each loop's radius at ``M0*``
+    (``..._at_M0``) and ``configurations``: their count, the eigenvalue range of
+    ``M0*^-1 M*(q)`` over them and, per loop, where its worst radius is."""
+    if design.frozen_radii is None or design.configurations is None:
+        return {}
+    configurations = design.configurations
+    worst = {}
+    for name, figures in design.frozen_radii.items():
+        where = configurations.configurations[figures.worst_index]
+        worst[name] = {"radius": figures.worst, "time": where.time, "q": list(where.q),
+                       "role": where.role}  # fmt: skip
+    certificates = {
+        name: {"feasible": c.feasible, "decay": c.decay if c.feasible else None,
+               "condition": c.condition if c.feasible else None, "loops": c.loops,
+               "message": c.message}
+        for name, c in (design.certificates or {}).items()
+    }  # fmt: skip
+    return {
+        **{f"{key}_at_M0": design.frozen_radii[name].at_M0 for name, key in _RADIUS_KEYS.items()},
+        "configurations": {
+            "count": len(configurations),
+            "eigenvalue_range": list(configurations.eigenvalue_range()),
+            "worst": worst,
+            "certificates": certificates,
+        },
+    }
 
 
 def design_to_dict(design: Design, relevant: tuple[str, ...] | None = None) -> dict:
@@ -95,6 +146,7 @@ def design_to_dict(design: Design, relevant: tuple[str, ...] | None = None) -> d
         "uncertainty_bounds": asdict(design.bounds),
         "checks": {c.name: {"passed": c.passed, "detail": c.detail} for c in design.checks},
         "warnings": design.warnings,
+        **_configurations_dict(design),
     }
     if relevant is None:
         return result
@@ -115,6 +167,28 @@ def _pole_text(poles: np.ndarray) -> str:
     return ", ".join(
         f"{p.real:.4g}" if p.imag == 0 else f"{p.real:.4g}{p.imag:+.4g}j" for p in poles
     )
+
+
+#: The loops' names in the report.
+LOOP_LABELS = {"proposed": "proposed, alpha = alpha*", "lin_lc": "Lin+LC"}
+
+
+def _certificate_text(certificate: LyapunovCertificate) -> str:
+    """One line: what a common Lyapunov function certifies, or why there is none."""
+    if certificate.feasible:
+        return (f"{certificate.message}: stable for every M* in the hull of these loops, "
+                "however fast it varies among them (Coriolis terms, friction and saturation "
+                "left out)")  # fmt: skip
+    return (f"{certificate.message}; no certificate for M*(q) varying: the frozen-"
+            "configuration figures above are what holds")  # fmt: skip
+
+
+def _radius_text(design: Design, loop: str, radius: float) -> str:
+    """``radius``, and with a configuration set the radius at ``M0*`` beside it."""
+    if design.frozen_radii is None:
+        return f"{radius:.4f}"
+    return f"{radius:.4f} (worst over the path's configurations; at M0*: " \
+        f"{design.frozen_radii[loop].at_M0:.4f})"
 
 
 def format_report(design: Design, relevant: tuple[str, ...] | None = None) -> str:
@@ -142,11 +216,16 @@ def format_report(design: Design, relevant: tuple[str, ...] | None = None) -> st
             f"continuous poles with tau_NC at alpha*: "
             f"{_pole_text(design.continuous_poles_with_nc)}",
             f"sampled-data spectral radius (proposed, alpha = alpha*): "
-            f"{design.sampled_data_spectral_radius:.4f}",
+            f"{_radius_text(design, 'proposed', design.sampled_data_spectral_radius)}",
         ]
     lines.append(
-        f"sampled-data spectral radius (Lin+LC): {design.sampled_data_spectral_radius_lin_lc:.4f}"
+        "sampled-data spectral radius (Lin+LC): "
+        + _radius_text(design, "lin_lc", design.sampled_data_spectral_radius_lin_lc)
     )
+    if design.configurations is not None:
+        lines.append(f"configurations: {design.configurations.describe_range()}")
+    for name, certificate in (design.certificates or {}).items():
+        lines.append(f"certificate ({LOOP_LABELS[name]}): {_certificate_text(certificate)}")
     if nonlinear:
         lines.append(
             f"||P2 (M0*)^-1|| = {design.coupling_norm:.4g}, k_C1 = {design.bounds.k_C1:.4g}"

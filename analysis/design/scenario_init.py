@@ -286,13 +286,31 @@ class DesignedControllers:
     pid: object  # models.design.initial.InitialPid
     radius_lin_lc: float
     radius_at_cap: float
+    eigenvalue_range: tuple[float, float]
+
+    def reason(self) -> str:
+        """Why no setting of the rules passes over the path's configurations (empty when
+        one does): one line, for the log and the file."""
+        from posfb.models.design.initial import TARGET_RADIUS
+
+        if self.alpha.met and self.radius_lin_lc < 1.0:
+            return ""
+        low, high = self.eigenvalue_range
+        return (
+            f"M*(q) varies {high / low:.3g}x along the path (eigenvalues of M0*^-1 M*(q) "
+            f"{low:.3g} to {high:.3g}): no alpha* reaches radius {TARGET_RADIUS:g} at every "
+            "configuration" + ("" if self.radius_lin_lc < 1.0 else
+                               f" and Lin+LC's worst radius is {self.radius_lin_lc:.4f}")
+            + "; give the drives' rotor inertia and gear, or lower the bandwidth"
+        )  # fmt: skip
 
 
 def design_controllers(
     settings: Settings, facts: ArmFacts, fitted: FittedTrajectory
 ) -> DesignedControllers:
     """LQR weights, ``G(s)``, ``H(s)``, PID gains by their rules; ``alpha*`` by the
-    largest nominal sampled-data spectral radius ``<= TARGET_RADIUS`` (the design is
+    largest sampled-data spectral radius ``<= TARGET_RADIUS`` over ``M0*`` and the
+    configurations of the fitted path (``models.design.configurations``; the design is
     computed once; only ``alpha*`` changes between the radii)."""
     from posfb.models.design import (
         ControllerConfig,
@@ -300,6 +318,7 @@ def design_controllers(
         PidGains,
         cached_design,
     )
+    from posfb.models.design.configurations import CONFIGURATION_SPACING, path_configurations
     from posfb.models.design.initial import (
         filter_pole,
         h_gamma,
@@ -309,6 +328,7 @@ def design_controllers(
     )
     from posfb.models.design.synthesis import plant_spectral_radii
     from posfb.models.nominal import UrdfNominal, nominal_model
+    from posfb.models.trajectory import WaveTrajectory
 
     n = len(facts.joints)
     pid = pid_gains(settings.sample_time, facts.M0, settings.encoder_counts,
@@ -329,10 +349,14 @@ def design_controllers(
     )  # fmt: skip
     design = cached_design(config)
     model = nominal_model(nominal)
+    configurations = path_configurations(
+        model, WaveTrajectory(fitted.waves), settings.duration, CONFIGURATION_SPACING
+    )
+    angles = tuple(c.q for c in configurations.configurations)
 
     def radius(alpha_star: float) -> float:
         changed = replace(design, config=config.with_alpha_star(alpha_star))
-        return plant_spectral_radii(changed, model)["proposed"]
+        return plant_spectral_radii(changed, model, configurations=angles)["proposed"]
 
     cap = config.nonlinear.alpha_star
     return DesignedControllers(
@@ -341,8 +365,9 @@ def design_controllers(
         gamma=gamma,
         alpha=largest_alpha_star(radius, cap),
         pid=pid,
-        radius_lin_lc=design.sampled_data_spectral_radius_lin_lc,
+        radius_lin_lc=plant_spectral_radii(design, model, configurations=angles)["lin_lc"],
         radius_at_cap=radius(cap),
+        eigenvalue_range=configurations.eigenvalue_range(),
     )
 
 
@@ -464,7 +489,7 @@ def comments(settings: Settings, facts: ArmFacts, fitted: FittedTrajectory,
         "controller.Q1": designed.weights.rule(),
         "controller.alpha_star": designed.alpha.rule(
             designed.radius_at_cap, designed.radius_lin_lc
-        ),
+        ) + ([f"NOT MET: {designed.reason()}"] if designed.reason() else []),
         "controller.H": h_gamma_rule(designed.gamma),
         "controller.filter_a": filter_pole_rule(settings.sample_time),
         "controller.bounds": ["Assumption 1: the default, half of each nominal norm."],
@@ -519,6 +544,7 @@ class InitResult:
     alpha_star: float
     radius: float
     radius_lin_lc: float
+    reason: str = ""
 
 
 def write_scenario(options: InitOptions, log: Callable[[str], None] = lambda _: None
@@ -546,4 +572,5 @@ def write_scenario(options: InitOptions, log: Callable[[str], None] = lambda _: 
         alpha_star=designed.alpha.alpha_star,
         radius=designed.alpha.radius,
         radius_lin_lc=designed.radius_lin_lc,
+        reason=designed.reason(),
     )

@@ -49,11 +49,13 @@ class SearchResult:
 
 
 def search(
-    problem: TuningProblem, seed: int, generations: int, deadline: Deadline
-) -> SearchResult:
+    problem: TuningProblem, seed: int, generations: int, deadline: Deadline,
+    x0: np.ndarray | None = None,
+) -> SearchResult:  # fmt: skip
     """Minimise ``problem``'s predicted error subject to its constraints; raise
     ``BudgetError`` when ``deadline`` passes first: after a generation, or inside one
-    (``problem.deadline``, checked before each plant a design is judged on)."""
+    (``problem.deadline``, checked before each plant a design is judged on). ``x0``: the
+    point put in the first population (default: the entry's own, ``problem.start()``)."""
     import scipy.linalg  # on use: start-up
     import scipy.optimize
 
@@ -98,7 +100,7 @@ def search(
                 maxiter=generations,
                 popsize=POPULATION,
                 init="sobol",
-                x0=start,
+                x0=start if x0 is None else np.asarray(x0, dtype=float),
                 seed=seed,
                 polish=False,
                 tol=0.0,

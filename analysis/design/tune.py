@@ -40,12 +40,13 @@ import copy
 import math
 import time
 from collections.abc import Callable, Iterator
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from functools import partial
 from pathlib import Path
 
 import numpy as np
 
+from posfb.analysis.common.configurations import scenario_configurations
 from posfb.analysis.common.loop_effects import left_out
 from posfb.analysis.design.budget import PROBE_PLANTS, REMEDY, Deadline, TuneError
 from posfb.analysis.design.guarantee import (
@@ -61,7 +62,7 @@ from posfb.analysis.design.problem import (
     judging_seconds,
     knobs,
 )
-from posfb.analysis.design.search import population, search
+from posfb.analysis.design.search import SearchResult, population, search
 from posfb.analysis.design.settings import TuneSettings
 from posfb.analysis.uncertainty.plants import LinearPlant, draw_plants, plant_family
 from posfb.analysis.uncertainty.study import Study
@@ -80,6 +81,14 @@ TUNED_CONTROLLERS = ("proposed", "lin_lc")
 
 #: Seconds of the cross-check simulations (at most the scenario's duration).
 CHECK_DURATION = 5.0
+
+#: The most refinement searches one round runs over the path's configurations: each adds
+#: the pairs (plant, configuration) the last best design breaks to the search's active set
+#: (``_search_over_configurations``) and searches again from that design.
+MAX_REFINEMENTS = 3
+
+#: A refinement search's share of the schedule's generations.
+REFINEMENT_SHARE = 1.0 / 6.0
 
 #: A tuned value within this share of an edge of its search box is flagged.
 EDGE_SHARE = 0.02
@@ -395,6 +404,34 @@ def _tuned_scenario(
     return scenario
 
 
+def _search_over_configurations(
+    problem: TuningProblem, settings: TuneSettings, deadline: Deadline
+) -> tuple[TuningProblem, SearchResult]:
+    """The search on ``problem``'s active configurations (``analysis.design.problem``),
+    repeated with the configurations its best design breaks added to the set, until the
+    best design holds at all of them (or ``MAX_REFINEMENTS`` searches have run: its
+    verification then judges it at all of them)."""
+    problem = replace(problem, active=problem.initial_active())
+    found = search(problem, settings.seed, settings.generations, deadline)
+    generations, evaluations = found.generations, found.evaluations
+    for _ in range(MAX_REFINEMENTS):
+        missing = problem.violated(problem.settings(found.x)) if found.best.feasible else ()
+        if not missing:
+            break
+        problem = replace(problem, active=problem.active + missing)
+        found = search(problem, settings.seed, refinement_generations(settings.generations),
+                       deadline, x0=found.x)  # fmt: skip
+        generations, evaluations = generations + found.generations, evaluations + found.evaluations
+    return problem, replace(found, generations=generations, evaluations=evaluations)
+
+
+def refinement_generations(generations: int) -> int:
+    """The generations of a refinement search: ``REFINEMENT_SHARE`` of the schedule's (at
+    least one); it starts from the last best design, which breaks the new pairs only
+    slightly (it met the constraint at the others)."""
+    return max(1, math.ceil(REFINEMENT_SHARE * generations))
+
+
 def _tune_controller(
     loaded: LoadedScenario,
     resolved: ResolvedScenario,
@@ -410,21 +447,25 @@ def _tune_controller(
     would (``_drawn``), first."""
     before = _entry(loaded.scenario, controller)
     checks = verification_plants(settings.epsilon, settings.beta / settings.rounds)
+    configurations = scenario_configurations(resolved.config)
+    angles = tuple(c.q for c in configurations.configurations)
     members = population(len(knobs(before)))
     for round_ in range(settings.rounds):
         count = settings.plants * 2**round_
         design_set = _drawn(
-            draw_plants(family, resolved, settings.seed, count, errors=True),
+            draw_plants(family, resolved, settings.seed, count, errors=True,
+                        configurations=angles),  # fmt: skip
             count,
             (members, f"the first generation's {members} designs"),
             partial(judging_seconds, resolved, controller, before),
             deadline,
             f"{controller} design plants (round {round_ + 1})",
         )
-        problem = TuningProblem(
-            resolved, controller, before, design_set, settings.margin, deadline
-        )
-        found = search(problem, settings.seed, settings.generations, deadline)
+        problem, found = _search_over_configurations(
+            TuningProblem(resolved, controller, before, design_set, settings.margin, deadline,
+                          configurations),
+            settings, deadline,
+        )  # fmt: skip
         if not found.best.feasible:
             raise InfeasibleError(
                 f"no {controller} design meets rho <= {1 - settings.margin:g} on the nominal "
@@ -435,7 +476,8 @@ def _tune_controller(
             )
         after = problem.settings(found.x)
         fresh_set = _drawn(
-            draw_plants(family, resolved, settings.seed + 1 + round_, checks),
+            draw_plants(family, resolved, settings.seed + 1 + round_, checks,
+                        configurations=angles),  # fmt: skip
             checks,
             (1, "the chosen design"),
             partial(judging_seconds, resolved, controller, after),
@@ -443,7 +485,7 @@ def _tune_controller(
             f"fresh {controller} verification plants (round {round_ + 1})",
             "raise --budget, or --epsilon or --beta (fewer fresh plants)",
         )
-        radii = tuple(problem.radii(problem.design(after), fresh_set))
+        radii = tuple(problem.radii(problem.design(after), fresh_set, everywhere=True))
         guarantee = verify([r < 1.0 for r in radii], settings.epsilon, settings.beta,
                            settings.rounds)  # fmt: skip
         if guarantee.holds:

@@ -1,8 +1,10 @@
 """The report's margins over the sampled plants: for every controller of the study with a
 linear design, the disk margin and the delay margin of its loop on each sampled plant
 (``analysis.uncertainty.loops``: the design as it is, closed around the plant's own
-linear part with its linear effects; ``SampledFeedback.robustness``), summarised as the
-smallest, the 5th percentile and the median.
+linear part with its linear effects, at the plant's worst configuration of the path with
+its ``M*(q)`` frozen (``StudyLoops.sample(..., frozen=True)``: the loop whose radius the
+worker stores); ``SampledFeedback.robustness``), summarised as the smallest, the 5th
+percentile and the median.
 
 The figures are recomputed from the study (its samples' draws are deterministic), not
 read from the store: a store written before them reports them too. At most
@@ -50,7 +52,7 @@ def margin_summaries(data: StudyData) -> list[MarginSummary]:
             loops = StudyLoops(data.study, controller)
         except ValueError:  # a plug-in: no linear design
             continue
-        figures = np.array([loops.sample(int(i)).robustness() for i in indices])
+        figures = np.array([loops.sample(int(i), frozen=True).robustness() for i in indices])
         found.append(MarginSummary(
             controller, len(indices), int(np.sum(figures[:, 0] >= 1.0)),
             _summary(figures[:, 1]), _summary(figures[:, 2]), loops.config.sample_time,

@@ -25,6 +25,7 @@ from pathlib import Path
 
 from pydrake.systems.framework import Context
 
+from posfb.analysis.common.configurations import scenario_configurations
 from posfb.analysis.common.loop_effects import loop_effects
 from posfb.analysis.common.metrics import RunMetrics, run_metrics, run_verdict
 from posfb.analysis.montecarlo.records import ControllerRun, SampleResult, metric_columns
@@ -211,15 +212,18 @@ class ClosedLoopEvaluator:
     ) -> dict[str, float]:
         """The sampled-data spectral radius of each controller's designed loop (its own
         design) closed around the sampled plant's linear part with the sample's linear
-        ``effects`` (``analysis.common.loop_effects``); none for a controller without one (PID,
-        the plug-ins)."""
+        ``effects`` (``analysis.common.loop_effects``), the worst of its ``M0*`` and its
+        ``M*(q)`` frozen at the configurations of the sample's path
+        (``analysis.common.configurations``); none for a controller without one (PID, the
+        plug-ins)."""
         radii, by_design = {}, {}
         for name, config in configs.items():
             if config.controller_settings is not None or config.controller not in LOOP_CONTROLLERS:
                 continue
             if config.design not in by_design:
+                angles = tuple(c.q for c in scenario_configurations(config).configurations)
                 by_design[config.design] = plant_spectral_radii(
-                    cached_design(config.design), linear_plant, effects
+                    cached_design(config.design), linear_plant, effects, angles
                 )
             radius = by_design[config.design].get(config.controller)
             if radius is not None:

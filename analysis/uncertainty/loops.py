@@ -20,6 +20,7 @@ from pathlib import Path
 import numpy as np
 import scipy.stats
 
+from posfb.analysis.common.configurations import scenario_configurations
 from posfb.analysis.common.loop_effects import loop_effects, rigid_plant
 from posfb.analysis.uncertainty.sampling import sample_plant, sample_scenario
 from posfb.analysis.uncertainty.study import (
@@ -100,27 +101,36 @@ class StudyLoops:
         return self._feedback[key]
 
     def loop(
-        self, parameters: ArmParameters, config: ClosedLoopConfig | None = None
-    ) -> SampledFeedback:
+        self, parameters: ArmParameters, config: ClosedLoopConfig | None = None,
+        frozen: bool = False,
+    ) -> SampledFeedback:  # fmt: skip
         """The loop on the arm with ``parameters`` (``config``: the sample's scenario's,
-        default the study's base)."""
+        default the study's base) at its ``M0*``; ``frozen``: the worst of that and its
+        loops with its own ``M*(q)`` frozen at the configurations of the path
+        (``analysis.common.configurations``), the radius the Monte-Carlo worker stores."""
         config = self.config if config is None else config
         apply_parameters(self._arm, self._context, parameters)
         model = linear_part_model(self._arm, self._context, config.design.nominal)
         if isinstance(model, LumpedParameters):
             model = LumpedModel(model)
         effects = loop_effects(config, parameters)
-        return self.feedback(config).with_plant(model.M0(), model.B(), effects)
+        at_M0 = self.feedback(config).with_plant(model.M0(), model.B(), effects)
+        if not frozen:
+            return at_M0
+        angles = [c.q for c in scenario_configurations(config).configurations]
+        loops = [at_M0.with_plant(model.M(np.asarray(q)), model.B(), effects) for q in angles]
+        return max([at_M0, *loops], key=lambda loop: loop.radius())
 
-    def sample(self, index: int) -> SampledFeedback:
-        """The loop on sample ``index`` (its plant and its drawn scenario keys)."""
+    def sample(self, index: int, frozen: bool = False) -> SampledFeedback:
+        """The loop on sample ``index`` (its plant and its drawn scenario keys); ``frozen``:
+        ``loop``'s."""
         parameters = sample_plant(self.study, self.nominal_parameters, index).parameters
         config = None
         if self.study.draws:
             scenario, _ = sample_scenario(self.study, index)
             loaded = LoadedScenario(with_controller(scenario, self.controller), Path.cwd())
             config = resolve(loaded).config
-        return self.loop(parameters, config)
+        return self.loop(parameters, config, frozen)
 
     def box(self) -> tuple[BoxAxis, ...]:
         """The parameter box: one axis per varied arm parameter of ``study.parameters``

@@ -56,10 +56,11 @@ class LinearPlant:
     """The linear part of one drawn arm: ``M0`` (V s^2/rad), ``B`` (V s/rad), the
     scenario's linear effects on it (``effects``, ``analysis.common.loop_effects``), that part
     held over the scenario's sample time with them (``held``, the same for every design),
-    and the
+    the
     model error along the trajectory (``torque_error``: the plant's inverse dynamics
     minus the nominal model's, V, one row per instant of ``error_instants``; empty when
-    not asked for)."""
+    not asked for), and the plant's linear part with its own ``M*(q)`` frozen at each
+    configuration asked for (``held_at``, held likewise; ``models.design.configurations``)."""
 
     index: int
     M0: np.ndarray
@@ -67,6 +68,7 @@ class LinearPlant:
     effects: LoopEffects
     held: HeldPlant
     torque_error: np.ndarray
+    held_at: tuple[HeldPlant, ...] = ()
 
 
 def error_instants(resolved: ResolvedScenario) -> np.ndarray:
@@ -101,10 +103,12 @@ def linear_plants(
 
 
 def draw_plants(
-    family: Study, resolved: ResolvedScenario, seed: int, count: int, errors: bool = False
-) -> Iterator[LinearPlant]:
+    family: Study, resolved: ResolvedScenario, seed: int, count: int, errors: bool = False,
+    configurations: tuple[tuple[float, ...], ...] = (),
+) -> Iterator[LinearPlant]:  # fmt: skip
     """The plants of ``linear_plants``, drawn one at a time as they are asked for (so
-    that a caller can time, bound or stop the drawing)."""
+    that a caller can time, bound or stop the drawing); ``configurations`` (joint angles,
+    rad): where each plant's ``held_at`` freezes its ``M*(q)``."""
     config = resolved.config
     _, arm, context = build_arm_diagram(rigid_plant(config.plant))
     around = resolved.true_parameters(arm.default_parameters)
@@ -126,4 +130,8 @@ def draw_plants(
         )
         effects = loop_effects(config, parameters)
         held = held_plant(M0, B, config.sample_time, effects)
-        yield LinearPlant(index, M0, B, effects, held, error)
+        held_at = tuple(
+            held_plant(model.M(np.asarray(q)), B, config.sample_time, effects)
+            for q in configurations
+        )
+        yield LinearPlant(index, M0, B, effects, held, error, held_at)

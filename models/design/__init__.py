@@ -23,6 +23,7 @@ from posfb.models.design.synthesis import (
     held_design_loop,
     held_design_radius,
     plant_spectral_radii,
+    with_configurations,
     with_effects,
 )
 
@@ -47,6 +48,7 @@ __all__ = [
     "held_design_radius",
     "diagonal",
     "with_effects",
+    "with_configurations",
     "CompliantGear",
     "LoopEffects",
     "NO_EFFECTS",

@@ -50,7 +50,8 @@ that margin over the condition ``a > ln 2 / T_s``, slower sampling keeps the pap
 (4 rad/s); the rule keeps that ratio to the new trajectory's fastest frequency.
 
 **alpha*** (Eq. 21, ``largest_alpha_star``): the largest ``alpha* <= alpha*_ref = 4``
-whose nominal sampled-data spectral radius (``Design.sampled_data_spectral_radius``)
+whose sampled-data spectral radius at ``M0*`` and over the path's configurations
+(``models.design.configurations``; ``Design.sampled_data_spectral_radius``)
 is at most 0.95, found by bisection (``scipy.optimize.brentq``): the paper's ``alpha*``
 where its loop is stable with a margin, otherwise as much of the nonlinear torque as
 the sampled loop takes.
@@ -374,8 +375,8 @@ class AlphaChoice:
         if self.alpha_star != cap:
             found += f", {self.radius:.4f} at alpha* = {self.alpha_star:g}"
         lines = [
-            f"rule: the largest alpha* <= the paper's {cap:g} (Sec. 4.2) whose nominal "
-            "sampled-data",
+            f"rule: the largest alpha* <= the paper's {cap:g} (Sec. 4.2) whose sampled-data "
+            "(at M0* and the path's configurations)",
             f"spectral radius (check sampled_data) is <= {TARGET_RADIUS:g} (bisection): {found}",
             f"(Lin+LC: {radius_lin_lc:.4f}).",
         ]

@@ -45,7 +45,9 @@ from posfb.models.design.closed_loop import (
     held_transition,
     spectral_radius,
 )
+from posfb.models.design.common_lyapunov import LyapunovCertificate, common_lyapunov
 from posfb.models.design.config import ControllerConfig
+from posfb.models.design.configurations import ConfigurationSet, FrozenFigures
 from posfb.models.design.realisation import (
     DiscreteFilter,
     linear_control_filter,
@@ -87,7 +89,9 @@ class Design(GainBlocks):
     ``continuous_poles_with_nc`` of the nominal linear plant with the filters of
     Eq. 13 and 20 at ``alpha = alpha*``; ``lc_filter_poles`` of ``A_eta - K3``.
     ``sampled_data_spectral_radius[_lin_lc]``: ``models.design.closed_loop`` at
-    ``T_s`` with (without) ``tau_NC`` at ``alpha*``.
+    ``T_s`` with (without) ``tau_NC`` at ``alpha*``; after ``with_configurations`` the
+    worst over its ``configurations`` (and ``M0*``), each loop's figures per configuration
+    in ``frozen_radii``.
 
     ``lin_lc_filter`` realises Eq. 13 (output ``eta~``); ``proposed_filter`` realises
     Eq. 13, 20 and 25 together (outputs ``[eta~, phi, p, pbar]``), both discretised
@@ -116,6 +120,9 @@ class Design(GainBlocks):
     sampled_data_spectral_radius: float
     sampled_data_spectral_radius_lin_lc: float
     checks: tuple[Check, ...]
+    configurations: ConfigurationSet | None = None
+    frozen_radii: dict[str, FrozenFigures] | None = None
+    certificates: dict[str, LyapunovCertificate] | None = None
 
     @functools.cached_property
     def bounds(self) -> ResolvedBounds:
@@ -223,9 +230,25 @@ def _bound_filter_check(constants: BoundFilterConstants) -> Check:
     return Check("bound_filter", constants.valid, detail)
 
 
-def _stability_check(name: str, what: str, radius: float) -> Check:
-    verdict = "< 1: stable" if radius < 1.0 else ">= 1: UNSTABLE"
-    return Check(name, radius < 1.0, f"{what}: spectral radius {radius:.4f} {verdict}")
+def _stability_check(
+    name: str, what: str, radius: float, frozen: FrozenFigures | None = None,
+    configurations: ConfigurationSet | None = None,
+) -> Check:  # fmt: skip
+    """``radius < 1``; with ``frozen`` figures over ``configurations``, the worst of them
+    and the one at ``M0*`` (``radius``) both."""
+    if frozen is None or configurations is None:
+        verdict = "< 1: stable" if radius < 1.0 else ">= 1: UNSTABLE"
+        return Check(name, radius < 1.0, f"{what}: spectral radius {radius:.4f} {verdict}")
+    worst = frozen.worst
+    passed = worst < 1.0 and radius < 1.0
+    where = configurations.configurations[frozen.worst_index].describe()
+    verdict = "< 1: stable" if passed else ">= 1: UNSTABLE"
+    return Check(
+        name, passed,
+        f"{what}: spectral radius {max(worst, radius):.4f} {verdict} (worst of "
+        f"{len(configurations)} configurations of the path with M*(q) frozen: {worst:.4f} at "
+        f"{where}; at M0*: {radius:.4f})",
+    )  # fmt: skip
 
 
 #: The controllers whose sampled-data loop a design computes (PID is not a filter of
@@ -243,35 +266,41 @@ def _output_gain(controller: str, n: int, outputs: int, alpha_star: float) -> np
     return np.hstack([np.eye(n), -alpha_star * np.eye(n), np.zeros((n, outputs - 2 * n))])
 
 
-def _loop_radii(
+def _loop_transitions(
     M0: np.ndarray,
     B: np.ndarray,
     filters: dict[str, DiscreteFilter],
     alpha_star: float,
     sample_time: float,
     effects: LoopEffects = NO_EFFECTS,
-) -> dict[str, float]:
-    """Spectral radius of each ``LOOP_CONTROLLERS`` sampled-data loop (its filter in
+) -> dict[str, np.ndarray]:
+    """The transition matrix of each ``LOOP_CONTROLLERS`` sampled-data loop (its filter in
     ``filters``) on the linear part ``M0 q~'' + B q~' = u`` with ``effects``
     (``models.design.closed_loop``)."""
     plant = held_plant(M0, B, sample_time, effects)
     return {
-        name: spectral_radius(
-            held_transition(
-                plant,
-                filters[name],
-                _output_gain(name, len(M0), filters[name].C.shape[0], alpha_star),
-            )  # fmt: skip
-        )
+        name: held_transition(
+            plant, filters[name],
+            _output_gain(name, len(M0), filters[name].C.shape[0], alpha_star),
+        )  # fmt: skip
         for name in LOOP_CONTROLLERS
     }
 
 
+def _radii(transitions: dict[str, np.ndarray]) -> dict[str, float]:
+    """The spectral radius of each loop of ``_loop_transitions``."""
+    return {name: spectral_radius(A) for name, A in transitions.items()}
+
+
 def _sampled_checks(
-    config: ControllerConfig, radii: dict[str, float], effects: LoopEffects
-) -> tuple[Check, Check]:
-    """The ``sampled_data`` and ``sampled_data_lin_lc`` checks of ``radii``; their details
-    name the ``effects`` the loop includes."""
+    config: ControllerConfig, radii: dict[str, float], effects: LoopEffects,
+    frozen: dict[str, FrozenFigures] | None = None,
+    configurations: ConfigurationSet | None = None,
+) -> tuple[Check, Check]:  # fmt: skip
+    """The ``sampled_data`` and ``sampled_data_lin_lc`` checks of ``radii`` (at ``M0*``)
+    and, with them, of the ``frozen`` radii over ``configurations``; their details name
+    the ``effects`` the loop includes."""
+    frozen = frozen or {}
     T, method = config.sample_time, config.discretisation.upper()
     included = "; with " + ", ".join(effects.describe()) if effects.describe() else ""
     return (
@@ -280,14 +309,14 @@ def _sampled_checks(
             f"sampled-data closed loop of the proposed controller (nominal linear plant held "
             f"over T_s = {T:g} s, alpha = alpha* = {config.nonlinear.alpha_star:g}, "
             f"{method} filters{included})",
-            radii["proposed"],
+            radii["proposed"], frozen.get("proposed"), configurations,
         ),
         _stability_check(
             "sampled_data_lin_lc",
             f"sampled-data closed loop of Lin+LC (T_s = {T:g} s, {method} filters{included})",
-            radii["lin_lc"],
+            radii["lin_lc"], frozen.get("lin_lc"), configurations,
         ),
-    )
+    )  # fmt: skip
 
 
 def with_effects(design: Design, effects: LoopEffects) -> Design:
@@ -296,17 +325,62 @@ def with_effects(design: Design, effects: LoopEffects) -> Design:
     ``models.design.closed_loop``); ``design`` itself without any."""
     if effects.ideal:
         return design
-    radii = _loop_radii(
+    radii = _radii(_loop_transitions(
         design.M0, design.B,
         {"proposed": design.proposed_filter, "lin_lc": design.lin_lc_filter},
         design.config.nonlinear.alpha_star, design.config.sample_time, effects,
-    )  # fmt: skip
+    ))  # fmt: skip
     sampled = {check.name: check for check in _sampled_checks(design.config, radii, effects)}
     return replace(
         design,
         sampled_data_spectral_radius=radii["proposed"],
         sampled_data_spectral_radius_lin_lc=radii["lin_lc"],
         checks=tuple(sampled.get(check.name, check) for check in design.checks),
+    )
+
+
+def with_configurations(
+    design: Design, effects: LoopEffects, configurations: ConfigurationSet,
+    certify: tuple[str, ...] = (),
+) -> Design:  # fmt: skip
+    """``design`` with its sampled-data checks on the nominal linear part with ``effects``
+    (``with_effects``) at ``M0*`` and with ``M*(q)`` frozen at every configuration of
+    ``configurations`` (``models.design.configurations``): the radii it reports are the
+    worst over the set and ``M0*``, ``frozen_radii`` holds each loop's figures; for each
+    loop of ``certify`` (``LOOP_CONTROLLERS`` names), ``certificates`` holds the search for
+    a quadratic Lyapunov function common to its frozen loops and its loop at ``M0*``
+    (``models.design.common_lyapunov``)."""
+    at_M0 = with_effects(design, effects)
+    filters = {"proposed": design.proposed_filter, "lin_lc": design.lin_lc_filter}
+    alpha_star, T = design.config.nonlinear.alpha_star, design.config.sample_time
+    transitions = [
+        _loop_transitions(M, design.B, filters, alpha_star, T, effects)
+        for M in (configurations.M0, *configurations.masses)
+    ]
+    per_configuration = [
+        {name: spectral_radius(A) for name, A in loops.items()} for loops in transitions[1:]
+    ]
+    certificates = {
+        name: common_lyapunov([loops[name] for loops in transitions]) for name in certify
+    }
+    nominal = {
+        "proposed": at_M0.sampled_data_spectral_radius,
+        "lin_lc": at_M0.sampled_data_spectral_radius_lin_lc,
+    }
+    frozen = {
+        name: FrozenFigures(tuple(r[name] for r in per_configuration), nominal[name])
+        for name in LOOP_CONTROLLERS
+    }
+    checks = _sampled_checks(design.config, nominal, effects, frozen, configurations)
+    sampled = {check.name: check for check in checks}
+    return replace(
+        at_M0,
+        sampled_data_spectral_radius=max(frozen["proposed"].worst, nominal["proposed"]),
+        sampled_data_spectral_radius_lin_lc=max(frozen["lin_lc"].worst, nominal["lin_lc"]),
+        checks=tuple(sampled.get(check.name, check) for check in at_M0.checks),
+        configurations=configurations,
+        frozen_radii=frozen,
+        certificates=certificates,
     )
 
 
@@ -356,21 +430,22 @@ def plant_spectral_radii(
     design: Design,
     plant: LumpedParameters | SerialArmModel,
     effects: LoopEffects = NO_EFFECTS,
+    configurations: tuple[tuple[float, ...], ...] = (),
 ) -> dict[str, float]:
     """The sampled-data spectral radius of each ``LOOP_CONTROLLERS`` loop with the filters
     *as designed* (on the nominal model) closed around the linear part ``M0, B`` of
     ``plant`` (another arm's theta, or a serial arm's model) with ``effects``: the design
-    report's check, asked of a sampled plant. On the design's own nominal model it is the
-    design's radii (``with_effects``')."""
+    report's check, asked of a sampled plant; with ``configurations`` (joint angles, rad),
+    the worst of that and the loops with the plant's own ``M*(q)`` frozen at each
+    (``models.design.configurations``). On the design's own nominal model without
+    configurations it is the design's radii (``with_effects``')."""
     model = LumpedModel(plant) if isinstance(plant, LumpedParameters) else plant
-    return _loop_radii(
-        model.M0(),
-        model.B(),
-        {"proposed": design.proposed_filter, "lin_lc": design.lin_lc_filter},
-        design.config.nonlinear.alpha_star,
-        design.config.sample_time,
-        effects,
-    )
+    filters = {"proposed": design.proposed_filter, "lin_lc": design.lin_lc_filter}
+    alpha_star, T = design.config.nonlinear.alpha_star, design.config.sample_time
+    B = model.B()
+    masses = [model.M0(), *(model.M(np.asarray(q, dtype=float)) for q in configurations)]
+    radii = [_radii(_loop_transitions(M, B, filters, alpha_star, T, effects)) for M in masses]
+    return {name: max(r[name] for r in radii) for name in LOOP_CONTROLLERS}
 
 
 def compute_design(config: ControllerConfig | None = None) -> Design:
@@ -399,9 +474,9 @@ def compute_design(config: ControllerConfig | None = None) -> Design:
     nc_gain = np.hstack([np.eye(n), -nonlinear.alpha_star * np.eye(n)])
     lin_lc_filter = lc.discretise(T, method)
     proposed_filter = stack(nc, velocity_bound_filter(nonlinear.filter_a, n)).discretise(T, method)
-    radii = _loop_radii(
+    radii = _radii(_loop_transitions(
         M0, B, {"proposed": proposed_filter, "lin_lc": lin_lc_filter}, nonlinear.alpha_star, T
-    )
+    ))
     continuous_poles = _sorted_poles(augmented.A_a - augmented.B_a1 @ lqr.K)
     poles_with_nc = _sorted_poles(continuous_closed_loop(M0, B, nc, nc_gain))
     lc_filter_poles = _sorted_poles(lc.A)

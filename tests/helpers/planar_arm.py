@@ -41,9 +41,11 @@ def _limits_of(limits: Limits | Sequence[Limits], links: int) -> list[Limits]:
 
 
 def planar_arm_text(links: int, limits: Limits | Sequence[Limits] = None,
-                    name: str | None = None) -> str:  # fmt: skip
+                    name: str | None = None, gear_scale: float = 1.0) -> str:  # fmt: skip
     """The URDF text of an ``links``-link planar arm; ``limits``: ``None`` (continuous
-    joints), one ``(lower, upper)`` pair (rad) for every joint, or one entry per joint."""
+    joints), one ``(lower, upper)`` pair (rad) for every joint, or one entry per joint;
+    ``gear_scale`` multiplies every gear ratio (a light gear, well below 1, leaves the
+    links' inertia, which varies with the configuration, in charge of ``M*(q)``)."""
     if links < 1:
         raise ValueError(f"links = {links}; at least 1 is required")
     per_joint = _limits_of(limits, links)
@@ -108,7 +110,7 @@ def planar_arm_text(links: int, limits: Limits | Sequence[Limits] = None,
             "</hardwareInterface></joint>\n"
             f'    <actuator name="motor{i + 1}">\n'
             f'      <drake:rotor_inertia value="{k["rotor"]:.6g}"/>\n'
-            f'      <drake:gear_ratio value="{k["gear"]:.6g}"/>\n'
+            f'      <drake:gear_ratio value="{k["gear"] * gear_scale:.6g}"/>\n'
             f'      <posfb:motor_constant value="{k["motor_constant"]:.6g}"/>\n'
             "    </actuator>\n  </transmission>"
         )
@@ -121,12 +123,16 @@ def planar_arm_urdf(links: int, directory: Path, **options: object) -> Path:
 
     Options: ``limits`` (``None``: continuous joints; one ``(lower, upper)`` pair in rad
     for every joint; or one entry per joint, ``None`` for a continuous one), ``name``
-    (the robot's name and file stem, default ``planar_arm_<links>``)."""
-    known = {"limits", "name"}
+    (the robot's name and file stem, default ``planar_arm_<links>``), ``gear_scale``
+    (``planar_arm_text``'s)."""
+    known = {"limits", "name", "gear_scale"}
     unknown = set(options) - known
     if unknown:
         raise TypeError(f"unknown options {sorted(unknown)}; known: {sorted(known)}")
     name = str(options.get("name") or f"planar_arm_{links}")
     path = Path(directory) / f"{name}.urdf"
-    path.write_text(planar_arm_text(links, options.get("limits"), name))  # type: ignore[arg-type]
+    text = planar_arm_text(
+        links, options.get("limits"), name, float(options.get("gear_scale", 1.0))  # type: ignore[arg-type]
+    )
+    path.write_text(text)
     return path

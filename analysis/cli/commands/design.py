@@ -204,9 +204,9 @@ def run(args: argparse.Namespace) -> int:
     if linear is not None:
         from posfb.analysis.design.margins_report import format_margins, margins_to_dict
 
-        margins = linear.margins()
-        found["margins"] = margins_to_dict(linear, margins)
-        text.append(format_margins(linear, margins))
+        margins, frozen = linear.margins(), linear.frozen_margins()
+        found["margins"] = margins_to_dict(linear, margins, frozen)
+        text.append(format_margins(linear, margins, frozen))
         if out is not None:
             found["files"] = write_margins(out, linear, margins, found["margins"])
             text.append("wrote " + ", ".join(found["files"]))

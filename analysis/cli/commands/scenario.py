@@ -1,6 +1,9 @@
 """``posfb scenario dump|check|init``: the settings tree of a run, written out in full,
-validated with the design verdict (Sec. 3 checks, sampled-data radius) and the margins
-of the controller's sampled loop (``posfb design --margins``), or derived for a
+validated with the design verdict (Sec. 3 checks, sampled-data radius over the path's
+configurations) and the margins of the controller's sampled loop (``posfb design
+--margins``), confirmed on the exact arm (``analysis.design.exact_arm``; ``--no-sim``
+skips it; a run that is not ``ok`` sets the exit code as ``simulate``'s does), or derived
+for a
 new arm from its URDF (``analysis.design.scenario_init``)."""
 
 from __future__ import annotations
@@ -29,6 +32,10 @@ def configure(parser: argparse.ArgumentParser) -> None:
     check.add_argument(
         "--strict", action="store_true", help="exit 1 when any design check fails, not only "
         "those of the scenario's controller",
+    )  # fmt: skip
+    check.add_argument(
+        "--no-sim", action="store_true", help="skip the simulation of the scenario's arm "
+        "that confirms the linear verdict",
     )  # fmt: skip
     check.set_defaults(handler=run_check)
     init = actions.add_parser(
@@ -80,9 +87,17 @@ def run_check(args: argparse.Namespace) -> int:
     whose = "the design" if args.strict else f"the {config.controller} controller"
     if failed:
         print(f"verdict: {whose} fails {', '.join(failed)}")
-        return EXIT_FAILED_CHECK
-    print(f"verdict: every check of {whose} passed")
-    return 0
+    else:
+        print(f"verdict: every check of {whose} passed")
+    code = EXIT_FAILED_CHECK if failed else 0
+    if not args.no_sim:
+        from posfb.analysis.common.errors import run_exit_code
+        from posfb.analysis.design.exact_arm import agreement, exact_arm_run
+
+        run = exact_arm_run(resolved)
+        print(agreement(not failed, run))
+        code = code or run_exit_code([run.verdict.status])
+    return code
 
 
 def margins_text(resolved: ResolvedScenario) -> str:
@@ -95,7 +110,7 @@ def margins_text(resolved: ResolvedScenario) -> str:
         linear = linear_design(resolved)
     except ValueError as error:
         return f"margins: none ({error})"
-    return format_margins(linear, linear.margins())
+    return format_margins(linear, linear.margins(), linear.frozen_margins())
 
 
 def run_init(args: argparse.Namespace) -> int:
@@ -111,8 +126,10 @@ def run_init(args: argparse.Namespace) -> int:
     print(
         f"{result.path}: {result.joints} joints; trajectory at {result.scale:.3g} of the rule's "
         f"motion, nominal peak {result.peak_fraction:.0%} of the voltage limit; alpha* = "
-        f"{result.alpha_star:g} (nominal sampled-data radius {result.radius:.4f}, Lin+LC "
-        f"{result.radius_lin_lc:.4f})"
+        f"{result.alpha_star:g} (sampled-data radius over the path's configurations "
+        f"{result.radius:.4f}, Lin+LC {result.radius_lin_lc:.4f})"
     )
+    if result.reason:
+        print(f"warning: {result.reason}")
     print(f"next: posfb scenario check {result.path}")
     return 0
