@@ -97,3 +97,13 @@ def test_a_lin_lc_entry_reports_only_its_own_design(capsys):
     data = json.loads(capsys.readouterr().out)
     assert set(data["checks"]) == {"riccati", "lc_filter", "sampled_data_lin_lc"}
     assert data["sampled_data_spectral_radius"] is None and data["E"] is None
+
+
+def test_the_design_is_confirmed_on_the_exact_arm_unless_no_sim(capsys):
+    code, out, err = _run(capsys, "design", "--set", "timing.duration=1", "--json")
+    assert code == 0, err
+    exact = json.loads(out)["exact_arm"]
+    assert exact["status"] == "ok" and exact["reached_s"] == pytest.approx(1.0)
+    code, out, err = _run(capsys, "design", "--no-sim", "--json")
+    assert code == 0, err
+    assert "exact_arm" not in json.loads(out)

@@ -192,7 +192,7 @@ def test_the_agreement_line_names_a_disagreement():
     assert line.startswith("exact arm: the linear checks pass;") and "47 %" in line
     ok = ExactArmRun(Verdict("ok", ""), 20.0, 20.0)
     assert "as the linear checks say" in agreement(True, ok)
-    assert "the linear checks fail" in agreement(False, ok)
+    assert "though the linear checks fail" in agreement(False, ok)
 
 
 def test_the_certificate_is_reported_for_the_scenario_controller(light_gear):

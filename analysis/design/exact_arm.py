@@ -32,10 +32,19 @@ class ExactArmRun:
                 "reached_s": self.reached, "duration_s": self.duration}  # fmt: skip
 
 
+#: The status of a run the controller refused to start (a setting its design refuses, such
+#: as a ``G(s)`` pole below ``ln 2 / T_s``: the design report names it as a failed check).
+REFUSED = "refused"
+
+
 def exact_arm_run(resolved: ResolvedScenario) -> ExactArmRun:
-    """Simulate the scenario's closed loop on its arm over its duration and judge it."""
+    """Simulate the scenario's closed loop on its arm over its duration and judge it; a
+    controller that refuses its settings gives a ``REFUSED`` run that reached 0 s."""
     config = resolved.config
-    result = ClosedLoopRunner(config).run()
+    try:
+        result = ClosedLoopRunner(config).run()
+    except ValueError as error:
+        return ExactArmRun(Verdict(REFUSED, str(error)), 0.0, config.duration)
     return ExactArmRun(run_verdict(result), float(result.times[-1]), config.duration)
 
 
@@ -44,9 +53,12 @@ def agreement(linear_passed: bool, run: ExactArmRun) -> str:
     span = f"{run.duration:g} s"
     if run.ok:
         said = "as the linear checks say" if linear_passed else (
-            "the linear checks fail: a frozen configuration's verdict is conservative where "
-            "the arm passes it quickly, or the failure lies beyond what this run excites")
+            "though the linear checks fail: a linear instability may settle into a small "
+            "limit cycle, or the arm pass the failing configurations quickly; the run "
+            "verdict's bounds are not a stability proof")
         return f"exact arm: the {span} run of the scenario's arm is ok ({said})"
+    if run.verdict.status == REFUSED:
+        return f"exact arm: not run: the controller refuses the scenario ({run.verdict.message})"
     what = f"{run.verdict.status}: {run.verdict.message}"
     if linear_passed:
         return f"exact arm: the linear checks pass; the {span} run of the scenario's arm is {what}"

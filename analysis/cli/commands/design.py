@@ -5,9 +5,12 @@ The sampled-data spectral radius is that of the nominal linear plant
 ``M0* q'' + B* q' = u`` held over ``T_s`` with the discretised ``tau_LC + tau_NC``
 filters at ``alpha = alpha*``, with the scenario's linear effects (compute and sensor
 delay, lag, compliant gear: ``analysis.common.loop_effects``; the nonlinear settings it leaves
-out are named in one note on stderr and under ``left_out`` in JSON). A failed check is
+out are named in one note on stderr and under ``left_out`` in JSON), at ``M0*`` and with
+``M*(q)`` frozen at the configurations of the path (the worst reported). A failed check is
 reported (``warnings`` in JSON, ``FAILED`` in the text) and the command exits 0 (the
-report is the result), or 1 with ``--strict``.
+report is the result), or 1 with ``--strict``. The report ends with a run of the
+scenario's arm (``analysis.design.exact_arm``; ``exact_arm`` in JSON; ``--no-sim``
+skips it): a run that is not ``ok`` sets the exit code as ``simulate``'s does.
 
 ``--margins`` adds the margins of the scenario's controller's sampled loop (gain, phase,
 delay and disk margins, sensitivity peaks: ``analysis.design.margins_report``; in JSON the
@@ -74,6 +77,10 @@ def configure(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--generations", type=_positive_int, metavar="G",
         help=f"--worst-case: generations of the search (default {DEFAULT_GENERATIONS})",
+    )  # fmt: skip
+    parser.add_argument(
+        "--no-sim", action="store_true", help="skip the simulation of the scenario's arm "
+        "that confirms the linear verdict (analysis/design/exact_arm.py)",
     )  # fmt: skip
     add_map_arguments(parser)
     parser.set_defaults(handler=run)
@@ -210,8 +217,18 @@ def run(args: argparse.Namespace) -> int:
         if out is not None:
             found["files"] = write_margins(out, linear, margins, found["margins"])
             text.append("wrote " + ", ".join(found["files"]))
+    code = EXIT_FAILED_CHECK if args.strict and failed else 0
+    if not args.no_sim:
+        from posfb.analysis.common.errors import run_exit_code
+        from posfb.analysis.design.exact_arm import REFUSED, agreement, exact_arm_run
+
+        run = exact_arm_run(resolved)
+        found["exact_arm"] = run.to_dict()
+        text.append(agreement(not failed, run))
+        if run.verdict.status != REFUSED:  # a refusal is the design report's failed check
+            code = code or run_exit_code([run.verdict.status])
     print(json.dumps(found, allow_nan=False) if args.json else "\n".join(text))
-    return EXIT_FAILED_CHECK if args.strict and failed else 0
+    return code
 
 
 def run_worst_case(args: argparse.Namespace) -> int:

@@ -92,11 +92,12 @@ def run_check(args: argparse.Namespace) -> int:
     code = EXIT_FAILED_CHECK if failed else 0
     if not args.no_sim:
         from posfb.analysis.common.errors import run_exit_code
-        from posfb.analysis.design.exact_arm import agreement, exact_arm_run
+        from posfb.analysis.design.exact_arm import REFUSED, agreement, exact_arm_run
 
         run = exact_arm_run(resolved)
         print(agreement(not failed, run))
-        code = code or run_exit_code([run.verdict.status])
+        if run.verdict.status != REFUSED:  # a refusal is the design report's failed check
+            code = code or run_exit_code([run.verdict.status])
     return code
 
 
