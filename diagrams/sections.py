@@ -48,10 +48,12 @@ DIVERGENCE_BOUND = 1.0
 LOST_BOUND = 0.25
 
 #: Default fraction of the path's excursion (the largest half peak-to-peak of any joint's
-#: ``q_d`` over the run) that a joint's RMS error over the run's second half may reach
-#: before a finished run counts as ``lost`` (``analysis.common.metrics.judge``): a bound
-#: stated relative to the path, so that a small path is judged as strictly as a large one
-#: and the verdict does not depend on the run's length once it covers the path. About
+#: ``q_d`` over the path's first ``DURATION`` seconds, or the run if longer:
+#: ``analysis.common.metrics.path_excursion``) that a joint's RMS error over the run's
+#: second half may reach before a finished run counts as ``lost``
+#: (``analysis.common.metrics.judge``): a bound stated relative to the path, so that a
+#: small path is judged as strictly as a large one and the verdict does not depend on
+#: the run's length. About
 #: twice the largest such ratio of any registered controller on a shipped scenario over
 #: 20 s (0.149: PD + gravity's 0.117 rad on joint 2 of the paper's payload case, whose
 #: path's excursion is 0.785 rad; the paper's three and ADRC stay below 0.08), and well
@@ -152,10 +154,12 @@ class Timing:
     (s, a whole number of periods), the ``|q~|`` (rad) beyond which a run is stopped
     as diverged, the verdict's bounds on a run that finished (``lost_bound``: the largest
     RMS ``|q~|`` (rad) a joint may have over the run's second half; ``lost_fraction``: the
-    largest such RMS as a fraction of the path's excursion, the smaller of the two bounds
-    applying; ``saturated_share``: the largest share of the second half's samples with a
-    commanded voltage beyond the limit; ``analysis.common.metrics.run_verdict``), and
-    Drake's integrator settings."""
+    largest such RMS as a fraction of the path's excursion (the largest half peak-to-peak
+    of a joint's ``q_d``, ``analysis.common.metrics.path_excursion``; the smaller of the
+    two bounds applies);
+    ``saturated_share``: the largest share of the second half's samples with a commanded
+    voltage beyond the limit; ``analysis.common.metrics.run_verdict``), and Drake's
+    integrator settings."""
 
     sample_time: float = field(default_factory=default_of(ControllerConfig, "sample_time"))
     duration: float = DURATION

@@ -21,6 +21,7 @@ from posfb.analysis.common.metrics import (
 )
 from posfb.diagrams.resolve import load_scenario, run_scenario
 from posfb.diagrams.sections import SATURATED_SHARE, Timing
+from posfb.models.trajectory import JointWave, WaveTrajectory
 
 
 def _paper_rms(samples: list[float]) -> float:
@@ -96,101 +97,94 @@ def test_a_quantised_encoder_moves_the_measured_rms_by_at_most_half_a_count(coun
 #: The verdict's bounds in the tests below, on a run of ``N0`` samples at a +-24 V limit.
 N0, LIMIT, LOST, SHARE = 100, 24.0, 0.1, 0.5
 
-#: Bounds whose relative one never binds on the paths below (half peak-to-peak 1 rad).
-BOUNDS = Timing(lost_bound=LOST, lost_fraction=1.0, saturated_share=SHARE)
+#: Bounds whose relative one never binds on a path of ``EXCURSION`` (rad).
+BOUNDS, EXCURSION = Timing(lost_bound=LOST, lost_fraction=1.0, saturated_share=SHARE), 1.0
 
 
-def _logs(joints: int = 2, samples: int = N0) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """A run that tracks perfectly and never saturates on a path that swings each joint
-    from -1 to +1 rad: (q_error, q_desired, u_commanded)."""
-    path = np.cos(np.pi * np.arange(samples) / 10)[:, None] * np.ones(joints)
-    return np.zeros((samples, joints)), path, np.zeros((samples, joints))
+def _logs(joints: int = 2, samples: int = N0) -> tuple[np.ndarray, np.ndarray]:
+    """A run that tracks perfectly and never saturates: (q_error, u_commanded)."""
+    return np.zeros((samples, joints)), np.zeros((samples, joints))
 
 
 def test_a_run_whose_second_half_is_far_from_its_path_is_lost():
-    error, path, commanded = _logs()
+    error, commanded = _logs()
     error[N0 // 2 :, 1] = 1.01 * LOST  # joint 2, every sample k > N0/2
-    verdict = judge(error, path, commanded, LIMIT, BOUNDS)
+    verdict = judge(error, commanded, LIMIT, EXCURSION, BOUNDS)
     assert verdict.status == "lost"
     assert "q~2" in verdict.message and "timing.lost_bound" in verdict.message
     error[N0 // 2 :, 1] = 0.99 * LOST
-    assert judge(error, path, commanded, LIMIT, BOUNDS).status == "ok"
+    assert judge(error, commanded, LIMIT, EXCURSION, BOUNDS).status == "ok"
 
 
 def test_the_lost_bound_is_a_fraction_of_the_paths_excursion_capped_by_lost_bound():
     # One error, 0.05 rad RMS over the second half, on paths of three sizes: lost where
-    # 0.3 of the path's half peak-to-peak is below it, never beyond the 0.25 rad cap.
+    # 0.3 of the path's excursion is below it, never beyond the 0.25 rad cap.
     bounds = Timing(lost_bound=0.25, lost_fraction=0.3, saturated_share=SHARE)
-    error, unit_path, commanded = _logs()
+    error, commanded = _logs()
     error[N0 // 2 :, 0] = 0.05
-    for half_range, status in ((0.1, "lost"), (0.2, "ok"), (10.0, "ok")):
-        path = half_range * unit_path
-        assert path_excursion(path) == pytest.approx(half_range)
-        verdict = judge(error, path, commanded, LIMIT, bounds)
-        assert verdict.status == status, half_range
+    for excursion, status in ((0.1, "lost"), (0.2, "ok"), (10.0, "ok")):
+        assert judge(error, commanded, LIMIT, excursion, bounds).status == status, excursion
     assert lost_threshold(0.1, bounds) == pytest.approx(0.03)
     assert lost_threshold(10.0, bounds) == 0.25  # the cap
-    verdict = judge(error, 0.1 * unit_path, commanded, LIMIT, bounds)
+    verdict = judge(error, commanded, LIMIT, 0.1, bounds)
     assert "0.05 rad > 0.03 rad" in verdict.message
     assert "timing.lost_fraction = 0.3" in verdict.message
     # 0.3 rad RMS is lost on any path, however large: the absolute cap.
     error[N0 // 2 :, 0] = 0.3
-    assert judge(error, 10.0 * unit_path, commanded, LIMIT, bounds).status == "lost"
-
-
-def test_a_joint_that_does_not_move_is_judged_against_the_paths_size():
-    # Joint 2 is held still; its 0.05 rad error is judged against joint 1's 1 rad swing.
-    bounds = Timing(lost_bound=0.25, lost_fraction=0.3, saturated_share=SHARE)
-    error, path, commanded = _logs()
-    path[:, 1] = 0.7
-    error[N0 // 2 :, 1] = 0.05
-    assert judge(error, path, commanded, LIMIT, bounds).status == "ok"
+    assert judge(error, commanded, LIMIT, 10.0, bounds).status == "lost"
     # A path that does not move at all is judged against timing.lost_bound alone.
-    assert path_excursion(np.full((N0, 2), 0.7)) == 0.0
-    assert judge(error, np.full((N0, 2), 0.7), commanded, LIMIT, bounds).status == "ok"
-    error[N0 // 2 :, 1] = 0.26
-    assert judge(error, np.full((N0, 2), 0.7), commanded, LIMIT, bounds).status == "lost"
+    assert lost_threshold(0.0, bounds) == 0.25
+
+
+def test_the_paths_excursion_is_its_largest_half_range_whatever_the_runs_length():
+    # The paper's path: joint 2 swings from 0 to pi/3 + pi/6 (Sec. 4.2), the larger half
+    # range of the two; a 0.3 s run, still in the soft start, is judged against it too.
+    paper = WaveTrajectory()
+    for duration in (0.3, 5.0, 20.0):
+        assert path_excursion(paper, duration) == pytest.approx(np.pi / 4, rel=1e-4)
+    still = WaveTrajectory((JointWave(0.7, 0.0, 0.0, 1.0), JointWave(0.0, 0.0, 0.0, 1.0)))
+    assert path_excursion(still, 5.0) == 0.0
 
 
 def test_a_start_up_transient_is_not_judged():
     # Far from the path and at the limit on the whole first half, then on it: ok.
-    error, path, commanded = _logs()
+    error, commanded = _logs()
     error[: N0 // 2] = 0.9
     commanded[: N0 // 2] = 2 * LIMIT
-    verdict = judge(error, path, commanded, LIMIT, BOUNDS)
-    assert verdict == judge(*_logs(), LIMIT, BOUNDS) == Verdict("ok", "")
+    verdict = judge(error, commanded, LIMIT, EXCURSION, BOUNDS)
+    assert verdict == judge(*_logs(), LIMIT, EXCURSION, BOUNDS) == Verdict("ok", "")
 
 
 def test_the_second_half_of_an_odd_run_is_its_samples_after_the_middle():
     # N0 = 5: the second half is k = 3..5 (t > duration / 2); k = 1, 2 are not judged.
-    error, path, commanded = _logs(samples=5)
+    error, commanded = _logs(samples=5)
     error[:2] = 0.5
-    assert judge(error, path, commanded, LIMIT, BOUNDS).status == "ok"
+    assert judge(error, commanded, LIMIT, EXCURSION, BOUNDS).status == "ok"
     error[2] = 0.5
-    assert judge(error, path, commanded, LIMIT, BOUNDS).status == "lost"
+    assert judge(error, commanded, LIMIT, EXCURSION, BOUNDS).status == "lost"
 
 
 def test_a_run_at_the_limit_more_than_its_share_of_the_second_half_is_saturated():
-    error, path, commanded = _logs()
+    error, commanded = _logs()
     half = N0 - N0 // 2
     commanded[N0 // 2 : N0 // 2 + half // 2, 0] = -1.5 * LIMIT  # exactly half: not more
-    assert judge(error, path, commanded, LIMIT, BOUNDS).status == "ok"
+    assert judge(error, commanded, LIMIT, EXCURSION, BOUNDS).status == "ok"
     commanded[N0 // 2 + half // 2, 0] = 1.5 * LIMIT  # one sample more
-    verdict = judge(error, path, commanded, LIMIT, BOUNDS)
+    verdict = judge(error, commanded, LIMIT, EXCURSION, BOUNDS)
     assert verdict.status == "saturated" and "timing.saturated_share" in verdict.message
 
 
 def test_saturation_is_judged_against_each_joints_own_limit():
-    error, path, commanded = _logs()
+    error, commanded = _logs()
     commanded[:, 1] = 10.0
-    assert judge(error, path, commanded, (LIMIT, 5.0), BOUNDS).status == "saturated"
-    assert judge(error, path, commanded, (5.0, LIMIT), BOUNDS).status == "ok"
+    assert judge(error, commanded, (LIMIT, 5.0), EXCURSION, BOUNDS).status == "saturated"
+    assert judge(error, commanded, (5.0, LIMIT), EXCURSION, BOUNDS).status == "ok"
 
 
 def test_a_run_both_lost_and_saturated_is_lost_and_its_message_says_both():
-    error, path, commanded = _logs()
+    error, commanded = _logs()
     error[:, 0], commanded[:, 0] = 0.5, 2 * LIMIT
-    verdict = judge(error, path, commanded, LIMIT, BOUNDS)
+    verdict = judge(error, commanded, LIMIT, EXCURSION, BOUNDS)
     assert verdict.status == "lost"
     assert "timing.lost_bound" in verdict.message and "timing.saturated_share" in verdict.message
 

@@ -25,10 +25,11 @@ The verdict on a run (``run_verdict``), from best to worst (``RUN_STATUSES``):
   (the samples ``k > N0/2``) exceeds ``timing.lost_fraction`` of the path's excursion,
   or ``timing.lost_bound`` (rad) if that is smaller: the arm is far from its path on
   average once the start-up transient is over. The path's excursion is the largest half
-  peak-to-peak of any joint's ``q_d`` over the run (``path_excursion``): the size of the
-  motion asked for, the same for a run of any length that covers the path once; a joint
-  that does not move is judged against the path's size, and a path that does not move
-  at all against ``timing.lost_bound`` alone;
+  peak-to-peak of any joint's ``q_d`` over the path's first ``diagrams.sections.DURATION``
+  seconds (the paper's run) or the run if longer (``path_excursion``): the size of the
+  motion asked for, the same for a run of any length, a short one still in the path's
+  soft start included; a joint that does not move is judged against the path's size,
+  and a path that does not move at all against ``timing.lost_bound`` alone;
 * ``saturated``: it reached its end and stayed near its path, but on more than
   ``timing.saturated_share`` of the second half's samples some commanded voltage is
   beyond its limit (``saturated_fraction``'s test): the loop spends that time open, at
@@ -55,7 +56,8 @@ from dataclasses import asdict, dataclass
 import numpy as np
 
 from posfb.diagrams.closed_loop import ClosedLoopResult
-from posfb.diagrams.sections import Timing
+from posfb.diagrams.sections import DURATION, Timing
+from posfb.models.trajectory import Trajectory
 
 #: A run's statuses, best first (module docstring); a Monte-Carlo store adds
 #: ``error`` for a run that raised (``analysis.montecarlo.records``).
@@ -173,13 +175,21 @@ class Verdict:
         return self.message
 
 
-def path_excursion(q_desired: np.ndarray) -> float:
-    """The path's excursion (rad): the largest half peak-to-peak ``(max - min) / 2`` of
-    any joint's desired position over the samples ``q_desired`` (rows; one column per
-    joint), 0 for a path that does not move."""
-    path = np.asarray(q_desired, dtype=float)
-    if path.ndim != 2 or path.shape[0] == 0:
-        raise ValueError(f"q_desired has shape {path.shape}; at least one sample is required")
+#: Most points at which ``path_excursion`` evaluates the path: the paper's 20 s run at
+#: its 10 ms sample time; a sine of 4 rad/s sampled that finely has its peak within 2e-4
+#: of its amplitude.
+PATH_POINTS = 2000
+
+
+def path_excursion(trajectory: Trajectory, duration: float) -> float:
+    """The path's excursion (rad): the largest half peak-to-peak ``(max - min) / 2`` of any
+    joint's desired position over the path's first ``max(duration, DURATION)`` seconds
+    (``diagrams.sections.DURATION``, the paper's run), evaluated at ``PATH_POINTS + 1``
+    evenly spaced instants; 0 for a path that does not move. Over that horizon and not
+    only the run's, so that a short run, still in the path's soft start, is judged
+    against the motion the path asks for, as a long one is."""
+    times = np.linspace(0.0, max(duration, DURATION), PATH_POINTS + 1)
+    path = np.array([trajectory.evaluate(float(t))[0] for t in times])
     return float(np.max(np.ptp(path, axis=0)) / 2)
 
 
@@ -194,23 +204,22 @@ def lost_threshold(excursion: float, timing: Timing) -> float:
 
 def judge(
     q_error: np.ndarray,
-    q_desired: np.ndarray,
     u_commanded: np.ndarray,
     voltage_limit: float | Sequence[float],
+    excursion: float,
     timing: Timing,
 ) -> Verdict:
     """The verdict on a run that reached its end (module docstring), from its samples
-    ``k = 1..N0`` (rows; one column per joint): the true error ``q_error`` (rad), the
-    desired position ``q_desired`` (rad) and the commanded voltage (V), with the bounds
-    ``timing.lost_bound``, ``timing.lost_fraction`` and ``timing.saturated_share``. The
-    second half is the rows ``k > N0/2``."""
+    ``k = 1..N0`` (rows; one column per joint): the true error ``q_error`` (rad) and the
+    commanded voltage (V), on a path of ``excursion`` (rad, ``path_excursion``), with the
+    bounds ``timing.lost_bound``, ``timing.lost_fraction`` and ``timing.saturated_share``.
+    The second half is the rows ``k > N0/2``."""
     error = np.asarray(q_error, dtype=float)
     if error.ndim != 2 or error.shape[0] == 0:
         raise ValueError(f"q_error has shape {error.shape}; at least one sample is required")
     half = error.shape[0] // 2
     late_rms = rms(error[half:])
     share = float(np.mean(saturated_samples(np.asarray(u_commanded)[half:], voltage_limit)))
-    excursion = path_excursion(q_desired)
     threshold = lost_threshold(excursion, timing)
     reasons = []
     worst = int(np.argmax(late_rms))
@@ -241,10 +250,11 @@ def run_verdict(result: ClosedLoopResult) -> Verdict:
         return Verdict(result.status, result.message)
     if len(result.times) < 2:
         return Verdict("ok", "")
+    config = result.config
     return judge(
         result.q_error[1:],
-        result.q_desired[1:],
         result.u_commanded[1:],
-        result.config.voltage_limit,
-        result.config.timing,
+        config.voltage_limit,
+        path_excursion(config.trajectory, config.duration),
+        config.timing,
     )
