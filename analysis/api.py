@@ -25,7 +25,6 @@ from typing import TYPE_CHECKING
 from posfb.analysis.common import progress as progress_bars
 from posfb.analysis.common.cases import CASE_FILES
 from posfb.analysis.common.metrics import (
-    NOT_TRACKED_STATUSES,
     RunMetrics,
     Verdict,
     run_metrics,
@@ -77,7 +76,8 @@ Settings = Mapping[str, object] | Iterable[str]
 class ScenarioWarning(UserWarning):
     """Something about a scenario that does not stop a run but may spoil it: a
     trajectory beyond the voltage limit, a design check the controller fails, or a run
-    that finished ``saturated`` or ``lost`` (``analysis.common.metrics.run_verdict``)."""
+    that is not ``ok``: ``diverged``, or finished ``saturated`` or ``lost``
+    (``analysis.common.metrics.run_verdict``)."""
 
 
 def shipped_scenarios() -> dict[str, Path]:
@@ -360,8 +360,9 @@ def simulate(
     Run
         ``.rms_q``, ``.rms_u``, ``.status``, ``.frame()``, ``.plot()``, ``.save(path)``.
         A run that diverges returns with ``status == "diverged"``; it does not raise.
-        One that finishes ``saturated`` or ``lost`` also issues a ``ScenarioWarning``
-        saying why.
+        A run that is not ``ok`` (``diverged``, or finished ``saturated`` or ``lost``)
+        also issues a ``ScenarioWarning`` saying why (``compare`` and the command line
+        print it as one line per run).
 
     Raises
     ------
@@ -386,8 +387,9 @@ def simulate(
     with progress_bars.run_progress(config.duration, config.spec.label, progress) as update:
         result = ClosedLoopRunner(config, controller=compiled).run(progress=update)
     run = Run(result, loaded)
-    if run.status in NOT_TRACKED_STATUSES:
-        warnings.warn(ScenarioWarning(f"the {run.label} run {run.message}"), stacklevel=2)
+    if run.status != "ok":
+        warnings.warn(ScenarioWarning(f"the {run.label} run {run.verdict.sentence()}"),
+                      stacklevel=2)  # fmt: skip
     return run
 
 

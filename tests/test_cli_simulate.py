@@ -112,7 +112,8 @@ def test_a_diverged_run_exits_4_and_still_prints_its_metrics(capsys):
 
 
 def _run_warnings(stderr: str) -> list[str]:
-    """The warning lines about a run's verdict (``saturated``, ``lost``) on stderr."""
+    """The warning lines about a run's verdict (``saturated``, ``lost``, ``diverged``) on
+    stderr."""
     return [line for line in stderr.splitlines() if ": warning: the " in line and " run " in line]
 
 
@@ -143,8 +144,21 @@ def test_compare_warns_about_the_lost_run_and_exits_with_the_worst_runs_code(wea
     statuses = {kind: run["status"] for kind, run in json.loads(result.stdout).items()}
     assert statuses == {"lin_lc": "lost", "pid": "diverged"}
     assert result.returncode == EXIT_DIVERGED  # the worse of the two
-    (warning,) = _run_warnings(result.stderr)
-    assert warning.startswith("posfb compare: warning: the Lin + LC run lost its path")
+    lost, diverged = _run_warnings(result.stderr)
+    assert lost.startswith("posfb compare: warning: the Lin + LC run lost its path")
+    assert diverged.startswith("posfb compare: warning: the computed torque + PID run diverged: ")
+
+
+def test_compare_names_every_run_that_is_not_ok_and_exits_with_the_worst_code(capsys):
+    # Issue 40: a diverged run gets its line too (as a saturated or lost one does).
+    code = main(["compare", "--controllers", "lin_lc,pid", "--duration", "0.5", "--set",
+                 "timing.divergence_bound=1e-9", "--no-progress"])  # fmt: skip
+    assert code == EXIT_DIVERGED
+    warnings = _run_warnings(capsys.readouterr().err)
+    assert len(warnings) == 2, warnings
+    for warning, label in zip(warnings, ("Lin + LC", "computed torque + PID"), strict=True):
+        assert warning.startswith(f"posfb compare: warning: the {label} run diverged: |q~| = ")
+        assert "exceeds divergence_bound = 1e-09 rad" in warning
 
 
 def test_the_exit_code_of_runs_is_the_worst_runs():

@@ -139,6 +139,8 @@ def test_payload_proposed_beats_lin_lc_on_joint_2(payload_runs):
         ({"actuator": Actuator(voltage_limit=[-24.0])}, "actuator.voltage_limit[0] = -24.0"),
         ({"timing": Timing(divergence_bound=math.nan)}, "timing.divergence_bound = nan"),
         ({"timing": Timing(lost_bound=0.0)}, "timing.lost_bound = 0.0 is not positive"),
+        ({"timing": Timing(lost_fraction=0.0)}, "timing.lost_fraction = 0.0 is not positive"),
+        ({"timing": Timing(lost_fraction=1.5)}, "timing.lost_fraction = 1.5; a fraction in"),
         ({"timing": Timing(saturated_share=1.5)}, "timing.saturated_share = 1.5; a share in"),
         ({"timing": Timing(saturated_share=math.inf)}, "timing.saturated_share = inf"),
         ({"sensor": Sensor(noise_std=[-1.0])}, "sensor.noise_std[0] = -1.0"),

@@ -183,6 +183,10 @@ CASES = {
     ),
     "zero voltage": Case(("simulate", "--set", "actuator.voltage_limit=0"), "voltage_limit"),
     "zero lost bound": Case(("simulate", "--set", "timing.lost_bound=0"), "timing.lost_bound = 0"),
+    "lost fraction above 1": Case(
+        ("simulate", "--set", "timing.lost_fraction=2"),
+        "timing.lost_fraction = 2.0; a fraction in (0, 1] of the path's excursion is required",
+    ),
     "saturated share above 1": Case(
         ("simulate", "--set", "timing.saturated_share=1.5"),
         "timing.saturated_share = 1.5; a share in [0, 1] is required",

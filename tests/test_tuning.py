@@ -23,6 +23,7 @@ import scipy.stats
 
 import posfb
 from helpers.planar_arm import planar_arm_urdf
+from posfb.analysis.cli import main
 from posfb.analysis.common.cases import SCENARIO_DIR
 from posfb.analysis.design.budget import BudgetError, Deadline
 from posfb.analysis.design.guarantee import (
@@ -34,7 +35,14 @@ from posfb.analysis.design.guarantee import (
 from posfb.analysis.design.problem import TuningProblem, apply_knobs, knobs, torque_bandwidth
 from posfb.analysis.design.search import search
 from posfb.analysis.design.settings import MAX_DESIGN_PLANTS, MAX_VERIFICATION_PLANTS
-from posfb.analysis.design.tune import EDGE_SHARE, _entry, _simulate, edge_values
+from posfb.analysis.design.tune import (
+    EDGE_SHARE,
+    SimulatedCheck,
+    _entry,
+    _simulate,
+    edge_values,
+    worse_run,
+)
 from posfb.analysis.uncertainty.plants import linear_plants, plant_family
 from posfb.diagrams.resolve import resolve
 from posfb.models.design import ControllerConfig, compute_design, design_loop
@@ -405,3 +413,40 @@ def test_the_search_stops_inside_a_generation_when_the_budget_runs_out():
         search(problem, 0, 30, passed)
     with pytest.raises(BudgetError, match="judging a lin_lc design on plant 1 of 3"):
         problem.radii(problem.design(problem.entry), plants)
+
+
+def test_a_check_run_with_a_worse_verdict_is_worse_whatever_its_error():
+    # Issue 40: saturation counts as worse than ok, though the saturated run's RMS error
+    # is smaller; with the same verdict the errors decide; a better verdict is not worse.
+    ok = SimulatedCheck((0.002, 0.003), 0.0, "ok")
+    saturated = SimulatedCheck((0.001, 0.001), 0.3, "saturated", "saturated: ...")
+    lost = SimulatedCheck((0.3, 0.001), 0.0, "lost", "lost its path: ...")
+    assert worse_run(ok, saturated, allowance=1e-4)
+    assert worse_run(saturated, lost, allowance=1e-4)
+    assert not worse_run(saturated, ok, allowance=1e-4)
+    assert not worse_run(lost, saturated, allowance=1e-4)
+    assert worse_run(ok, SimulatedCheck((0.01, 0.01), 0.0, "ok"), allowance=1e-4)
+    assert not worse_run(ok, SimulatedCheck((0.002, 0.0031), 0.0, "ok"), allowance=1e-4)
+
+
+@pytest.mark.slow
+def test_a_design_whose_check_run_is_not_ok_gets_no_guarantee(tmp_path, capsys):
+    # A verdict setting that judges every run lost: the designs are verified as usual, but
+    # the report states no guarantee for them, and says why in one line each.
+    out = tmp_path / "tuned.yaml"
+    code = main(["tune", "paper_nominal", "--out", str(out), *SMALL, "--json",
+                 "--set", "timing.lost_fraction=1e-6", "--accept-worse"])  # fmt: skip
+    captured = capsys.readouterr()
+    assert code == 0, captured.err
+    report = json.loads(captured.out)
+    for controller, entry in report["controllers"].items():
+        assert entry["simulated_after"]["status"] == "lost", controller
+        assert "timing.lost_fraction" in entry["simulated_after"]["message"]
+        assert entry["guarantee"]["certified"] is False
+        assert entry["guarantee"]["statement"].startswith("none stated: its check run is lost")
+    header = [line for line in out.read_text().splitlines() if line.startswith("#")]
+    guarantees = [line for line in header if line.startswith("#   guarantee: ")]
+    assert len(guarantees) == 2, header
+    assert all("none stated: its check run is lost (lost its path" in g for g in guarantees)
+    assert not any("fresh i.i.d. plants" in g for g in guarantees)
+    assert "warning: no guarantee stated: proposed: its check run is lost" in captured.err

@@ -22,20 +22,29 @@ The verdict on a run (``run_verdict``), from best to worst (``RUN_STATUSES``):
 * ``diverged``: the runner stopped it (``|q~|`` beyond ``timing.divergence_bound``, a
   non-finite state, an integrator failure; ``diagrams.closed_loop``);
 * ``lost``: it reached its end, but some joint's RMS error over the run's second half
-  (the samples ``k > N0/2``) exceeds ``timing.lost_bound`` (default 0.25 rad): the arm
-  is far from its path on average once the start-up transient is over;
+  (the samples ``k > N0/2``) exceeds ``timing.lost_fraction`` of the path's excursion,
+  or ``timing.lost_bound`` (rad) if that is smaller: the arm is far from its path on
+  average once the start-up transient is over. The path's excursion is the largest half
+  peak-to-peak of any joint's ``q_d`` over the path's first ``diagrams.sections.DURATION``
+  seconds (the paper's run) or the run if longer (``path_excursion``): the size of the
+  motion asked for, the same for a run of any length, a short one still in the path's
+  soft start included; a joint that does not move is judged against the path's size,
+  and a path that does not move at all against ``timing.lost_bound`` alone;
 * ``saturated``: it reached its end and stayed near its path, but on more than
-  ``timing.saturated_share`` (default 50 %) of the second half's samples some
-  commanded voltage is beyond its limit (``saturated_fraction``'s test): the loop
-  spends most of the time open, at the actuator's limit;
+  ``timing.saturated_share`` of the second half's samples some commanded voltage is
+  beyond its limit (``saturated_fraction``'s test): the loop spends that time open, at
+  the actuator's limit, a share that no designed loop reaches;
 * ``ok``: none of these.
 
 A run both lost and saturated is ``lost``; its message names both. The second half
 leaves out the start: a controller that starts far from the path (or at the limit) and
-then converges is ``ok``. The defaults are ``diagrams.sections``'s. The runner decides
-``diverged`` because it stops the run; ``lost`` and ``saturated`` are judgements on the
-whole logs, made here from the same samples as the metrics, and ``analysis.api.Run``,
-``results.json``, the tables and the Monte-Carlo store all report this verdict.
+then converges is ``ok``. The defaults, and where their numbers come from, are
+``diagrams.sections``'s (``LOST_BOUND``, ``LOST_FRACTION``, ``SATURATED_SHARE``). The
+runner decides ``diverged`` because it stops the run; ``lost`` and ``saturated`` are
+judgements on the whole logs, made here from the same samples as the metrics.
+``run_verdict`` is the one judge: ``analysis.api.Run``, ``results.json``, the tables,
+``compare``, ``tune``'s check runs, the Monte-Carlo store and the reports all report its
+verdict, never the runner's own status.
 """
 
 from __future__ import annotations
@@ -47,6 +56,8 @@ from dataclasses import asdict, dataclass
 import numpy as np
 
 from posfb.diagrams.closed_loop import ClosedLoopResult
+from posfb.diagrams.sections import DURATION, Timing
+from posfb.models.trajectory import Trajectory
 
 #: A run's statuses, best first (module docstring); a Monte-Carlo store adds
 #: ``error`` for a run that raised (``analysis.montecarlo.records``).
@@ -55,9 +66,9 @@ RUN_STATUSES = ("ok", "saturated", "lost", "diverged")
 #: The statuses of a run that reached its end: its metrics cover the whole duration.
 FINISHED_STATUSES = ("ok", "saturated", "lost")
 
-#: The statuses of a run that reached its end without tracking its path: ``posfb.simulate``
-#: warns about them, ``posfb simulate`` and ``compare`` exit with
-#: ``analysis.common.errors.EXIT_NOT_TRACKED``.
+#: The statuses of a run that reached its end without tracking its path: ``posfb simulate``
+#: and ``compare`` exit with ``analysis.common.errors.EXIT_NOT_TRACKED`` (``posfb.simulate``
+#: warns about every run that is not ``ok``, these and ``diverged``).
 NOT_TRACKED_STATUSES = ("saturated", "lost")
 
 
@@ -155,36 +166,77 @@ class Verdict:
     status: str
     message: str
 
+    def sentence(self) -> str:
+        """Why the run is not ``ok``, beginning with what happened (empty when it is ``ok``):
+        the message of a ``lost`` or ``saturated`` run starts with that word already, a
+        ``diverged`` run's (the runner's) gets it in front."""
+        if self.status == "diverged":
+            return f"diverged: {self.message}" if self.message else "diverged"
+        return self.message
+
+
+#: Most points at which ``path_excursion`` evaluates the path: the paper's 20 s run at
+#: its 10 ms sample time; a sine of 4 rad/s sampled that finely has its peak within 2e-4
+#: of its amplitude.
+PATH_POINTS = 2000
+
+
+def path_excursion(trajectory: Trajectory, duration: float) -> float:
+    """The path's excursion (rad): the largest half peak-to-peak ``(max - min) / 2`` of any
+    joint's desired position over the path's first ``max(duration, DURATION)`` seconds
+    (``diagrams.sections.DURATION``, the paper's run), evaluated at ``PATH_POINTS + 1``
+    evenly spaced instants; 0 for a path that does not move. Over that horizon and not
+    only the run's, so that a short run, still in the path's soft start, is judged
+    against the motion the path asks for, as a long one is."""
+    times = np.linspace(0.0, max(duration, DURATION), PATH_POINTS + 1)
+    path = np.array([trajectory.evaluate(float(t))[0] for t in times])
+    return float(np.max(np.ptp(path, axis=0)) / 2)
+
+
+def lost_threshold(excursion: float, timing: Timing) -> float:
+    """The RMS error (rad) above which a joint is lost on a path of ``excursion`` (rad,
+    ``path_excursion``): ``timing.lost_fraction`` of it, at most ``timing.lost_bound``;
+    ``timing.lost_bound`` on a path that does not move."""
+    if excursion <= 0.0:
+        return timing.lost_bound
+    return min(timing.lost_bound, timing.lost_fraction * excursion)
+
 
 def judge(
     q_error: np.ndarray,
     u_commanded: np.ndarray,
     voltage_limit: float | Sequence[float],
-    lost_bound: float,
-    saturated_share: float,
+    excursion: float,
+    timing: Timing,
 ) -> Verdict:
     """The verdict on a run that reached its end (module docstring), from its samples
-    ``k = 1..N0`` (rows; one column per joint): the true error ``q_error`` (rad) and
-    the commanded voltage (V). The second half is the rows ``k > N0/2``."""
+    ``k = 1..N0`` (rows; one column per joint): the true error ``q_error`` (rad) and the
+    commanded voltage (V), on a path of ``excursion`` (rad, ``path_excursion``), with the
+    bounds ``timing.lost_bound``, ``timing.lost_fraction`` and ``timing.saturated_share``.
+    The second half is the rows ``k > N0/2``."""
     error = np.asarray(q_error, dtype=float)
     if error.ndim != 2 or error.shape[0] == 0:
         raise ValueError(f"q_error has shape {error.shape}; at least one sample is required")
     half = error.shape[0] // 2
     late_rms = rms(error[half:])
     share = float(np.mean(saturated_samples(np.asarray(u_commanded)[half:], voltage_limit)))
+    threshold = lost_threshold(excursion, timing)
     reasons = []
     worst = int(np.argmax(late_rms))
-    lost = bool(late_rms[worst] > lost_bound)
+    lost = bool(late_rms[worst] > threshold)
     if lost:
         reasons.append(
             f"lost its path: RMS(q~{worst + 1}) over the run's second half = "
-            f"{late_rms[worst]:.3g} rad > timing.lost_bound = {lost_bound:g} rad"
+            f"{late_rms[worst]:.3g} rad > {threshold:.3g} rad (timing.lost_fraction = "
+            f"{timing.lost_fraction:g} of the path's excursion {excursion:.3g} rad, at most "
+            f"timing.lost_bound = {timing.lost_bound:g} rad)"
         )
-    saturated = share > saturated_share
+    saturated = share > timing.saturated_share
     if saturated:
         reasons.append(
             f"saturated: a commanded voltage beyond its limit on {100 * share:.1f} % of the "
-            f"second half's samples > timing.saturated_share = {100 * saturated_share:g} %"
+            f"second half's samples > timing.saturated_share = "
+            f"{100 * timing.saturated_share:g} %"
         )
     status = "lost" if lost else "saturated" if saturated else "ok"
     return Verdict(status, "; ".join(reasons))
@@ -193,16 +245,16 @@ def judge(
 def run_verdict(result: ClosedLoopResult) -> Verdict:
     """The verdict on a closed-loop run (module docstring): the runner's ``diverged``
     as it is, otherwise ``judge`` of its logged samples ``k = 1..K`` with the
-    scenario's ``timing.lost_bound`` and ``timing.saturated_share``."""
+    scenario's ``timing`` bounds."""
     if result.status != "ok":
         return Verdict(result.status, result.message)
     if len(result.times) < 2:
         return Verdict("ok", "")
-    timing = result.config.timing
+    config = result.config
     return judge(
         result.q_error[1:],
         result.u_commanded[1:],
-        result.config.voltage_limit,
-        timing.lost_bound,
-        timing.saturated_share,
+        config.voltage_limit,
+        path_excursion(config.trajectory, config.duration),
+        config.timing,
     )

@@ -15,12 +15,18 @@ For each of ``TUNED_CONTROLLERS`` in turn:
    twice the design plants and verify on another fresh set, at most ``rounds`` times
    (each round at ``beta / rounds``: the union bound keeps ``1 - beta`` overall);
 3. cross-check the prediction with short simulations (``CHECK_DURATION`` s, or the
-   scenario's duration if shorter) of the entry before and after, on the scenario's arm;
+   scenario's duration if shorter) of the entry before and after, on the scenario's arm,
+   each judged by ``analysis.common.metrics.run_verdict``;
 4. judge the result against the start: a tuned entry whose predicted error is above the
-   entry's own, or whose check run is worse (``worse_run``), makes the whole result
-   *worse* (``TunedController.worse``), refused (``WorseError``) unless
-   ``accept_worse``; and flag every tuned value within ``EDGE_SHARE`` of its search
-   box's edge (``TunedController.at_edge``: the best design may lie outside the box).
+   entry's own, or whose check run is worse (``worse_run``: a worse verdict, saturation
+   included), makes the whole result *worse* (``TunedController.worse``), refused
+   (``WorseError``) unless ``accept_worse``; and flag every tuned value within
+   ``EDGE_SHARE`` of its search box's edge (``TunedController.at_edge``: the best design
+   may lie outside the box).
+
+A tuned entry is *certified* (its guarantee stated) only when its check run is ``ok``
+(``TunedController.not_certified``): the guarantee is about the sampled linear loop, and
+a run that saturates, loses its path or diverges is not that loop.
 
 The tuned scenario holds the tuned paper's controller as its ``controller`` and the tuned
 Lin+LC as the named entry ``lin_lc``; every other setting is the scenario's. The result
@@ -48,6 +54,7 @@ import numpy as np
 
 from posfb.analysis.common.configurations import scenario_configurations
 from posfb.analysis.common.loop_effects import left_out
+from posfb.analysis.common.metrics import RUN_STATUSES, run_metrics, run_verdict
 from posfb.analysis.design.budget import PROBE_PLANTS, REMEDY, Deadline, TuneError
 from posfb.analysis.design.guarantee import (
     Guarantee,
@@ -102,11 +109,19 @@ SHOWN_SETTINGS = {
 
 @dataclass(frozen=True)
 class SimulatedCheck:
-    """RMS tracking error (rad, per joint) and saturated share of a short run."""
+    """A short run's RMS tracking error (rad, per joint), saturated share and verdict
+    (``analysis.common.metrics.run_verdict``: ``status`` and the ``message`` that says why
+    it is not ``ok``); ``status`` ``refused`` (no ``rms_q``) where the closed loop refused
+    the entry, ``message`` saying why."""
 
     rms_q: tuple[float, ...]
     saturated_fraction: float
     status: str
+    message: str = ""
+
+    def sentence(self) -> str:
+        """The verdict in words: the status, with its message when it is not ``ok``."""
+        return self.status if not self.message else f"{self.status} ({self.message})"
 
 
 @dataclass(frozen=True)
@@ -145,15 +160,16 @@ def edge_values(
 
 def worse_run(before: SimulatedCheck, after: SimulatedCheck, allowance: float) -> bool:
     """Whether the check run ``after`` is worse than ``before``: it was refused where
-    ``before`` ran, or it is not ``ok`` where ``before`` is, or, with the same status,
-    its RMS error norm (over joints) exceeds ``before``'s by more than ``allowance``
-    (rad: the encoder's quantisation RMS, below which two runs' order is noise)."""
+    ``before`` ran, or its verdict is worse (``RUN_STATUSES``' order: ``saturated`` is
+    worse than ``ok``), or, with the same verdict, its RMS error norm (over joints)
+    exceeds ``before``'s by more than ``allowance`` (rad: the encoder's quantisation RMS,
+    below which two runs' order is noise)."""
     if not after.rms_q:
         return bool(before.rms_q)
     if not before.rms_q:
         return False
     if before.status != after.status:
-        return before.status == "ok"
+        return RUN_STATUSES.index(after.status) > RUN_STATUSES.index(before.status)
     return float(np.linalg.norm(after.rms_q)) > float(np.linalg.norm(before.rms_q)) + allowance
 
 
@@ -172,14 +188,14 @@ def _worse(
             + ("" if start.feasible else " (the start violates a constraint)")
         )
     if worse_run(before, after, allowance):
-        reasons.append(f"check run's RMS error norm {_norm(before)} -> {_norm(after)}")
+        reasons.append(f"check run's RMS error norm and verdict {_norm(before)} -> {_norm(after)}")
     return tuple(reasons)
 
 
 def _norm(check: SimulatedCheck) -> str:
-    """A check run as its RMS error norm and status (its refusal when it did not run)."""
+    """A check run as its RMS error norm and verdict (its refusal when it did not run)."""
     if not check.rms_q:
-        return check.status
+        return check.sentence()
     return f"{float(np.linalg.norm(check.rms_q)):.3g} rad ({check.status})"
 
 
@@ -212,6 +228,18 @@ class TunedController:
     margins_before: LoopMargins | None = None
     margins_after: LoopMargins | None = None
 
+    @property
+    def not_certified(self) -> str:
+        """Why the tuned entry's guarantee is not stated, in one line (empty: it is): its
+        check run is not ``ok`` (module docstring)."""
+        check = self.simulated_after
+        if check.status == "ok":
+            return ""
+        return (
+            f"its check run is {check.sentence()}: the guarantee covers the linear sampled "
+            f"loop, not a run that is {check.status}"
+        )
+
 
 @dataclass
 class TuneResult:
@@ -237,6 +265,15 @@ class TuneResult:
             f"{name}: {', '.join(entry.worse)}"
             for name, entry in self.controllers.items()
             if entry.worse
+        )
+
+    @property
+    def not_certified(self) -> str:
+        """Which tuned entries get no guarantee and why, in one line (empty: all do)."""
+        return "; ".join(
+            f"{name}: {entry.not_certified}"
+            for name, entry in self.controllers.items()
+            if entry.not_certified
         )
 
     @property
@@ -324,7 +361,6 @@ def _simulate(
     scenario's arm; a setting the closed loop refuses is reported as the run's status.
     ``BudgetError`` when ``deadline`` passes during the run (checked every
     ``MONITOR_SAMPLES`` periods, by the runner's progress callback)."""
-    from posfb.analysis.common.metrics import run_metrics
     from posfb.diagrams.closed_loop import ClosedLoopRunner
 
     scenario = copy.deepcopy(loaded.scenario)
@@ -339,14 +375,16 @@ def _simulate(
     try:
         result = ClosedLoopRunner(resolve(trial).config).run(progress=stop_when_out_of_time)
     except ValueError as error:
-        return SimulatedCheck((), math.nan, f"refused: {error}")
+        return SimulatedCheck((), math.nan, "refused", str(error))
     except _OutOfTime as stop:
         raise deadline.error(
             f"running the {scenario.timing.duration:g} s check run of {what} (stopped at "
             f"t = {stop.args[0]:g} s)"
         ) from None
-    metrics = run_metrics(result)
-    return SimulatedCheck(metrics.rms_q, metrics.saturated_fraction, result.status)
+    metrics, verdict = run_metrics(result), run_verdict(result)
+    return SimulatedCheck(
+        metrics.rms_q, metrics.saturated_fraction, verdict.status, verdict.message
+    )
 
 
 def _drawn(

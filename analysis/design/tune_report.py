@@ -1,7 +1,8 @@
 """The report of ``posfb tune``: each tuned value beside the one it replaced, the
 objective and the constraints before and after, the cross-check runs, the margins of the
 nominal loop before and after (``posfb design --margins``) and the guarantee with its
-formula and source (text, and a JSON-ready dict)."""
+formula and source, or, for a tuned entry whose check run is not ``ok``, one line saying
+why it gets none (``TunedController.not_certified``; text, and a JSON-ready dict)."""
 
 from __future__ import annotations
 
@@ -46,10 +47,19 @@ def _objective(evaluation: Evaluation) -> str:
 
 
 def _run(check: SimulatedCheck) -> str:
+    """A check run: its RMS errors, saturated share and verdict (with why it is not ok)."""
     if not check.rms_q:
-        return check.status
+        return check.sentence()
     rms = ", ".join(f"{v:.3g}" for v in check.rms_q)
-    return f"({rms}) rad, {100 * check.saturated_fraction:.0f} % saturated, {check.status}"
+    return f"({rms}) rad, {100 * check.saturated_fraction:.0f} % saturated, {check.sentence()}"
+
+
+def _guarantee(entry: TunedController) -> str:
+    """The guarantee in words, or, for an entry whose check run is not ``ok``, why it
+    has none."""
+    if entry.not_certified:
+        return f"none stated: {entry.not_certified}"
+    return entry.guarantee.sentence(UNSTABLE)
 
 
 def _controller_lines(entry: TunedController, result: TuneResult) -> list[str]:
@@ -80,7 +90,7 @@ def _controller_lines(entry: TunedController, result: TuneResult) -> list[str]:
         f"{_run(entry.simulated_before)} -> {_run(entry.simulated_after)}",
         f"  round {entry.rounds} of at most {settings.rounds}: designed on "
         f"{entry.design_plants} plants, verified on {entry.guarantee.plants} fresh ones",
-        f"  guarantee: {entry.guarantee.sentence(UNSTABLE)}",
+        f"  guarantee: {_guarantee(entry)}",
         f"  largest rho on the fresh plants: {max(entry.verified_radii, default=math.nan):.4f}",
         f"  (for reference, not claimed: the scenario approach for a convex design with "
         f"d = {entry.decisions} variables on N = {entry.design_plants} plants would give "
@@ -177,7 +187,8 @@ def result_dict(result: TuneResult) -> dict[str, object]:
                 "epsilon_bound": guarantee.epsilon_bound,
                 "holds": guarantee.holds,
                 "rounds": entry.rounds,
-                "statement": guarantee.sentence(UNSTABLE),
+                "certified": not entry.not_certified,
+                "statement": _guarantee(entry),
             },
             "design_plants": entry.design_plants,
             "model_error_rms": list(entry.disturbance_std),

@@ -2,7 +2,8 @@
 Markdown), every run's summary (JSON) and the overlaid Figs. 4/6 and 5/7. It is
 ``posfb.compare`` (``analysis.api``) with the scenario from the command line. Exit
 code: the worst run's (``analysis.common.errors.run_exit_code``: 4 if one diverged, 5 if one
-finished ``saturated`` or ``lost``, with a warning line each)."""
+finished ``saturated`` or ``lost``); every run that is not ``ok`` gets one warning line on
+stderr with its verdict's message (``analysis.common.metrics.Verdict.sentence``)."""
 
 from __future__ import annotations
 

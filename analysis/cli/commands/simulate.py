@@ -4,9 +4,9 @@ nominal experiment), its metrics, and optionally its time series as a file.
 It is ``posfb.simulate`` (``analysis.api``) with the scenario from the command line:
 the same numbers as a script. Exit codes: 0 for a run that finished ``ok``, 4
 (``analysis.common.errors.EXIT_DIVERGED``) for one that diverged, 5 (``EXIT_NOT_TRACKED``)
-for one that finished ``saturated`` or ``lost`` (a warning line on stderr says why;
-``analysis.common.metrics.run_verdict``); the metrics and time series are written in every
-case. 2 for bad input."""
+for one that finished ``saturated`` or ``lost``; a run that is not ``ok`` gets a warning
+line on stderr saying why (``analysis.common.metrics.run_verdict``); the metrics and time
+series are written in every case. 2 for bad input."""
 
 from __future__ import annotations
 

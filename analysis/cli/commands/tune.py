@@ -9,8 +9,10 @@ tuned design is worse than the scenario's own and ``--accept-worse`` is not give
 line says which; nothing is written); 2 bad input (a bad study, e.g. of another arm, an
 option out of range or over its ceiling, an ``--out`` that exists or is the scenario
 itself without ``--force``: refused before the search). A tuned value within 2 % of its
-search box's edge gets a warning line on stderr, as an accepted worse design does. The
-tuned file is written atomically (``analysis.common.outputs.atomic_file``)."""
+search box's edge gets a warning line on stderr, as an accepted worse design does, and
+so does a tuned entry whose check run is not ``ok``: its report states no guarantee
+(``TunedController.not_certified``). The tuned file is written atomically
+(``analysis.common.outputs.atomic_file``)."""
 
 from __future__ import annotations
 
@@ -110,6 +112,8 @@ def run(args: argparse.Namespace) -> int:
         from posfb.analysis.common.loop_effects import left_out_note
 
         sys.stderr.write(f"posfb tune: {left_out_note(result.left_out)}\n")
+    if result.not_certified:
+        sys.stderr.write(f"posfb tune: warning: no guarantee stated: {result.not_certified}\n")
     if result.worse:
         sys.stderr.write(
             f"posfb tune: warning: written as --accept-worse asks, though worse than the "
