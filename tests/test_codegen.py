@@ -11,12 +11,13 @@ import re
 import shutil
 import subprocess
 import sys
+from pathlib import Path
 
 import numpy as np
 import pytest
 
 import posfb
-from posfb.analysis.codegen.check import TOLERANCE, check, log_inputs
+from posfb.analysis.codegen.check import ROUND_OFF_FACTOR, TOLERANCE, check, log_inputs
 from posfb.analysis.codegen.package import CFLAGS, generate
 from posfb.analysis.common.shipped import shipped_files
 from posfb.diagrams.resolve import resolve
@@ -471,6 +472,18 @@ def test_check_tolerance_is_validated(short_log, tolerance):
     with pytest.raises(ValueError, match=re.escape(f"tolerance_V = {tolerance!r}; a finite "
                                                    "number of volts > 0")):  # fmt: skip
         check(packages["double"], frame, tolerance_V=tolerance)
+
+
+def test_the_guide_quotes_the_default_tolerances():
+    """docs/guide/codegen.md's table reads ``TOLERANCE``: its factor and each precision's
+    value, as the module defines them."""
+    guide = (Path(__file__).resolve().parents[1] / "docs" / "guide" / "codegen.md").read_text()
+    superscript = str.maketrans("0123456789", "⁰¹²³⁴⁵⁶⁷⁸⁹")
+    factor = "2" + str(round(math.log2(ROUND_OFF_FACTOR))).translate(superscript)
+    for precision, relative in TOLERANCE.items():
+        mantissa, exponent = f"{relative:.1e}".split("e")
+        row = f"| `{precision}` | {factor} {precision} epsilons = {mantissa}e{int(exponent)} |"
+        assert row in guide, row
 
 
 @pytest.mark.parametrize("shifted", [False, True])
