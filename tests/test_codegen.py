@@ -6,15 +6,18 @@ against the simulated controller's."""
 from __future__ import annotations
 
 import json
+import math
+import re
 import shutil
 import subprocess
 import sys
+from pathlib import Path
 
 import numpy as np
 import pytest
 
 import posfb
-from posfb.analysis.codegen.check import check
+from posfb.analysis.codegen.check import ROUND_OFF_FACTOR, TOLERANCE, check, log_inputs
 from posfb.analysis.codegen.package import CFLAGS, generate
 from posfb.analysis.common.shipped import shipped_files
 from posfb.diagrams.resolve import resolve
@@ -269,14 +272,17 @@ FLOAT_TOLERANCE = {"lin_lc": 2e-5, "pid": 3e-5, "proposed": 3e-5, "pd_gravity": 
 
 
 def test_c_step_reproduces_the_simulated_voltages(closed_loop_log):
-    """Over the 20 s log: double to 1e-12 V, float within ``FLOAT_TOLERANCE``."""
+    """Over the 20 s log: double to 1e-12 V, float within ``FLOAT_TOLERANCE``; both pass
+    ``check``'s default tolerance of their precision."""
     scenario, _, frame = closed_loop_log
     resolved = resolve(scenario)
     double = check(generate(resolved, None, "double"), frame)
-    assert double.samples == len(frame) - 1 or double.samples == len(frame)
+    assert double.samples == len(frame)
     assert double.largest_difference_V <= 1e-12
+    assert double.passed
     single = check(generate(resolved, None, "float"), frame)
     assert single.largest_relative <= FLOAT_TOLERANCE[resolved.config.controller]
+    assert single.passed and single.largest_relative <= TOLERANCE["float"]
 
 
 def test_software_in_the_loop_equals_the_simulated_controller(closed_loop_log):
@@ -355,3 +361,150 @@ def test_check_passes_on_a_log_of_other_settings(tmp_path, kind, extra):
     found = json.loads(result.stdout)["check"]
     assert found["samples"] >= 1000
     assert found["largest_difference_V"] <= 1e-12
+    assert found["passed"] and found["largest_difference_V"] <= found["tolerance_V"]
+
+
+@pytest.fixture(scope="module")
+def short_log():
+    """A 1 s Lin+LC run of the paper's arm (101 samples), its log and its double and
+    float packages."""
+    scenario = posfb.load_scenario(set={"timing.duration": 1, "controller.kind": "lin_lc"})
+    resolved = resolve(scenario)
+    packages = {p: generate(resolved, None, p) for p in ("double", "float")}
+    return posfb.simulate(scenario).frame(), packages
+
+
+#: A 3 V error in the log's commanded voltage: (sample, joint counted from 1).
+SHIFTED = [(30, 2), (60, 1)]
+
+
+def _shifted(frame):
+    """``frame`` with 3 V added to the commanded voltage at ``SHIFTED``'s samples."""
+    shifted = frame.copy()
+    for sample, joint in SHIFTED:
+        shifted.loc[sample, f"u{joint}_commanded_V"] += 3.0
+    return shifted
+
+
+@pytest.mark.parametrize("precision", ["double", "float"])
+def test_check_passes_a_clean_log_and_fails_a_shifted_one(short_log, precision):
+    """The default tolerance is the precision's ``TOLERANCE`` times the log's largest
+    commanded voltage; a clean log is within it, a log with 3 V added at two samples is
+    not, and the first of them is named (its row, time and joint) with the 3 V."""
+    frame, packages = short_log
+    clean = check(packages[precision], frame)
+    volts = frame[[f"u{j}_commanded_V" for j in (1, 2)]].to_numpy()
+    assert clean.tolerance_V == TOLERANCE[precision] * np.max(np.abs(volts))
+    assert clean.passed and clean.largest_difference_V <= clean.tolerance_V
+    assert clean.failing_sample is None and clean.failing_joint is None
+    failed = check(packages[precision], _shifted(frame))
+    assert not failed.passed
+    sample, joint = SHIFTED[0]
+    assert (failed.failing_sample, failed.failing_joint) == (sample, joint)
+    assert failed.failing_time_s == frame["time_s"][sample]
+    # 3 V off the clean difference there, which is within the clean log's largest
+    assert abs(failed.failing_difference_V - 3.0) <= clean.largest_difference_V + 1e-12
+    assert failed.at_sample in {s for s, _ in SHIFTED}
+    # a tolerance above the shift passes it
+    assert check(packages[precision], _shifted(frame), tolerance_V=3.5).passed
+
+
+def _corrupted(frame, fault: str):
+    """``frame`` in one of the mistakes a check must fail: positions offset by 0.5 rad,
+    positions in degrees, voltages in mV, joint 1's measured position in joint 2's
+    column."""
+    corrupted = frame.copy()
+    measured = ["q1_measured_rad", "q2_measured_rad"]
+    if fault == "offset":
+        corrupted[measured] += 0.5
+    elif fault == "degrees":
+        corrupted[measured] = np.degrees(corrupted[measured])
+    elif fault == "millivolts":
+        corrupted[["u1_commanded_V", "u2_commanded_V"]] *= 1000.0
+    else:
+        corrupted["q2_measured_rad"] = corrupted["q1_measured_rad"]
+    return corrupted
+
+
+@pytest.mark.parametrize("fault", ["offset", "degrees", "millivolts", "duplicated"])
+def test_check_fails_a_log_of_wrong_units_or_columns(short_log, fault):
+    frame, packages = short_log
+    result = check(packages["double"], _corrupted(frame, fault))
+    assert not result.passed
+    assert result.failing_difference_V > result.tolerance_V
+    assert result.largest_difference_V >= result.failing_difference_V
+
+
+@pytest.mark.parametrize(("fault", "message"), [
+    ("nan", "q1_desired_velocity_rad_per_s is nan at row 10 (time_s = 0.1)"),
+    ("inf", "u2_commanded_V is inf at row 40 (time_s = 0.4)"),
+    ("repeated", "row 21 repeats row 20's time_s = 0.2"),
+    ("backwards", "row 21's time_s = 0.19 is before row 20's (0.2)"),
+    ("gap", "row 20 (time_s = 0.21) is 0.02 s after row 19"),
+    ("twice", "the log has 2 columns named q1_measured_rad"),
+])  # fmt: skip
+def test_a_log_the_replay_cannot_stand_for_is_refused(short_log, fault, message):
+    """A non-finite replayed value (its column and row), rows that are not one per sample
+    (the first bad row) and a replayed column named twice are refused before anything
+    is compiled (``log_inputs``)."""
+    frame, packages = short_log
+    log = frame.copy()
+    if fault == "nan":
+        log.loc[10, "q1_desired_velocity_rad_per_s"] = np.nan
+    elif fault == "inf":
+        log.loc[40, "u2_commanded_V"] = np.inf
+    elif fault == "repeated":
+        log = log.iloc[[*range(21), 20, *range(21, len(log))]].reset_index(drop=True)
+    elif fault == "backwards":
+        log = log.iloc[[*range(20), 20, 19, *range(22, len(log))]].reset_index(drop=True)
+    elif fault == "gap":
+        log = log.drop(index=20).reset_index(drop=True)
+    else:
+        log.insert(len(log.columns), "q1_measured_rad", log["q1_measured_rad"],
+                   allow_duplicates=True)  # fmt: skip
+    with pytest.raises(ValueError, match=re.escape(message)):
+        log_inputs(log, packages["double"])
+
+
+@pytest.mark.parametrize("tolerance", [0.0, -1.0, math.inf, math.nan, True, "1"])
+def test_check_tolerance_is_validated(short_log, tolerance):
+    frame, packages = short_log
+    with pytest.raises(ValueError, match=re.escape(f"tolerance_V = {tolerance!r}; a finite "
+                                                   "number of volts > 0")):  # fmt: skip
+        check(packages["double"], frame, tolerance_V=tolerance)
+
+
+def test_the_guide_quotes_the_default_tolerances():
+    """docs/guide/codegen.md's table reads ``TOLERANCE``: its factor and each precision's
+    value, as the module defines them."""
+    guide = (Path(__file__).resolve().parents[1] / "docs" / "guide" / "codegen.md").read_text()
+    superscript = str.maketrans("0123456789", "⁰¹²³⁴⁵⁶⁷⁸⁹")
+    factor = "2" + str(round(math.log2(ROUND_OFF_FACTOR))).translate(superscript)
+    for precision, relative in TOLERANCE.items():
+        mantissa, exponent = f"{relative:.1e}".split("e")
+        row = f"| `{precision}` | {factor} {precision} epsilons = {mantissa}e{int(exponent)} |"
+        assert row in guide, row
+
+
+@pytest.mark.parametrize("shifted", [False, True])
+def test_check_command_exits_1_naming_the_first_sample_over_the_tolerance(tmp_path, short_log,
+                                                                          shifted):
+    """``posfb codegen --check``: exit 0 and the tolerance on a clean log; exit 1 and one
+    line on stderr naming the first sample, its time and joint over the tolerance on a
+    log with 3 V added."""
+    frame, _ = short_log
+    log = tmp_path / "log.csv"
+    (_shifted(frame) if shifted else frame).to_csv(log, index=False)
+    result = subprocess.run(
+        [*CLI, "codegen", "--controller", "lin_lc", "--set", "timing.duration=1", "--out",
+         str(tmp_path / "c"), "--check", str(log)], capture_output=True, text=True,
+    )  # fmt: skip
+    if not shifted:
+        assert result.returncode == 0, result.stderr
+        assert " passed: 101 samples" in result.stdout and "double's default" in result.stdout
+        return
+    assert result.returncode == 1, result.stderr
+    (line,) = result.stderr.strip().splitlines()
+    sample, joint = SHIFTED[0]
+    assert f"failed: sample {sample} (time_s = {frame['time_s'][sample]:g}), joint {joint}:" in line
+    assert f"u{joint}_commanded_V by 3 V, over the tolerance" in line

@@ -7,6 +7,7 @@ The cases run concurrently (each is mostly Python start-up) in one module fixtur
 from __future__ import annotations
 
 import hashlib
+import math
 import os
 import sqlite3
 import subprocess
@@ -148,6 +149,29 @@ LOGS = {
     ),
 }  # fmt: skip
 FILES.update(LOGS)
+
+
+def _replay_log(times: list[float], value: str = "0") -> str:
+    """A log with every column ``posfb codegen --check`` replays, for two joints, one row
+    per instant of ``times``, every value 0 but the commanded voltage of joint 2 at row 2
+    (``value``)."""
+    header = ("time_s,q1_measured_rad,q2_measured_rad,q1_desired_rad,q2_desired_rad,"
+              "q1_desired_velocity_rad_per_s,q2_desired_velocity_rad_per_s,"
+              "q1_desired_acceleration_rad_per_s2,q2_desired_acceleration_rad_per_s2,"
+              "u1_commanded_V,u2_commanded_V")  # fmt: skip
+    rows = [",".join([f"{t:g}", *["0"] * 9, value if k == 2 else "0"])
+            for k, t in enumerate(times)]  # fmt: skip
+    return "\n".join([header, *rows]) + "\n"
+
+
+FILES.update({
+    "replay_nan.csv": _replay_log([0.0, 0.01, 0.02, 0.03], "nan"),
+    "replay_inf.csv": _replay_log([0.0, 0.01, 0.02, 0.03], "inf"),
+    "replay_repeated.csv": _replay_log([0.0, 0.01, 0.02, 0.02, 0.03, 0.04]),
+    "replay_backwards.csv": _replay_log([0.0, 0.01, 0.02, 0.01, 0.04, 0.05]),
+    "replay_gap.csv": _replay_log([0.0, 0.01, 0.02, 0.04, 0.05, 0.06]),
+    "replay_time_nan.csv": _replay_log([0.0, 0.01, math.nan, 0.03]),
+})  # fmt: skip
 
 SCENARIOS = Path(__file__).resolve().parent.parent / "analysis" / "scenarios"
 THREE_LINK = str(SCENARIOS / "three_link_nominal.yaml")
@@ -358,6 +382,52 @@ CASES = {
     "C check of a log without the desired signals": Case(
         ("codegen", "--controller", "lin_lc", "--out", "{tmp}/c", "--check", "{tmp}/log.csv"),
         "the log lacks q1_desired_velocity_rad_per_s",
+    ),
+    "C check of a log with a NaN": Case(
+        ("codegen", "--controller", "lin_lc", "--out", "{tmp}/c", "--check",
+         "{tmp}/replay_nan.csv"),
+        "u2_commanded_V is nan at row 2 (time_s = 0.02); a finite value in every replayed "
+        "column is required",
+    ),
+    "C check of a log with an infinity": Case(
+        ("codegen", "--controller", "lin_lc", "--out", "{tmp}/c", "--check",
+         "{tmp}/replay_inf.csv"),
+        "u2_commanded_V is inf at row 2 (time_s = 0.02)",
+    ),
+    "C check of a log with a repeated time row": Case(
+        ("codegen", "--controller", "lin_lc", "--out", "{tmp}/c", "--check",
+         "{tmp}/replay_repeated.csv"),
+        "row 3 repeats row 2's time_s = 0.02; one row per sample, each 0.01 s after the "
+        "previous within 1%, is required",
+    ),
+    "C check of a log whose time goes back": Case(
+        ("codegen", "--controller", "lin_lc", "--out", "{tmp}/c", "--check",
+         "{tmp}/replay_backwards.csv"),
+        "row 3's time_s = 0.01 is before row 2's (0.02)",
+    ),
+    "C check of a log with a missing row": Case(
+        ("codegen", "--controller", "lin_lc", "--out", "{tmp}/c", "--check",
+         "{tmp}/replay_gap.csv"),
+        "row 3 (time_s = 0.04) is 0.02 s after row 2",
+    ),
+    "C check of a log with a NaN time": Case(
+        ("codegen", "--controller", "lin_lc", "--out", "{tmp}/c", "--check",
+         "{tmp}/replay_time_nan.csv"),
+        "time_s is nan at row 2; a finite time on every row is required",
+    ),
+    "C check tolerance not above zero": Case(
+        ("codegen", "--controller", "lin_lc", "--out", "{tmp}/c", "--check",
+         "{tmp}/replay_gap.csv", "--tolerance", "-0.1"),
+        "argument --tolerance: '-0.1': a finite number > 0 is required",
+    ),
+    "C check tolerance not finite": Case(
+        ("codegen", "--controller", "lin_lc", "--out", "{tmp}/c", "--check",
+         "{tmp}/replay_gap.csv", "--tolerance", "inf"),
+        "argument --tolerance: 'inf': a finite number > 0 is required",
+    ),
+    "C tolerance without a check": Case(
+        ("codegen", "--controller", "lin_lc", "--out", "{tmp}/c", "--tolerance", "0.1"),
+        "--tolerance 0.1 applies to --check LOG",
     ),
     "margins of a plug-in controller": Case(
         ("design", "--margins", "--scenario", "{tmp}/plugin_broadcast.yaml"),

@@ -62,8 +62,9 @@ examples:
   posfb reproduce --out results
       the paper's Sec. 4: tables, figures and a report in results/
 
-exit codes: 0 done; 1 a design check failed (scenario check, --strict) or a replayed
-sample differs from its stored rows; 2 bad input; 3 a bug in posfb; 4 a run diverged
+exit codes: 0 done; 1 a design check failed (scenario check, --strict), a replayed
+sample differs from its stored rows, or codegen --check's C differs from the log by more
+than the tolerance; 2 bad input; 3 a bug in posfb; 4 a run diverged
 (simulate, compare); 5 a run finished saturated or lost its path (simulate, compare;
 a warning says which); 6 a results store is damaged; 7 the disk refused a write (no
 space left; what finished is kept, run again to resume); 8 a worker process died on a

@@ -16,6 +16,11 @@ class InterruptedRunError(Exception):
     on. Reported as one line with exit code 130."""
 
 
+#: Exit code of ``posfb codegen --check`` when a replayed voltage differs from the log's
+#: by more than the tolerance (``analysis.codegen.check``): the code of a failed verdict,
+#: as ``design --strict``'s.
+EXIT_CHECK_FAILED = 1
+
 #: Exit code of ``posfb simulate`` and ``posfb compare`` when a run diverged
 #: (``status == "diverged"``; its metrics and files are still written), so that scripts
 #: and sweeps catch it without parsing the output.

@@ -7,32 +7,12 @@ from __future__ import annotations
 
 import argparse
 import json
-import math
 from pathlib import Path
 
 from posfb.analysis.cli.commands.montecarlo import _positive_int
+from posfb.analysis.cli.commands.number_args import nonnegative, positive
 from posfb.analysis.cli.commands.scenario_args import add_scenario_arguments, scenario_from_args
 from posfb.analysis.common.errors import UsageError
-
-
-def _finite_above(lowest: float, inclusive: bool):
-    """An argparse type: a finite number above ``lowest`` (or equal, ``inclusive``),
-    refused in one line otherwise."""
-    relation = ">=" if inclusive else ">"
-
-    def number(text: str) -> float:  # argparse names a non-number "invalid number value"
-        value = float(text)
-        if not (math.isfinite(value) and (value >= lowest if inclusive else value > lowest)):
-            raise argparse.ArgumentTypeError(
-                f"{text!r}: a finite number {relation} {lowest:g} is required"
-            )
-        return value
-
-    return number
-
-
-_positive = _finite_above(0.0, inclusive=False)
-_nonnegative = _finite_above(0.0, inclusive=True)
 
 
 def configure(parser: argparse.ArgumentParser) -> None:
@@ -63,12 +43,12 @@ def configure(parser: argparse.ArgumentParser) -> None:
                         help="samples of --study-out's study (default 100)")
     parser.add_argument("--figure", type=Path, metavar="FILE",
                         help="with --validate: measured against predicted (.svg or .png)")
-    parser.add_argument("--cutoff", type=_positive, metavar="HZ",
+    parser.add_argument("--cutoff", type=positive, metavar="HZ",
                         help="the filters' cutoff in Hz (default: a tenth of the log's "
                         "Nyquist frequency)")
-    parser.add_argument("--stiction-velocity", type=_nonnegative, metavar="RAD_PER_S",
+    parser.add_argument("--stiction-velocity", type=nonnegative, metavar="RAD_PER_S",
                         help="rows slower than this stay out of the fit (default 0.3)")
-    parser.add_argument("--window", type=_positive, metavar="S",
+    parser.add_argument("--window", type=positive, metavar="S",
                         help="output-error window of --validate in s (default 1)")
     parser.add_argument("--json", action="store_true", help="print one JSON object")
     parser.set_defaults(handler=run)
@@ -79,14 +59,14 @@ def configure(parser: argparse.ArgumentParser) -> None:
     )  # fmt: skip
     add_scenario_arguments(plan, ())
     plan.add_argument("--out", type=Path, required=True, metavar="TRAJ.csv")
-    plan.add_argument("--duration", type=_positive, default=60.0, help="seconds (default 60)")
+    plan.add_argument("--duration", type=positive, default=60.0, help="seconds (default 60)")
     plan.add_argument("--harmonics", type=int, default=5, help="per joint (default 5)")
-    plan.add_argument("--period", type=_positive, default=10.0,
+    plan.add_argument("--period", type=positive, default=10.0,
                       help="period of the series in s, dividing --duration (default 10)")
     plan.add_argument("--seed", type=int, default=0, help="the optimiser's random start")
-    plan.add_argument("--excursion", type=_positive, metavar="RAD",
+    plan.add_argument("--excursion", type=positive, metavar="RAD",
                       help="largest excursion from the rest position (default pi/2)")
-    plan.add_argument("--velocity-limit", type=_positive, metavar="RAD_PER_S",
+    plan.add_argument("--velocity-limit", type=positive, metavar="RAD_PER_S",
                       help="default: the URDF's joint velocity limits, else 2 rad/s")
     plan.add_argument("--json", action="store_true", help="print one JSON object")
     plan.set_defaults(handler=run_plan)  # fmt: skip
