@@ -9,6 +9,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
+import posfb
 from helpers.montecarlo_helpers import TINY_STUDY, run_into_store
 from posfb.analysis.cli import main
 from posfb.analysis.montecarlo.store import ResultStore
@@ -95,19 +96,39 @@ def test_export_refuses_bad_input_in_one_line(db, tmp_path, capsys):
         assert needle in err and len(err.splitlines()) == 1
 
 
+def _angles(scenario: object) -> tuple[tuple[float, ...], ...]:
+    """The configurations of a scenario's path (``analysis.common.configurations``)."""
+    from posfb.analysis.common.configurations import scenario_configurations
+    from posfb.diagrams.resolve import LoadedScenario, resolve
+
+    if not isinstance(scenario, LoadedScenario):
+        scenario = LoadedScenario(scenario, Path.cwd())
+    configurations = scenario_configurations(resolve(scenario).config)
+    return tuple(c.q for c in configurations.configurations)
+
+
 def test_the_radius_on_the_nominal_plant_is_the_design_reports(capsys):
     for alpha_star in (4.0, 2.75):
         config = ControllerConfig().with_alpha_star(alpha_star)
         assert main(["design", "--json", "--alpha-star", str(alpha_star)]) == 0
         report = json.loads(capsys.readouterr().out)
         radii = plant_spectral_radii(cached_design(config), config.nominal)
-        assert radii["proposed"] == report["sampled_data_spectral_radius"]
-        assert radii["lin_lc"] == report["sampled_data_spectral_radius_lin_lc"]
+        assert radii["proposed"] == report["sampled_data_spectral_radius_at_M0"]
+        assert radii["lin_lc"] == report["sampled_data_spectral_radius_lin_lc_at_M0"]
+        # over the path's configurations (the study worker's radius): the report's worst
+        angles = _angles(posfb.load_scenario())
+        frozen = plant_spectral_radii(cached_design(config), config.nominal, configurations=angles)
+        assert frozen["proposed"] == pytest.approx(report["sampled_data_spectral_radius"],
+                                                   rel=1e-12)  # fmt: skip
+        assert frozen["lin_lc"] == pytest.approx(report["sampled_data_spectral_radius_lin_lc"],
+                                                 rel=1e-12)  # fmt: skip
 
 
 def test_each_sample_stores_the_radius_of_its_own_plant(db):
     table = study_table(db)
-    design = cached_design(study_from_text(STUDY).controller_config())
+    study = study_from_text(STUDY)
+    design = cached_design(study.controller_config())
+    angles = _angles(study.base_scenario())
     for _, row in table.iterrows():
         if row["controller"] == "pid":
             assert np.isnan(row["sampled_data_spectral_radius"])
@@ -115,7 +136,9 @@ def test_each_sample_stores_the_radius_of_its_own_plant(db):
         theta = LumpedParameters(
             **{f"theta{i}": row[f"theta{i}"] for i in range(1, 12)}, l1=row["l1_m"]
         )
-        expected = plant_spectral_radii(design, theta)["proposed"]
+        # the worker's radius: the worst over the plant's M0* and its M*(q) frozen at the
+        # configurations of the study's path (its base scenario, 0.3 s)
+        expected = plant_spectral_radii(design, theta, configurations=angles)["proposed"]
         assert row["sampled_data_spectral_radius"] == expected
     radii = table.loc[table["controller"] == "proposed", "sampled_data_spectral_radius"]
     assert radii.nunique() == 4  # four plants, four loops

@@ -12,6 +12,7 @@ import pytest
 
 from posfb.analysis.cli import main
 from posfb.analysis.common.cases import SCENARIO_DIR
+from posfb.analysis.common.errors import EXIT_NOT_TRACKED
 from posfb.analysis.common.metrics import rms
 from posfb.analysis.paper.experiment import CASE_FILES, case_scenario
 from posfb.diagrams.closed_loop import ClosedLoopConfig, ClosedLoopRunner
@@ -268,9 +269,11 @@ def test_bad_scenarios_get_one_line_naming_the_key(tmp_path, capsys, text, needl
 def test_a_trajectory_beyond_the_voltage_limit_runs_with_a_warning(tmp_path, capsys):
     fast = "trajectory: !Waypoints {times: [0, 0.3], positions: [[-1.5707963, 0], [0, 1.5]]}\n"
     path = _write(tmp_path, fast + "controller: !LinLc {}\ntiming: {duration: 0.5}\n")
-    assert main(["simulate", "--scenario", str(path)]) == 0
+    # it runs, warned; its second half saturates beyond the verdict's 5 % (the run verdict,
+    # issue 40): exit 5, the run named as not tracked
+    assert main(["simulate", "--scenario", str(path)]) == EXIT_NOT_TRACKED
     err = capsys.readouterr().err
-    assert "warning" in err and "voltage limit" in err
+    assert "warning" in err and "voltage limit" in err and "saturated" in err
 
 
 def test_shipped_case_files_exist_and_differ_only_in_the_payload():

@@ -180,11 +180,11 @@ def test_tuned_four_link_arm_is_stable_and_checked(four_link):
         assert entry["after"]["nominal_radius"] < 1.0 - report["margin"]
         assert entry["after"]["worst_radius"] <= 1.0 - report["margin"]
         assert entry["guarantee"]["failures"] == 0 and entry["guarantee"]["holds"]
-        # The report's margins are of the loop tune judged: the same nominal radius.
+        # The report's margins are of the loop tune judged at M0*: its radius is one of
+        # those the nominal radius (the worst of M0* and the active configurations) covers.
         for when in ("before", "after"):
             margins = entry[f"margins_{when}"]
-            assert margins["spectral_radius"] == pytest.approx(
-                entry[when]["nominal_radius"], rel=1e-9)  # fmt: skip
+            assert margins["spectral_radius"] <= entry[when]["nominal_radius"] * (1 + 1e-9)
         assert entry["margins_after"]["disk_margin"] > 0.0
     check = subprocess.run([*CLI, "scenario", "check", str(tuned)], capture_output=True,
                            text=True, timeout=300)  # fmt: skip

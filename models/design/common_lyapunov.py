@@ -33,6 +33,7 @@ solver's own tolerance is not trusted).
 
 from __future__ import annotations
 
+import hashlib
 import math
 import warnings
 from collections.abc import Sequence
@@ -42,6 +43,7 @@ import numpy as np
 import scipy.linalg
 
 from posfb.models.design.closed_loop import spectral_radius
+from posfb.models.disk_cache import cached_floats
 
 #: The solver statuses whose ``P`` is read (and then checked in numpy).
 SOLVED = ("optimal", "optimal_inaccurate")
@@ -193,6 +195,47 @@ def _negative_margin(Q: np.ndarray, B: np.ndarray) -> tuple[float, float]:
     return largest, ROUNDING_MARGIN * len(Q) * np.finfo(float).eps * size
 
 
+#: The ``models.disk_cache`` kind of a search's answer (its ``Q``, stored as floats; a cache
+#: hit is checked in numpy as a fresh answer is, so an entry cannot make a certificate).
+CACHE_KIND = "common_lyapunov"
+
+#: The solver's statuses an answer is stored as (their index).
+SOLVER_STATUSES = ("optimal", "optimal_inaccurate", "infeasible", "infeasible_inaccurate",
+                   "unbounded", "unbounded_inaccurate", "not solved")
+
+
+def _searched(balanced: list[np.ndarray], radii: list[float]) -> dict[str, float]:
+    """The cutting-plane search (``common_lyapunov``'s docstring) on the ``balanced`` loops:
+    ``feasible`` (1/0), ``status`` (index into ``SOLVER_STATUSES``), ``taken`` (the loops
+    the last LMI held) and, when feasible, ``Q``'s entries ``q0 ..``."""
+    taken = [int(i) for i in np.argsort(radii)[::-1][:BATCH]]
+    while True:
+        Q, status = _solve([balanced[i] for i in taken])
+        code = SOLVER_STATUSES.index(status if status in SOLVER_STATUSES else "not solved")
+        if Q is None:
+            return {"feasible": 0.0, "status": float(code), "taken": float(len(taken))}
+        margins = [_negative_margin(Q, B) for B in balanced]
+        failing = [i for i, (largest, rounding) in enumerate(margins) if not largest < -rounding]
+        new = sorted((i for i in failing if i not in taken), key=lambda i: -margins[i][0])
+        if not new:
+            break
+        taken += new[:BATCH]
+    entries = {f"q{i}": float(v) for i, v in enumerate(Q.ravel())}
+    return {"feasible": 1.0, "status": float(code), "taken": float(len(taken)), **entries}
+
+
+def _stored_q(stored: dict[str, float], n: int) -> np.ndarray:
+    """``Q`` from a ``_searched`` answer's entries (symmetrised)."""
+    Q = np.array([stored[f"q{i}"] for i in range(n * n)]).reshape(n, n)
+    return 0.5 * (Q + Q.T)
+
+
+def _holds(Q: np.ndarray, balanced: list[np.ndarray]) -> bool:
+    """Whether ``Q`` passes the numeric check on every loop."""
+    return all(largest < -rounding for largest, rounding in (
+        _negative_margin(Q, B) for B in balanced))  # fmt: skip
+
+
 def _infeasible(loops: int, message: str) -> LyapunovCertificate:
     return LyapunovCertificate(False, None, math.nan, math.nan, loops, message)
 
@@ -223,19 +266,20 @@ def common_lyapunov(transitions: Sequence[np.ndarray]) -> LyapunovCertificate:
     balanced = [A / d[:, None] * d[None, :] for A in matrices]  # D^-1 A D, exact
     # The check is made in the balanced coordinates: P = D^-1 Q D^-1 is congruent to Q,
     # so A^T P A - P = D^-1 (B^T Q B - Q) D^-1 with B = D^-1 A D has the same inertia.
-    taken = [int(i) for i in np.argsort(radii)[::-1][:BATCH]]
-    while True:
-        Q, status = _solve([balanced[i] for i in taken])
-        if Q is None:
-            return _infeasible(loops, f"no common quadratic Lyapunov function for the {loops} "
-                               f"loops: the LMI on {len(taken)} of them is {status}")  # fmt: skip
-        margins = [_negative_margin(Q, B) for B in balanced]
-        failing = sorted((i for i, (largest, rounding) in enumerate(margins)
-                          if not largest < -rounding), key=lambda i: -margins[i][0])  # fmt: skip
-        new = [i for i in failing if i not in taken][:BATCH]
-        if not new:
-            break
-        taken += new
+    key = {"loops": hashlib.sha256(np.stack(balanced).tobytes()).hexdigest(), "batch": BATCH}
+    stored = cached_floats(CACHE_KIND, key, lambda: _searched(balanced, radii))
+    if stored["feasible"] == 1.0 and not _holds(_stored_q(stored, len(d)), balanced):
+        stored = _searched(balanced, radii)  # an entry that does not hold: searched afresh
+    if stored["feasible"] == 0.0:
+        return _infeasible(loops, f"no common quadratic Lyapunov function for the {loops} "
+                           f"loops: the LMI on {int(stored['taken'])} of them is "
+                           f"{SOLVER_STATUSES[int(stored['status'])]}")  # fmt: skip
+    Q = _stored_q(stored, len(d))
+    status, taken = SOLVER_STATUSES[int(stored["status"])], range(int(stored["taken"]))
+    # the stored Q is checked here whatever its source: a cache entry cannot certify
+    margins = [_negative_margin(Q, B) for B in balanced]
+    failing = sorted((i for i, (largest, rounding) in enumerate(margins)
+                      if not largest < -rounding), key=lambda i: -margins[i][0])  # fmt: skip
     if failing:
         largest, rounding = margins[failing[0]]
         return _infeasible(loops, f"the solver's P ({status}) fails the numeric check on "

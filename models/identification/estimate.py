@@ -263,6 +263,9 @@ def fit_log(
     weighted_residual = weighted_b - weighted_A @ values
     scale = weighted_residual @ weighted_residual / (b.size - parameters)
     covariance = scale * np.linalg.pinv(weighted_A.T @ weighted_A)
+    # pinv of a symmetric matrix is symmetric only to round-off (2e-4 of sigma_i sigma_j on a
+    # published five-joint arm, issue 42): the covariance a consumer checks is symmetric
+    covariance = 0.5 * (covariance + covariance.T)
     return Estimate(
         names=tuple(names),
         values=values,
