@@ -19,6 +19,7 @@ transfer at the plant input is ``-K P``.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import cached_property
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -63,7 +64,12 @@ class LinearDesign:
         return self.loop.with_plant(M, self.loop.B, self.loop.effects)
 
     def frozen_radii(self) -> FrozenFigures | None:
-        """The spectral radius at every configuration (``None`` without a set)."""
+        """The spectral radius at every configuration (``None`` without a set; computed
+        once: the margins and both of their reports read it)."""
+        return self._frozen_radii
+
+    @cached_property
+    def _frozen_radii(self) -> FrozenFigures | None:
         if self.configurations is None:
             return None
         return frozen_figures(lambda M: self.at(M).radius(), self.configurations)

@@ -70,9 +70,9 @@ def loop_figures(margins: LoopMargins) -> dict[str, object]:
     return result if margins.stable else _nulled(result)
 
 
-#: The loop-wide figures judged over the configurations: (name, worse end, unit).
+#: The loop-wide margins judged over the frozen configurations, each with its worse end
+#: (the spectral radius is judged over every configuration: ``LinearDesign.frozen_radii``).
 FROZEN_FIGURES = (
-    ("spectral_radius", "max"),
     ("disk_margin", "min"),
     ("delay_margin_s", "min"),
     ("peak_sensitivity", "max"),
@@ -84,8 +84,6 @@ Frozen = list[tuple[Configuration, LoopMargins]]
 
 def _figure(margins: LoopMargins, name: str) -> float:
     """A loop-wide figure of ``margins``; a margin of an unstable loop is 0."""
-    if name == "spectral_radius":
-        return margins.radius
     if not margins.stable:
         return 0.0 if name in ("disk_margin", "delay_margin_s") else math.inf
     return float(getattr(margins, name))
@@ -100,7 +98,7 @@ def frozen_worst(design: LinearDesign, frozen: Frozen) -> dict[str, tuple[float,
         worst["spectral_radius"] = (
             radii.worst, design.configurations.configurations[radii.worst_index]
         )
-    for name, end in FROZEN_FIGURES[1:]:
+    for name, end in FROZEN_FIGURES:
         values = [(_figure(m, name), c) for c, m in frozen]
         if values:
             pick = max if end == "max" else min
