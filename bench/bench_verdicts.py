@@ -1,6 +1,6 @@
 """What ``posfb scenario check`` spends on a scenario's verdicts (issue 40), per part:
 
-    .venv/bin/python bench/bench_verdicts.py [--scenario six_joint_nominal] [--repeat 3]
+    .venv/bin/python bench/bench_verdicts.py [--scenario six_joint_nominal|FILE] [--repeat 3]
 
 the configuration set, the design's sampled-data checks over it (and the common-Lyapunov
 certificate of the scenario controller's loop), the margins at ``M0*`` and at the frozen
@@ -30,7 +30,8 @@ def _timed(part: Callable[[], object], repeat: int) -> tuple[float, float]:
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--scenario", default="six_joint_nominal", help="a shipped scenario's name")
+    parser.add_argument("--scenario", default="six_joint_nominal",
+                        help="a shipped scenario's name or a scenario file")  # fmt: skip
     parser.add_argument("--repeat", type=int, default=3)
     args = parser.parse_args()
 
@@ -44,7 +45,8 @@ def main() -> None:
     from posfb.models.design.configurations import path_configurations
     from posfb.models.nominal import nominal_model
 
-    resolved = resolve(posfb.load_scenario(shipped_scenarios()[args.scenario]))
+    path = shipped_scenarios().get(args.scenario, args.scenario)  # a name, or a file
+    resolved = resolve(posfb.load_scenario(path))
     linear = linear_design(resolved)
 
     config = resolved.config

@@ -320,13 +320,15 @@ def test_a_rule_that_cannot_pass_says_why_in_one_line():
     from posfb.analysis.design.scenario_init import DesignedControllers
 
     failing = DesignedControllers(
-        weights=None, filter_a=100.0, gamma=10.0,
+        weights=initial.lqr_weights(np.eye(2), 0.01, initial.BANDWIDTH_SCALES[-1]),
+        filter_a=100.0, gamma=10.0,
         alpha=initial.AlphaChoice(0.05, 1.07, met=False), pid=None,
         radius_lin_lc=1.02, radius_at_cap=1.3, eigenvalue_range=(0.3, 3.9),
     )  # fmt: skip
     reason = failing.reason()
     assert "varies 13x along the path" in reason and "Lin+LC's worst radius is 1.0200" in reason
-    assert "rotor inertia and gear, or lower the bandwidth" in reason and "\n" not in reason
+    assert "at bandwidth scale 0.0625" in reason and "\n" not in reason
+    assert "rotor inertia and gear, or a shorter T_s" in reason
     passing = DesignedControllers(
         weights=None, filter_a=100.0, gamma=10.0,
         alpha=initial.AlphaChoice(4.0, 0.9, met=True), pid=None,

@@ -291,27 +291,28 @@ class DesignedControllers:
     def reason(self) -> str:
         """Why no setting of the rules passes over the path's configurations (empty when
         one does): one line, for the log and the file."""
-        from posfb.models.design.initial import TARGET_RADIUS
-
         if self.alpha.met and self.radius_lin_lc < 1.0:
             return ""
         low, high = self.eigenvalue_range
         return (
             f"M*(q) varies {high / low:.3g}x along the path (eigenvalues of M0*^-1 M*(q) "
-            f"{low:.3g} to {high:.3g}): no alpha* reaches radius {TARGET_RADIUS:g} at every "
-            "configuration" + ("" if self.radius_lin_lc < 1.0 else
-                               f" and Lin+LC's worst radius is {self.radius_lin_lc:.4f}")
-            + "; give the drives' rotor inertia and gear, or lower the bandwidth"
+            f"{low:.3g} to {high:.3g}): no alpha* reaches radius {self.alpha.target:.4g} at "
+            "every configuration" + ("" if self.radius_lin_lc < 1.0 else
+                                     f" and Lin+LC's worst radius is {self.radius_lin_lc:.4f}")
+            + f" at bandwidth scale {self.weights.scale:.4g}; give the drives' rotor inertia "
+            "and gear, or a shorter T_s"
         )  # fmt: skip
 
 
 def design_controllers(
     settings: Settings, facts: ArmFacts, fitted: FittedTrajectory
 ) -> DesignedControllers:
-    """LQR weights, ``G(s)``, ``H(s)``, PID gains by their rules; ``alpha*`` by the
-    largest sampled-data spectral radius ``<= TARGET_RADIUS`` over ``M0*`` and the
-    configurations of the fitted path (``models.design.configurations``; the design is
-    computed once; only ``alpha*`` changes between the radii)."""
+    """LQR weights, ``G(s)``, ``H(s)``, PID gains by their rules: the bandwidth by the
+    largest scale whose Lin+LC loop passes over ``M0*`` and the configurations of the
+    fitted path (``models.design.configurations``) with a gain margin where ``M*(q)`` is
+    lightest, ``alpha*`` by the largest sampled-data spectral radius ``<= alpha_target``
+    over the same configurations (``models.design.initial``; one design per bandwidth
+    scale tried; only ``alpha*`` changes between the radii)."""
     from posfb.models.design import (
         ControllerConfig,
         NonlinearTorqueConfig,
@@ -320,9 +321,13 @@ def design_controllers(
     )
     from posfb.models.design.configurations import CONFIGURATION_SPACING, path_configurations
     from posfb.models.design.initial import (
+        BANDWIDTH_SCALES,
+        CONFIGURATION_GAIN_MARGIN,
+        alpha_target,
         filter_pole,
         h_gamma,
         largest_alpha_star,
+        largest_bandwidth_scale,
         lqr_weights,
         pid_gains,
     )
@@ -333,39 +338,52 @@ def design_controllers(
     n = len(facts.joints)
     pid = pid_gains(settings.sample_time, facts.M0, settings.encoder_counts,
                     settings.voltage_limit)  # fmt: skip
-    weights = lqr_weights(facts.M0, settings.sample_time)
     filter_a = filter_pole(settings.sample_time)
     gamma = h_gamma([w.frequency for w in fitted.waves])
     nominal = UrdfNominal(str(settings.urdf))
-    config = ControllerConfig(
-        nominal=nominal,
-        sample_time=settings.sample_time,
-        lqr=weights.lqr(),
-        nonlinear=NonlinearTorqueConfig(
-            A_zeta=-gamma * np.eye(n), B_zeta=gamma * np.eye(n), C_zeta=np.eye(n),
-            filter_a=filter_a,
-        ),
-        pid=PidGains(Kp=pid.Kp, Kv=pid.Kv, KI=pid.KI),
-    )  # fmt: skip
-    design = cached_design(config)
     model = nominal_model(nominal)
     configurations = path_configurations(
         model, WaveTrajectory(fitted.waves), settings.duration, CONFIGURATION_SPACING
     )
     angles = tuple(c.q for c in configurations.configurations)
+    lightest = next(M for c, M in zip(configurations.configurations, configurations.masses,
+                                      strict=True) if c.role == "lightest")  # fmt: skip
+
+    def config_at(scale: float) -> ControllerConfig:
+        return ControllerConfig(
+            nominal=nominal,
+            sample_time=settings.sample_time,
+            lqr=lqr_weights(facts.M0, settings.sample_time, scale).lqr(),
+            nonlinear=NonlinearTorqueConfig(
+                A_zeta=-gamma * np.eye(n), B_zeta=gamma * np.eye(n), C_zeta=np.eye(n),
+                filter_a=filter_a,
+            ),
+            pid=PidGains(Kp=pid.Kp, Kv=pid.Kv, KI=pid.KI),
+        )  # fmt: skip
+
+    def lin_lc_passes(scale: float) -> bool:
+        radii = plant_spectral_radii(cached_design(config_at(scale)), model, configurations=angles,
+                                     masses=(lightest / CONFIGURATION_GAIN_MARGIN,))  # fmt: skip
+        return radii["lin_lc"] < 1.0
+
+    scale = largest_bandwidth_scale(lin_lc_passes) or BANDWIDTH_SCALES[-1]
+    weights = lqr_weights(facts.M0, settings.sample_time, scale)
+    config = config_at(scale)
+    design = cached_design(config)
 
     def radius(alpha_star: float) -> float:
         changed = replace(design, config=config.with_alpha_star(alpha_star))
         return plant_spectral_radii(changed, model, configurations=angles)["proposed"]
 
+    radius_lin_lc = plant_spectral_radii(design, model, configurations=angles)["lin_lc"]
     cap = config.nonlinear.alpha_star
     return DesignedControllers(
         weights=weights,
         filter_a=filter_a,
         gamma=gamma,
-        alpha=largest_alpha_star(radius, cap),
+        alpha=largest_alpha_star(radius, cap, alpha_target(radius_lin_lc)),
         pid=pid,
-        radius_lin_lc=plant_spectral_radii(design, model, configurations=angles)["lin_lc"],
+        radius_lin_lc=radius_lin_lc,
         radius_at_cap=radius(cap),
         eigenvalue_range=configurations.eigenvalue_range(),
     )
@@ -544,6 +562,7 @@ class InitResult:
     alpha_star: float
     radius: float
     radius_lin_lc: float
+    bandwidth_scale: float = 1.0
     reason: str = ""
 
 
@@ -572,5 +591,6 @@ def write_scenario(options: InitOptions, log: Callable[[str], None] = lambda _: 
         alpha_star=designed.alpha.alpha_star,
         radius=designed.alpha.radius,
         radius_lin_lc=designed.radius_lin_lc,
+        bandwidth_scale=designed.weights.scale,
         reason=designed.reason(),
     )

@@ -40,6 +40,16 @@ times ``rho_j``. (The absolute scale of ``Q`` and ``R`` leaves ``K`` unchanged b
 On Table 1's arm at 0.01 s, joint 1 gets the paper's ``Q1_11``, ``Q1_33``, ``Q2_11``,
 ``R_11`` and ``lambda_1``.
 
+**Bandwidth over the path** (``largest_bandwidth_scale``): ``M0*`` is one inertia, the arm
+visits many (``models.design.configurations``): where ``M*(q)`` is lighter than ``M0*``
+the same gains make a faster loop, and past some ratio an unstable sampled loop. The
+bandwidth above is multiplied by the largest scale of ``BANDWIDTH_SCALES`` (1 down to
+1/16) at which Lin+LC's sampled loop is stable at ``M0*``, at every configuration of the
+path with ``M*(q)`` frozen, and at the path's lightest configuration with its ``M*(q)``
+divided by ``CONFIGURATION_GAIN_MARGIN`` (a gain margin of 2 where the loop is most
+sensitive). The shipped arms keep scale 1; an arm whose ``M*(q)`` varies many-fold gets a
+slower loop, or, below 1/16, the reason why none passes.
+
 **G(s) pole** (Sec. 3.4, ``filter_pole``): ``a = a_ref max(1, T_ref / T_s)``: the
 paper's ``a = 100`` at ``T_s = 0.01 s`` has ``a T_s / ln 2 = 1.44``; faster sampling keeps
 that margin over the condition ``a > ln 2 / T_s``, slower sampling keeps the paper's
@@ -54,7 +64,8 @@ whose sampled-data spectral radius at ``M0*`` and over the path's configurations
 (``models.design.configurations``; ``Design.sampled_data_spectral_radius``)
 is at most 0.95, found by bisection (``scipy.optimize.brentq``): the paper's ``alpha*``
 where its loop is stable with a margin, otherwise as much of the nonlinear torque as
-the sampled loop takes.
+the sampled loop takes. Where a lowered bandwidth leaves Lin+LC's own worst radius above
+0.95, the target is half-way from it to 1 (``alpha_target``).
 
 **PID** (Eq. 26, ``pid_gains``): Eq. 26 acts on the acceleration-level error ``q~'' +
 Kv q~' + Kp q~ + KI int q~ = 0``; the rule places its characteristic polynomial at
@@ -104,6 +115,15 @@ VOLTAGE_HEADROOM = 0.6
 
 #: Largest nominal sampled-data spectral radius ``largest_alpha_star`` accepts.
 TARGET_RADIUS = 0.95
+
+#: The bandwidth scales the LQR rule tries, largest first: 1 (the paper's bandwidth per
+#: sample) down to 1/16 in quarter-octave steps (``largest_bandwidth_scale``).
+BANDWIDTH_SCALES = tuple(2.0 ** (-k / 4.0) for k in range(17))
+
+#: The gain margin the bandwidth rule asks of Lin+LC's loop where ``M*(q)`` is lightest on
+#: the path: stable with that configuration's ``M*(q)`` divided by it (6 dB, the usual
+#: textbook gain margin), besides stable at every configuration of the path.
+CONFIGURATION_GAIN_MARGIN = 2.0
 
 #: Fraction of the room to a joint limit a trajectory may use.
 LIMIT_FRACTION = 0.9
@@ -195,17 +215,19 @@ class InitialWeights:
     lambdas: tuple[float, ...]
     bandwidth: float
     rho: tuple[float, ...]
+    scale: float = 1.0
 
     def rule(self) -> list[str]:
         """``lqr_weights``'s rule in words, with this arm's numbers (``scenario init``
         writes it above ``controller.Q1``)."""
         ref = paper_reference()
+        scaled = "" if self.scale == 1.0 else f"{self.scale:.4g} x "
         return [
             "LQR weights (Eq. 16), diagonal: every joint gets the paper's joint-1 loop (Q1 = "
             f"{ref.Qp:g}, {ref.Qv:g}; Q2 = {ref.Qe:g};",
             f"R = {ref.R:g}; lambda = {ref.lam:g}; on Table 1's M0*_11 = {ref.m:.4g} at T_s = "
-            f"{ref.sample_time:g} s) at the same bandwidth per sample:",
-            f"omega = (Qp_j / (R_j M0*_jj^2))^(1/6) = {ref.per_sample:.4f} / T_s = "
+            f"{ref.sample_time:g} s) at the same bandwidth per sample times a scale:",
+            f"omega = (Qp_j / (R_j M0*_jj^2))^(1/6) = {scaled}{ref.per_sample:.4f} / T_s = "
             f"{self.bandwidth:.4g} rad/s (the geometric mean of a joint's",
             "LQR pole radii, whatever its damping). With rho_j = M0*_jj omega^2 / "
             f"({ref.m:.4g} x {ref.bandwidth:.4g}^2) = {numbers(self.rho)}:",
@@ -225,11 +247,14 @@ class InitialWeights:
         )
 
 
-def lqr_weights(M0: np.ndarray, sample_time: float) -> InitialWeights:
+def lqr_weights(M0: np.ndarray, sample_time: float, scale: float = 1.0) -> InitialWeights:
     """The rule of the module docstring: per joint the paper's joint-1 loop, at the same
-    bandwidth per sample, on the joint's ``M0*_jj``. Values rounded to ``DIGITS``."""
+    bandwidth per sample times ``scale`` (``BANDWIDTH_SCALES``), on the joint's ``M0*_jj``.
+    Values rounded to ``DIGITS``."""
+    if not (math.isfinite(scale) and 0.0 < scale <= 1.0):
+        raise ValueError(f"scale = {scale!r}; a bandwidth scale in (0, 1] is required")
     ref = paper_reference()
-    omega = ref.per_sample / sample_time
+    omega = scale * ref.per_sample / sample_time
     masses = np.diag(np.asarray(M0, dtype=float))
     if np.any(masses <= 0.0):
         raise ValueError(f"M0* has diagonal {masses.tolist()}; positive entries are required")
@@ -244,7 +269,24 @@ def lqr_weights(M0: np.ndarray, sample_time: float) -> InitialWeights:
         lambdas=(rounded(ref.lam / time_ratio),) * masses.size,
         bandwidth=omega,
         rho=tuple(float(r) for r in torque_ratio),
+        scale=scale,
     )
+
+
+def largest_bandwidth_scale(acceptable: Callable[[float], bool]) -> float | None:
+    """The first (largest) of ``BANDWIDTH_SCALES`` that is ``acceptable``; ``None`` when none
+    is (the bandwidth rule of the module docstring)."""
+    return next((scale for scale in BANDWIDTH_SCALES if acceptable(scale)), None)
+
+
+def alpha_target(radius_lin_lc: float) -> float:
+    """The radius ``largest_alpha_star`` aims at: ``TARGET_RADIUS``, or, where a lowered
+    bandwidth leaves Lin+LC's worst radius above it (a slower loop's poles lie nearer the
+    unit circle), half-way from that radius to 1: the nonlinear torque may use half of the
+    stability margin Lin+LC leaves. An unstable Lin+LC keeps ``TARGET_RADIUS``."""
+    if radius_lin_lc >= 1.0:
+        return TARGET_RADIUS
+    return max(TARGET_RADIUS, 0.5 * (1.0 + radius_lin_lc))
 
 
 def filter_pole(sample_time: float) -> float:
@@ -365,6 +407,7 @@ class AlphaChoice:
     alpha_star: float
     radius: float
     met: bool
+    target: float = TARGET_RADIUS
 
     def rule(self, radius_at_cap: float, radius_lin_lc: float) -> list[str]:
         """``largest_alpha_star``'s rule in words: this choice, the radius
@@ -377,12 +420,12 @@ class AlphaChoice:
         lines = [
             f"rule: the largest alpha* <= the paper's {cap:g} (Sec. 4.2) whose sampled-data "
             "(at M0* and the path's configurations)",
-            f"spectral radius (check sampled_data) is <= {TARGET_RADIUS:g} (bisection): {found}",
+            f"spectral radius (check sampled_data) is <= {self.target:.4g} (bisection): {found}",
             f"(Lin+LC: {radius_lin_lc:.4f}).",
         ]
         if not self.met:
             lines.append(
-                f"no alpha* reaches {TARGET_RADIUS:g}: this is the alpha* of the smallest "
+                f"no alpha* reaches {self.target:.4g}: this is the alpha* of the smallest "
                 f"radius on a {ALPHA_GRID_POINTS}-point grid; prefer Lin+LC or a faster T_s."
             )
         return lines
@@ -398,17 +441,17 @@ def largest_alpha_star(
     cap = float(_default(NonlinearTorqueConfig, "alpha_star")) if cap is None else cap
     at_cap = radius(cap)
     if at_cap <= target:
-        return AlphaChoice(cap, at_cap, True)
+        return AlphaChoice(cap, at_cap, True, target)
     low = cap * 1e-3
     if radius(low) > target:
         grid = np.linspace(low, cap, ALPHA_GRID_POINTS)
         values = [radius(float(a)) for a in grid]
         best = int(np.argmin(values))
-        return AlphaChoice(rounded(grid[best]), values[best], False)
+        return AlphaChoice(rounded(grid[best]), values[best], False, target)
     root = scipy.optimize.brentq(lambda a: radius(a) - target, low, cap, xtol=1e-4)
     # Round down so that the written value keeps radius <= target.
     choice = math.floor(root * 1000.0) / 1000.0
-    return AlphaChoice(choice, radius(choice), True)
+    return AlphaChoice(choice, radius(choice), True, target)
 
 
 def wave_frequencies(joints: int) -> tuple[float, ...]:

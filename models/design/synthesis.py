@@ -431,19 +431,22 @@ def plant_spectral_radii(
     plant: LumpedParameters | SerialArmModel,
     effects: LoopEffects = NO_EFFECTS,
     configurations: tuple[tuple[float, ...], ...] = (),
+    masses: tuple[np.ndarray, ...] = (),
 ) -> dict[str, float]:
     """The sampled-data spectral radius of each ``LOOP_CONTROLLERS`` loop with the filters
     *as designed* (on the nominal model) closed around the linear part ``M0, B`` of
     ``plant`` (another arm's theta, or a serial arm's model) with ``effects``: the design
     report's check, asked of a sampled plant; with ``configurations`` (joint angles, rad),
     the worst of that and the loops with the plant's own ``M*(q)`` frozen at each
-    (``models.design.configurations``). On the design's own nominal model without
-    configurations it is the design's radii (``with_effects``')."""
+    (``models.design.configurations``), and with ``masses``, of the loops around those
+    mass matrices too. On the design's own nominal model without configurations it is
+    the design's radii (``with_effects``')."""
     model = LumpedModel(plant) if isinstance(plant, LumpedParameters) else plant
     filters = {"proposed": design.proposed_filter, "lin_lc": design.lin_lc_filter}
     alpha_star, T = design.config.nonlinear.alpha_star, design.config.sample_time
     B = model.B()
-    masses = [model.M0(), *(model.M(np.asarray(q, dtype=float)) for q in configurations)]
+    masses = [model.M0(), *(model.M(np.asarray(q, dtype=float)) for q in configurations),
+              *masses]  # fmt: skip
     radii = [_radii(_loop_transitions(M, B, filters, alpha_star, T, effects)) for M in masses]
     return {name: max(r[name] for r in radii) for name in LOOP_CONTROLLERS}
 

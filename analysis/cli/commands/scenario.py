@@ -126,7 +126,8 @@ def run_init(args: argparse.Namespace) -> int:
     )
     print(
         f"{result.path}: {result.joints} joints; trajectory at {result.scale:.3g} of the rule's "
-        f"motion, nominal peak {result.peak_fraction:.0%} of the voltage limit; alpha* = "
+        f"motion, nominal peak {result.peak_fraction:.0%} of the voltage limit; LQR bandwidth "
+        f"{result.bandwidth_scale:.4g} x the paper's per sample; alpha* = "
         f"{result.alpha_star:g} (sampled-data radius over the path's configurations "
         f"{result.radius:.4f}, Lin+LC {result.radius_lin_lc:.4f})"
     )
