@@ -15,12 +15,13 @@ import scipy.optimize
 
 import posfb
 from helpers.montecarlo_helpers import run_into_store
+from posfb.analysis.common.configurations import scenario_configurations
 from posfb.analysis.common.shipped import shipped_files
 from posfb.analysis.design.worst_case import worst_case
 from posfb.analysis.montecarlo.report import write_report
 from posfb.analysis.montecarlo.store import ResultStore
 from posfb.analysis.uncertainty.loops import StudyLoops
-from posfb.analysis.uncertainty.plants import linear_plants, plant_family
+from posfb.analysis.uncertainty.plants import draw_plants, plant_family
 from posfb.analysis.uncertainty.study import load_study
 from posfb.diagrams.resolve import resolve
 from posfb.models.design import compute_design, held_design_radius
@@ -98,14 +99,20 @@ def paper_worst(paper_study):
 
 def test_worst_sampled_plant_is_tunes_worst(paper_study, paper_worst):
     """The worst sampled rho is the largest over the plants ``posfb tune`` draws with the
-    same seed, each judged by the design's own held loop (``held_design_radius``)."""
+    same seed, each judged by the design's own held loop (``held_design_radius``) at its
+    ``M0*`` and with its ``M*(q)`` frozen at the path's configurations (tune's
+    ``held_at``)."""
     loaded, found = paper_worst
     resolved = resolve(loaded)
     design = compute_design(resolved.config.design)
-    plants = linear_plants(plant_family(paper_study, loaded), resolved, 5, 12)
-    radii = [held_design_radius(design, "lin_lc", p.held) for p in plants]
+    configurations = scenario_configurations(resolved.config).configurations
+    plants = list(draw_plants(plant_family(paper_study, loaded), resolved, 5, 12,
+                              configurations=tuple(c.q for c in configurations)))  # fmt: skip
+    radii = [max(held_design_radius(design, "lin_lc", held) for held in (p.held, *p.held_at))
+             for p in plants]  # fmt: skip
     assert found.sampled_radius.radius == pytest.approx(max(radii), rel=1e-12)
     assert found.sampled_radius.source == f"sampled {int(np.argmax(radii))}"
+    assert found.configurations == len(configurations) and 1 <= len(found.active) <= 3
 
 
 def test_search_finds_no_better_plant_than_the_worst_sampled(paper_study, paper_worst):

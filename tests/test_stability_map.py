@@ -16,15 +16,17 @@ from scipy.optimize import brentq
 
 from posfb.analysis.cli import main
 from posfb.analysis.common.cases import CASE_FILES, SCENARIO_DIR
+from posfb.analysis.common.configurations import scenario_configurations
 from posfb.analysis.common.errors import UsageError
 from posfb.analysis.design import stability_map as sm
-from posfb.analysis.design.report import relevant_checks
+from posfb.analysis.design.report import nominal_design, relevant_checks
 from posfb.analysis.design.settings import DEFAULT_MARGIN, TuneSettings
-from posfb.analysis.uncertainty.plants import linear_plants, plant_family
+from posfb.analysis.uncertainty.plants import draw_plants, plant_family
 from posfb.analysis.uncertainty.study import load_study
 from posfb.diagrams.resolve import load_scenario, resolve
 from posfb.models.design import compute_design, design_loop
 from posfb.models.design.closed_loop import spectral_radius
+from posfb.models.nominal import nominal_model
 
 PLANTS = 6
 SEED = 3
@@ -60,20 +62,40 @@ def _config(sample_time: float, alpha_star: float, scenario=CASE_FILES["nominal"
 
 
 def _plant_radii(design, plants) -> np.ndarray:
-    """Each plant's sampled-data radius of the proposed loop, from the full closed loop
-    (``design_loop``), not the map's transition-only ``held_design_radius``."""
-    return np.array([spectral_radius(design_loop(design, "proposed", p.M0, p.B).A)
-                     for p in plants])  # fmt: skip
+    """Each plant's sampled-data radius of the proposed loop, the worst over its ``M0*`` and
+    its ``M*(q)`` at the path's lightest and heaviest configurations, from the full
+    closed loop (``design_loop``), not the map's transition-only ``held_design_radius``."""
+    return np.array([max(spectral_radius(design_loop(design, "proposed", M, p.B).A)
+                         for M in (p.M0, *p.M_at)) for p in plants])  # fmt: skip
+
+
+def _plants(study, loaded, seed: int, count: int) -> list:
+    """The map's plants drawn again: ``count`` draws with their ``M*(q)`` at the path's
+    lightest and heaviest configurations."""
+    resolved = resolve(loaded)
+    extremes = tuple(c.q for c in scenario_configurations(resolved.config).configurations
+                     if c.role in ("lightest", "heaviest"))  # fmt: skip
+    return list(draw_plants(plant_family(study, loaded), resolved, seed, count,
+                            configurations=extremes))  # fmt: skip
+
+
+def _nominal_radius(design, controller: str = "proposed", scenario=CASE_FILES["nominal"]):
+    """The nominal model's radius, the worst over ``M0*`` and every configuration of the
+    scenario's path, from the full closed loop."""
+    config = resolve(load_scenario(scenario)).config
+    model = nominal_model(config.design.nominal)
+    masses = (model.M0(), *scenario_configurations(config).masses)
+    return max(spectral_radius(design_loop(design, controller, M, model.B()).A) for M in masses)
 
 
 def test_rho_at_the_scenario_point_is_the_design_report(paper_map):
     i, j = 1, len(paper_map.y.values) - 1
     assert paper_map.x.values[i] == pytest.approx(0.01) and paper_map.y.values[j] == 4.0
-    report = compute_design(resolve(load_scenario(CASE_FILES["nominal"])).config.design)
+    report = nominal_design(resolve(load_scenario(CASE_FILES["nominal"])))
     assert paper_map.rho[j, i] == pytest.approx(report.sampled_data_spectral_radius, abs=1e-12)
     assert paper_map.rho[j, i] > 1.0
     exact = compute_design(_config(paper_map.x.values[i], paper_map.y.values[j]))
-    assert paper_map.rho[j, i] == pytest.approx(exact.sampled_data_spectral_radius, abs=1e-12)
+    assert paper_map.rho[j, i] == pytest.approx(_nominal_radius(exact), abs=1e-12)
 
 
 def test_the_rho_one_crossing_in_alpha_star_at_10_ms(setup):
@@ -86,7 +108,7 @@ def test_the_rho_one_crossing_in_alpha_star_at_10_ms(setup):
     assert not above[:crossing].any() and above[crossing:].all()
 
     def excess(alpha: float) -> float:
-        return compute_design(_config(0.01, alpha)).sampled_data_spectral_radius - 1.0
+        return _nominal_radius(compute_design(_config(0.01, alpha))) - 1.0
 
     root = brentq(excess, 3.0, 3.5, xtol=1e-6)
     assert 3.0 < root < 3.5
@@ -121,8 +143,7 @@ def test_one_point_rebuilt_from_the_controller_config(setup, paper_map):
     """The share at one grid point from the design built without the scenario path and
     the plants drawn again."""
     loaded = load_scenario(CASE_FILES["nominal"])
-    resolved = resolve(loaded)
-    plants = linear_plants(plant_family(None, loaded), resolved, SEED, PLANTS)
+    plants = _plants(None, loaded, SEED, PLANTS)
     limit = 1.0 - DEFAULT_MARGIN
     for i, j in ((2, 3), (3, 1), (1, 7)):
         design = compute_design(_config(paper_map.x.values[i], paper_map.y.values[j]))
@@ -144,7 +165,7 @@ def test_largest_robust_sample_time_is_consistent_with_the_map(setup, paper_map)
     # at the refined T_s the reported alpha* is robust, rebuilt independently
     design = compute_design(_config(found.refined, found.other_at_refined))
     limit = 1.0 - DEFAULT_MARGIN
-    assert design.sampled_data_spectral_radius <= limit
+    assert _nominal_radius(design) <= limit
     assert max(_plant_radii(design, setup.plants)) <= limit
     text = sm.robust_text(paper_map, found, limit)
     assert "within the map's grid of controller.alpha_star" in text
@@ -156,7 +177,7 @@ def test_lin_lc_entry_maps_its_own_loop():
     assert setup.controller == "lin_lc"
     point = sm.evaluate_point(setup, {T_S: 0.01})
     design = compute_design(resolve(load_scenario(CASE_FILES["nominal"])).config.design)
-    assert point.rho == pytest.approx(design.sampled_data_spectral_radius_lin_lc, abs=1e-12)
+    assert point.rho == pytest.approx(_nominal_radius(design, "lin_lc"), abs=1e-12)
 
 
 @pytest.mark.parametrize(
@@ -198,7 +219,11 @@ def test_out_writes_the_figure_and_the_json(tmp_path, capsys):
     assert 0.008 in written["x"]["values"] and 2.5 in written["y"]["values"]
     assert len(written["rho_nominal"]) == 5 and len(written["share_stable"][0]) == 5
     assert written["points"]["marked"]["values"] == {T_S: 0.008, ALPHA: 2.5}
-    assert written["points"]["scenario"]["rho_nominal"] == pytest.approx(1.0426, abs=1e-4)
+    # the design report's worst radius over M0* and the path's configurations (1.0426 at
+    # M0*, the paper's own figure; 1.0436 at the worst configuration)
+    report = nominal_design(resolve(load_scenario(CASE_FILES["nominal"])))
+    rho = written["points"]["scenario"]["rho_nominal"]
+    assert rho == pytest.approx(report.sampled_data_spectral_radius, abs=1e-12)
     assert written["plants"] == 2 and written["margin"] == DEFAULT_MARGIN
 
 
@@ -314,8 +339,7 @@ def test_the_drawn_cells_are_the_printed_verdicts(tmp_path, monkeypatch, capsys)
     assert axis.get_xscale() == axis.get_yscale() == "log"
     loaded = load_scenario(TUNED)
     own_alpha = resolve(loaded).config.design.nonlinear.alpha_star
-    plants = linear_plants(plant_family(load_study(PAPER_STUDY), loaded), resolve(loaded),
-                           TuneSettings().seed, PLANTS)  # fmt: skip
+    plants = _plants(load_study(PAPER_STUDY), loaded, TuneSettings().seed, PLANTS)
     limit = 1.0 - DEFAULT_MARGIN
     for name, values in (("scenario", (0.01, own_alpha)), ("marked", (0.025, 0.3))):
         drawn_at, cell = _drawn_cell(axis, name)
@@ -323,7 +347,7 @@ def test_the_drawn_cells_are_the_printed_verdicts(tmp_path, monkeypatch, capsys)
         design = compute_design(_config(*values, scenario=TUNED))
         radii = _plant_radii(design, plants)
         share = float(np.mean(radii <= limit))
-        robust = design.sampled_data_spectral_radius <= limit and radii.max() <= limit
+        robust = _nominal_radius(design, scenario=TUNED) <= limit and radii.max() <= limit
         assert cell == pytest.approx(share)
         point = data["points"][name]
         assert point["share_stable"] == pytest.approx(share) and point["robust"] == robust
@@ -351,11 +375,10 @@ def test_a_robust_scenario_gives_a_robust_sample_time(capsys):
     own = sm.key_value(loaded, lambdas)
     i, j = data["x"]["values"].index(0.01), data["y"]["values"].index(own)
     design = compute_design(resolve(loaded).config.design)
-    plants = linear_plants(plant_family(load_study(PAPER_STUDY), loaded), resolve(loaded),
-                           TuneSettings().seed, PLANTS)  # fmt: skip
+    plants = _plants(load_study(PAPER_STUDY), loaded, TuneSettings().seed, PLANTS)
     limit = 1.0 - DEFAULT_MARGIN
     worst = _plant_radii(design, plants).max()
-    robust = design.sampled_data_spectral_radius <= limit and worst <= limit
+    robust = _nominal_radius(design, scenario=TUNED) <= limit and worst <= limit
     assert robust  # the tuned design: robust on the study's plants
     assert data["robust"][j][i] is True and data["points"]["scenario"]["grid_index"] == [j, i]
     assert data["largest_robust_sample_time"]["grid"] >= 0.01

@@ -13,7 +13,12 @@ runs no simulation). The loop is the controller entry's (the proposed controller
 ``alpha = alpha*``, or Lin+LC's), designed on the nominal model and closed around each
 plant's linear part ``M0, B`` with the scenario's linear effects (compute and sensor
 delay, lag, compliant gear: ``analysis.common.loop_effects``; the nominal ``rho`` too)
-(``models.design.held_design_radius``). A grid point whose design
+(``models.design.held_design_radius``), at ``M0*`` and with ``M*(q)`` frozen at the
+configurations the path visits (``models.design.configurations``): the nominal ``rho``
+is the worst over ``M0*`` and every configuration of the set, a plant's the worst over
+its own ``M0*`` and its ``M*(q)`` at the path's lightest and heaviest configurations
+(every configuration for every plant would multiply the map's cost by the set's size;
+these two bound the inertia the loop sees). A grid point whose design
 the controller refuses (``a <= ln 2 / T_s``, a non-SPR ``H``, a failed LQR design; a
 ``T_s`` below the compute delay) or
 whose value the scenario refuses is *refused*: neither stable nor unstable.
@@ -42,10 +47,11 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from posfb.analysis.common.configurations import scenario_configurations
 from posfb.analysis.common.errors import UsageError
 from posfb.analysis.common.loop_effects import nominal_effects
 from posfb.analysis.design.settings import TuneSettings
-from posfb.analysis.uncertainty.plants import LinearPlant, linear_plants, plant_family
+from posfb.analysis.uncertainty.plants import LinearPlant, draw_plants, plant_family
 from posfb.diagrams.resolve import (
     LoadedScenario,
     controller_inputs,
@@ -57,7 +63,8 @@ from posfb.diagrams.scenario import Scenario, apply_setting
 from posfb.models.controllers import require_design
 from posfb.models.design import Design, cached_design, held_design_radius, with_effects
 from posfb.models.design.closed_loop import NO_EFFECTS, HeldPlant, LoopEffects, held_plant
-from posfb.models.nominal import NominalModel
+from posfb.models.design.configurations import ConfigurationSet
+from posfb.models.nominal import NominalModel, nominal_model
 
 if TYPE_CHECKING:
     from matplotlib.axes import Axes
@@ -140,7 +147,9 @@ class MapAxis:
 class MapSetup:
     """What every grid point shares: the scenario, its nominal model, the loop's
     controller (``proposed`` or ``lin_lc``), the plants (each with the scenario's linear
-    effects, ``analysis.common.loop_effects``), the margin and the nominal loop's effects."""
+    effects, ``analysis.common.loop_effects``, and its ``M*(q)`` at the path's lightest
+    and heaviest configurations), the margin, the nominal loop's effects and the
+    nominal model's configuration set."""
 
     loaded: LoadedScenario
     nominal: NominalModel
@@ -149,21 +158,38 @@ class MapSetup:
     margin: float
     arm: str
     effects: LoopEffects = NO_EFFECTS
-    _held: dict[float, tuple[HeldPlant, ...]] = field(default_factory=dict, repr=False)
+    configurations: ConfigurationSet | None = None
+    _held: dict[float, tuple[tuple[HeldPlant, ...], ...]] = field(default_factory=dict,
+                                                                   repr=False)  # fmt: skip
+    _nominal_held: dict[float, tuple[HeldPlant, ...]] = field(default_factory=dict, repr=False)
 
     @property
     def limit(self) -> float:
         """Robustly stable: ``rho <= 1 - margin``."""
         return 1.0 - self.margin
 
-    def held_plants(self, sample_time: float) -> tuple[HeldPlant, ...]:
-        """The plants' linear parts held over ``sample_time`` with their effects, computed
-        once per sample time (every other key of a grid column shares them)."""
+    def held_plants(self, sample_time: float) -> tuple[tuple[HeldPlant, ...], ...]:
+        """Per plant, its linear part held over ``sample_time`` with its effects at its
+        ``M0*`` and at each of its ``M_at``, computed once per sample time (every other key
+        of a grid column shares them)."""
         if sample_time not in self._held:
             self._held[sample_time] = tuple(
-                held_plant(plant.M0, plant.B, sample_time, plant.effects) for plant in self.plants
+                tuple(held_plant(M, plant.B, sample_time, plant.effects)
+                      for M in (plant.M0, *plant.M_at))  # fmt: skip
+                for plant in self.plants
             )
         return self._held[sample_time]
+
+    def nominal_held(self, sample_time: float, B: np.ndarray) -> tuple[HeldPlant, ...]:
+        """The nominal model's linear part (damping ``B``) held over ``sample_time`` with
+        the nominal effects at every configuration of the set (none without one)."""
+        if self.configurations is None:
+            return ()
+        if sample_time not in self._nominal_held:
+            self._nominal_held[sample_time] = tuple(
+                held_plant(M, B, sample_time, self.effects) for M in self.configurations.masses
+            )
+        return self._nominal_held[sample_time]
 
 
 @dataclass(frozen=True)
@@ -379,14 +405,18 @@ def map_setup(
         family = plant_family(study, loaded)
     except ValueError as error:
         raise UsageError(f"--study: {error}") from None
+    configurations = scenario_configurations(resolved.config)
+    extremes = tuple(c.q for c in configurations.configurations
+                     if c.role in ("lightest", "heaviest"))  # fmt: skip
     return MapSetup(
         loaded=loaded,
         nominal=make_nominal(loaded.scenario.nominal_model, loaded.base_dir),
         controller=loop_controller(relevant),
-        plants=tuple(linear_plants(family, resolved, seed, plants)),
+        plants=tuple(draw_plants(family, resolved, seed, plants, configurations=extremes)),
         margin=margin,
         arm=Path(resolved.config.plant.urdf).name,
         effects=nominal_effects(resolved),
+        configurations=configurations,
     )
 
 
@@ -413,14 +443,18 @@ def _evaluate(setup: MapSetup, scenario: Scenario) -> PointResult:
     if design is None or design.config.sample_time < setup.effects.compute_delay:
         return PointResult(refused=True)  # a compute delay longer than T_s is refused too
     design = with_effects(design, setup.effects)
-    rho = (
+    at_M0 = (
         design.sampled_data_spectral_radius
         if setup.controller == "proposed"
         else design.sampled_data_spectral_radius_lin_lc
     )
+    T = design.config.sample_time
+    B = nominal_model(setup.nominal).B()
+    rho = max([at_M0, *(held_design_radius(design, setup.controller, held)
+                        for held in setup.nominal_held(T, B))])  # fmt: skip
     plant_rho = tuple(
-        held_design_radius(design, setup.controller, held)
-        for held in setup.held_plants(design.config.sample_time)
+        max(held_design_radius(design, setup.controller, held) for held in helds)
+        for helds in setup.held_plants(T)
     )
     return PointResult(refused=False, rho=float(rho), plant_rho=plant_rho)
 

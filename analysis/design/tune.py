@@ -180,12 +180,15 @@ def _worse(
     after: SimulatedCheck,
     allowance: float,
 ) -> tuple[str, ...]:
-    """Why a tuned entry is worse than the entry it started from (empty: it is not)."""
+    """Why a tuned entry is worse than the entry it started from (empty: it is not). A
+    larger predicted error counts only against a start that meets every constraint (or
+    a tuned entry that does not): a start that is not robustly stable on the design
+    plants and configurations, or that exceeds the voltage limit, has no predicted error
+    worth keeping, and its check run is compared all the same."""
     reasons = []
-    if best.predicted_rms > start.predicted_rms:
+    if best.predicted_rms > start.predicted_rms and (start.feasible or not best.feasible):
         reasons.append(
             f"predicted RMS error {start.predicted_rms:.4g} -> {best.predicted_rms:.4g} rad"
-            + ("" if start.feasible else " (the start violates a constraint)")
         )
     if worse_run(before, after, allowance):
         reasons.append(f"check run's RMS error norm and verdict {_norm(before)} -> {_norm(after)}")

@@ -6,7 +6,15 @@ The plants are those ``posfb tune`` checks a design on (``analysis.uncertainty.p
 the study's ``parameters:`` around the scenario's arm; a study of another arm is refused).
 The box leaves out the Coulomb levels, which do not enter the linear part.
 The loop is the scenario's controller as designed, closed around each plant's linear part
-with its linear effects (``analysis.uncertainty.loops``). Two steps:
+with its linear effects (``analysis.uncertainty.loops``), at the plant's ``M0*`` and
+with its own ``M*(q)`` frozen at the configurations the path visits
+(``models.design.configurations``): a plant's ``rho`` is the worst over ``M0*`` and every
+configuration, its disk margin the worst over ``M0*`` and the *active* configurations
+(where the nominal plant's loop has its largest radius, and the path's lightest and
+heaviest; ``design --margins``' three), and the figure names where it is worst. The
+search's objective judges ``M0*`` and the active configurations only (a radius at every
+configuration per evaluation would cost the set's size over again); the plants it
+finds are then judged as the sampled ones are. Two steps:
 
 1. ``plants`` i.i.d. draws (seed ``seed``); the worst of them by each figure;
 2. a search of the box, each varied parameter between its distribution's ends (a
@@ -19,6 +27,7 @@ with its linear effects (``analysis.uncertainty.loops``). Two steps:
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass, replace
 
 import numpy as np
@@ -29,6 +38,7 @@ from posfb.analysis.uncertainty.plants import plant_family
 from posfb.analysis.uncertainty.sampling import sample_plant
 from posfb.analysis.uncertainty.study import Study
 from posfb.diagrams.resolve import LoadedScenario
+from posfb.models.design.configurations import Configuration
 from posfb.models.design.margins import STUDY_GRID_POINTS, SampledFeedback
 from posfb.models.plant import ArmParameters
 
@@ -47,12 +57,16 @@ DEFAULT_SEED = 0
 @dataclass(frozen=True)
 class Plant:
     """One plant: where it comes from (``sampled N`` or ``search``), its loop's
-    ``radius`` and ``disk_margin`` (0 when unstable) and the box's parameter values."""
+    ``radius`` and ``disk_margin`` (0 when unstable), the configurations where each is
+    worst (``radius_at``, ``disk_at``: ``M0*`` or a configuration of the path) and the
+    box's parameter values."""
 
     source: str
     radius: float
     disk_margin: float
     values: tuple[float, ...]
+    radius_at: str = "M0*"
+    disk_at: str = "M0*"
 
 
 @dataclass(frozen=True)
@@ -69,6 +83,8 @@ class WorstCase:
     searched_disk: Plant
     plants: int
     evaluations: int
+    configurations: int = 0
+    active: tuple[str, ...] = ()
 
 
 def _value(axis: BoxAxis, parameters: ArmParameters) -> float:
@@ -78,10 +94,24 @@ def _value(axis: BoxAxis, parameters: ArmParameters) -> float:
     return float(getattr(parameters, scalar.key)[scalar.joint])
 
 
-def _radius_and_disk(loop: SampledFeedback) -> tuple[float, float]:
-    """The loop's spectral radius and disk margin (the worse break's; 0 when unstable)."""
-    radius, disk, _ = loop.robustness(STUDY_GRID_POINTS, delay=False)
-    return radius, disk
+def _where(configurations: Sequence[Configuration], index: int) -> str:
+    """``M0*`` for index 0 of ``StudyLoops.loops_at``'s list, else the configuration."""
+    return "M0*" if index == 0 else configurations[index - 1].describe()
+
+
+def _disk(loop: SampledFeedback) -> float:
+    """The loop's disk margin (the worse break's; 0 when unstable)."""
+    return loop.robustness(STUDY_GRID_POINTS, delay=False)[1]
+
+
+def active_configurations(loops: StudyLoops) -> tuple[Configuration, ...]:
+    """The configurations the search and the disk margins judge (module docstring)."""
+    configurations = loops.configurations()
+    radii = [loop.radius() for loop in loops.loops_at(loops.nominal_parameters,
+                                                      configurations)[1:]]  # fmt: skip
+    worst = configurations[int(np.argmax(radii))]
+    extremes = [c for c in configurations if c.role in ("lightest", "heaviest")]
+    return tuple(dict.fromkeys([worst, *extremes]))
 
 
 def worst_case(
@@ -105,12 +135,18 @@ def worst_case(
     if not axes:
         raise ValueError("the study varies no arm parameter (parameters:); nothing to search")
     count = 0
+    everywhere = loops.configurations()
+    active = active_configurations(loops)
 
     def describe(source: str, parameters: ArmParameters) -> Plant:
         nonlocal count
         count += 1
-        radius, disk = _radius_and_disk(loops.loop(parameters))
-        return Plant(source, radius, disk, tuple(_value(a, parameters) for a in axes))
+        radii = [loop.radius() for loop in loops.loops_at(parameters, everywhere)]
+        disks = [_disk(loop) for loop in loops.loops_at(parameters, active)]
+        worst_radius, worst_disk = int(np.argmax(radii)), int(np.argmin(disks))
+        return Plant(source, radii[worst_radius], disks[worst_disk],
+                     tuple(_value(a, parameters) for a in axes),
+                     _where(everywhere, worst_radius), _where(active, worst_disk))  # fmt: skip
 
     drawn = [sample_plant(family, loops.nominal_parameters, i).parameters for i in range(plants)]
     sampled = [describe(f"sampled {i}", p) for i, p in enumerate(drawn)]
@@ -128,10 +164,10 @@ def worst_case(
         return found.x
 
     def negative_radius(u: np.ndarray) -> float:
-        return -loops.loop(loops.parameters_at(axes, u)).radius()
+        return -max(loop.radius() for loop in loops.loops_at(loops.parameters_at(axes, u), active))
 
     def disk(u: np.ndarray) -> float:
-        return _radius_and_disk(loops.loop(loops.parameters_at(axes, u)))[1]
+        return min(_disk(loop) for loop in loops.loops_at(loops.parameters_at(axes, u), active))
 
     worst_radius = loops.parameters_at(axes, search(negative_radius, drawn[by_radius]))
     worst_disk = loops.parameters_at(axes, search(disk, drawn[by_disk]))
@@ -145,6 +181,8 @@ def worst_case(
         searched_disk=_at_least(describe("search", worst_disk), sampled[by_disk], "disk"),
         plants=plants,
         evaluations=count,
+        configurations=len(everywhere),
+        active=tuple(c.describe() for c in active),
     )
 
 
@@ -162,6 +200,7 @@ def worst_case_to_dict(found: WorstCase) -> dict[str, object]:
 
     def plant(p: Plant) -> dict[str, object]:
         return {"source": p.source, "spectral_radius": p.radius, "disk_margin": p.disk_margin,
+                "spectral_radius_at": p.radius_at, "disk_margin_at": p.disk_at,
                 "parameters": {a.scalar.column: v for a, v in zip(found.axes, p.values,
                                                                   strict=True)}}  # fmt: skip
 
@@ -169,6 +208,7 @@ def worst_case_to_dict(found: WorstCase) -> dict[str, object]:
         "controller": found.controller,
         "plants": found.plants,
         "evaluations": found.evaluations,
+        "configurations": {"count": found.configurations, "active": list(found.active)},
         "nominal": plant(found.nominal),
         "largest_radius": {"sampled": plant(found.sampled_radius),
                            "searched": plant(found.searched_radius)},  # fmt: skip
@@ -184,13 +224,16 @@ def format_worst_case(found: WorstCase, label: str) -> str:
                found.searched_disk)  # fmt: skip
     lines = [
         f"Worst plants of the study's box for {label} ({found.plants} sampled plants, then "
-        f"a search; {found.evaluations} loops evaluated):",
-        f"  largest rho: {found.searched_radius.radius:.4f} ({found.searched_radius.source}; "
-        f"the worst sampled {found.sampled_radius.radius:.4f}, nominal "
-        f"{found.nominal.radius:.4f})",
-        f"  smallest disk margin: {found.searched_disk.disk_margin:.4f} "
-        f"({found.searched_disk.source}; the worst sampled {found.sampled_disk.disk_margin:.4f},"
-        f" nominal {found.nominal.disk_margin:.4f})",
+        f"a search; {found.evaluations} plants evaluated). A plant's rho is the worst over "
+        f"its M0* and its M*(q) frozen at the path's {found.configurations} configurations; "
+        f"its disk margin the worst over M0* and {len(found.active)} of them (the search "
+        "judges those): " + "; ".join(found.active) + ".",
+        f"  largest rho: {found.searched_radius.radius:.4f} at "
+        f"{found.searched_radius.radius_at} ({found.searched_radius.source}; the worst "
+        f"sampled {found.sampled_radius.radius:.4f}, nominal {found.nominal.radius:.4f})",
+        f"  smallest disk margin: {found.searched_disk.disk_margin:.4f} at "
+        f"{found.searched_disk.disk_at} ({found.searched_disk.source}; the worst sampled "
+        f"{found.sampled_disk.disk_margin:.4f}, nominal {found.nominal.disk_margin:.4f})",
         "",
         "| parameter | nominal | worst sampled rho | largest rho | worst sampled disk | "
         "smallest disk |",

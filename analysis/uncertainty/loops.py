@@ -14,6 +14,7 @@ worst-case search.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -39,6 +40,7 @@ from posfb.diagrams.resolve import LoadedScenario, resolve
 from posfb.diagrams.scenario import with_controller
 from posfb.models.controllers import linear_feedback
 from posfb.models.design.closed_loop import NO_EFFECTS, LoopEffects
+from posfb.models.design.configurations import Configuration
 from posfb.models.design.margins import SampledFeedback
 from posfb.models.identify import linear_part_model
 from posfb.models.lumped import LumpedModel, LumpedParameters
@@ -109,17 +111,29 @@ class StudyLoops:
         loops with its own ``M*(q)`` frozen at the configurations of the path
         (``analysis.common.configurations``), the radius the Monte-Carlo worker stores."""
         config = self.config if config is None else config
+        angles = self.configurations(config) if frozen else ()
+        return max(self.loops_at(parameters, angles, config), key=lambda loop: loop.radius())
+
+    def configurations(self, config: ClosedLoopConfig | None = None) -> tuple[Configuration, ...]:
+        """The configurations of the path of ``config`` (default the study's base)."""
+        config = self.config if config is None else config
+        return scenario_configurations(config).configurations
+
+    def loops_at(
+        self, parameters: ArmParameters, configurations: Sequence[Configuration] = (),
+        config: ClosedLoopConfig | None = None,
+    ) -> list[SampledFeedback]:  # fmt: skip
+        """The loops on the arm with ``parameters``: at its ``M0*``, then with its own
+        ``M*(q)`` frozen at each of ``configurations``."""
+        config = self.config if config is None else config
         apply_parameters(self._arm, self._context, parameters)
         model = linear_part_model(self._arm, self._context, config.design.nominal)
         if isinstance(model, LumpedParameters):
             model = LumpedModel(model)
         effects = loop_effects(config, parameters)
         at_M0 = self.feedback(config).with_plant(model.M0(), model.B(), effects)
-        if not frozen:
-            return at_M0
-        angles = [c.q for c in scenario_configurations(config).configurations]
-        loops = [at_M0.with_plant(model.M(np.asarray(q)), model.B(), effects) for q in angles]
-        return max([at_M0, *loops], key=lambda loop: loop.radius())
+        return [at_M0, *(at_M0.with_plant(model.M(np.asarray(c.q)), model.B(), effects)
+                         for c in configurations)]  # fmt: skip
 
     def sample(self, index: int, frozen: bool = False) -> SampledFeedback:
         """The loop on sample ``index`` (its plant and its drawn scenario keys); ``frozen``:

@@ -60,7 +60,8 @@ class LinearPlant:
     model error along the trajectory (``torque_error``: the plant's inverse dynamics
     minus the nominal model's, V, one row per instant of ``error_instants``; empty when
     not asked for), and the plant's linear part with its own ``M*(q)`` frozen at each
-    configuration asked for (``held_at``, held likewise; ``models.design.configurations``)."""
+    configuration asked for (``M_at``, V s^2/rad, and ``held_at``, held likewise;
+    ``models.design.configurations``)."""
 
     index: int
     M0: np.ndarray
@@ -69,6 +70,7 @@ class LinearPlant:
     held: HeldPlant
     torque_error: np.ndarray
     held_at: tuple[HeldPlant, ...] = ()
+    M_at: tuple[np.ndarray, ...] = ()
 
 
 def error_instants(resolved: ResolvedScenario) -> np.ndarray:
@@ -130,8 +132,6 @@ def draw_plants(
         )
         effects = loop_effects(config, parameters)
         held = held_plant(M0, B, config.sample_time, effects)
-        held_at = tuple(
-            held_plant(model.M(np.asarray(q)), B, config.sample_time, effects)
-            for q in configurations
-        )
-        yield LinearPlant(index, M0, B, effects, held, error, held_at)
+        M_at = tuple(np.asarray(model.M(np.asarray(q)), dtype=float) for q in configurations)
+        held_at = tuple(held_plant(M, B, config.sample_time, effects) for M in M_at)
+        yield LinearPlant(index, M0, B, effects, held, error, held_at, M_at)

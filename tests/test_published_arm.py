@@ -1,0 +1,64 @@
+"""A published six-joint description (example-robot-data's UR5, with the drive data a
+user gives: ``helpers.published``) through ``scenario init`` and ``scenario check``: its
+``M*(q)`` varies 17x along the path, so the paper's bandwidth per sample leaves Lin+LC's
+sampled loop unstable at configurations the arm visits; init lowers the bandwidth until
+the loop passes over them, the checks pass, and the exact arm's 10 s run agrees
+(issue 40)."""
+
+from __future__ import annotations
+
+from dataclasses import replace
+
+import pytest
+
+import posfb
+from helpers.published import UR5, published_urdf, with_drive_data
+from posfb.analysis.design.exact_arm import exact_arm_run
+from posfb.analysis.design.report import nominal_design, relevant_checks
+from posfb.analysis.design.scenario_init import InitOptions, write_scenario
+from posfb.diagrams.resolve import LoadedScenario, resolve
+from posfb.diagrams.scenario import with_controller
+
+pytestmark = pytest.mark.slow
+
+
+@pytest.fixture(scope="module")
+def ur5(tmp_path_factory):
+    """``scenario init``'s scenario for the UR5 over 10 s, and what init reported."""
+    folder = tmp_path_factory.mktemp("ur5")
+    urdf = with_drive_data(published_urdf(UR5), folder / "ur5.urdf")
+    result = write_scenario(InitOptions(urdf=urdf, out=folder / "ur5.yaml", duration=10.0))
+    return posfb.load_scenario(result.path), result
+
+
+def test_init_lowers_the_bandwidth_until_the_path_passes(ur5):
+    loaded, result = ur5
+    design = nominal_design(resolve(loaded))
+    low, high = design.configurations.eigenvalue_range()
+    assert high / low > 10.0  # the arm is unlike the paper's (0.86 to 1.14)
+    assert result.bandwidth_scale < 1.0 and result.reason == ""
+    # at the paper's bandwidth per sample the same rule's Lin+LC is unstable on the path
+    # (the reason init lowered it), checked here on the design at scale 1
+    from posfb.models.design import cached_design
+    from posfb.models.design.initial import lqr_weights
+    from posfb.models.design.synthesis import plant_spectral_radii
+    from posfb.models.nominal import nominal_model
+
+    config = resolve(loaded).config.design
+    model = nominal_model(config.nominal)
+    fast = cached_design(replace(config, lqr=lqr_weights(model.M0(), config.sample_time).lqr()))
+    angles = tuple(c.q for c in design.configurations.configurations)
+    assert plant_spectral_radii(fast, model, configurations=angles)["lin_lc"] > 1.0
+
+
+@pytest.mark.parametrize("controller", ["proposed", "lin_lc"])
+def test_a_passed_check_is_an_ok_run_on_the_exact_arm(ur5, controller):
+    loaded, _ = ur5
+    resolved = resolve(LoadedScenario(with_controller(loaded.scenario, controller),
+                                      loaded.base_dir))  # fmt: skip
+    design = nominal_design(resolved)
+    relevant = relevant_checks(resolved.config)
+    failed = [c.detail for c in design.checks if c.name in relevant and not c.passed]
+    assert not failed
+    run = exact_arm_run(resolved)
+    assert run.verdict.status == "ok", run.verdict.message
