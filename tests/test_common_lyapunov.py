@@ -225,12 +225,35 @@ def test_spectral_radius_0_999():
 def test_a_solver_answer_that_fails_in_numpy_is_not_a_certificate(monkeypatch):
     # I is not a Lyapunov matrix of a loop with ||A||_2 > 1, however stable: a solver that
     # claims it is optimal is overruled, and the message names the loop.
+    monkeypatch.setattr(module, "_equation_candidate", lambda balanced, radii: None)
     monkeypatch.setattr(module, "_solve", lambda matrices: (np.eye(2), "optimal"))
     loops = [0.5 * np.eye(2), np.array([[0.5, 2.0], [0.0, 0.5]])]
     certificate = common_lyapunov(loops)
     assert not certificate.feasible
     assert certificate.P is None
     assert "transitions[1]" in certificate.message and "numeric check" in certificate.message
+
+
+def test_close_loops_share_one_loop_s_lyapunov_equation(monkeypatch):
+    # loops 1 % apart: the worst one's own Lyapunov equation holds for all, no SDP is run,
+    # and the P found passes the independent check on every loop
+    def no_sdp(matrices):
+        raise AssertionError("the SDP ran")
+
+    monkeypatch.setattr(module, "_solve", no_sdp)
+    base = np.array([[0.9, 0.2], [-0.1, 0.7]])
+    loops = [base * (1.0 + 0.01 * k) for k in range(-2, 3)]
+    certificate = common_lyapunov(loops)
+    assert certificate.feasible and "Lyapunov equation of one loop" in certificate.message
+    assert verify(certificate.P, loops) < 1.0
+
+
+def test_a_solve_past_its_time_limit_is_no_certificate(monkeypatch):
+    monkeypatch.setattr(module, "_equation_candidate", lambda balanced, radii: None)
+    monkeypatch.setattr(module, "_solve", lambda matrices: (None, "user_limit"))
+    certificate = common_lyapunov([0.5 * np.eye(2), np.array([[0.5, 0.3], [0.0, 0.4]])])
+    assert not certificate.feasible
+    assert f"not solved within the {module.SOLVE_TIME_LIMIT:g} s time limit" in certificate.message
 
 
 # ---- input -------------------------------------------------------------------------------
