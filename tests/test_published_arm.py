@@ -62,3 +62,23 @@ def test_a_passed_check_is_an_ok_run_on_the_exact_arm(ur5, controller):
     assert not failed
     run = exact_arm_run(resolved)
     assert run.verdict.status == "ok", run.verdict.message
+
+
+def test_tune_certifies_a_design_that_tracks_on_the_exact_arm(ur5, tmp_path):
+    """``tune`` on the UR5 (few plants and generations, epsilon 0.3, to keep the test
+    short: the guarantee is weaker, not different in kind): the tuned Lin+LC is certified,
+    its check run is ``ok``, and so is its 10 s run on the exact arm."""
+    from posfb.analysis.design.settings import TuneSettings
+
+    loaded, _ = ur5
+    settings = TuneSettings(plants=8, generations=4, epsilon=0.3, rounds=1)
+    result = posfb.tune(loaded, settings=settings, out=tmp_path / "tuned.yaml",
+                        accept_worse=True)  # fmt: skip
+    lin_lc = result.controllers["lin_lc"]
+    assert lin_lc.guarantee.holds and not lin_lc.not_certified and lin_lc.best.feasible
+    assert lin_lc.simulated_after.status == "ok"
+    result.save(tmp_path / "tuned.yaml")
+    tuned = posfb.load_scenario(tmp_path / "tuned.yaml")
+    resolved = resolve(LoadedScenario(with_controller(tuned.scenario, "lin_lc"), tuned.base_dir))
+    run = exact_arm_run(resolved)
+    assert run.verdict.status == "ok", run.verdict.message
