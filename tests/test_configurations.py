@@ -16,7 +16,9 @@ from posfb.analysis.design.report import nominal_design
 from posfb.diagrams.resolve import resolve
 from posfb.models.design.configurations import (
     EXTREME_SCAN_STEPS,
+    Configuration,
     FrozenFigures,
+    distinct,
     mass_ratio_eigenvalues,
     path_configurations,
 )
@@ -90,6 +92,14 @@ def test_a_spacing_that_asks_for_too_many_configurations_is_refused():
 def test_the_scenario_key_is_validated():
     with pytest.raises(ValueError, match="timing.configuration_spacing = 0"):
         posfb.load_scenario(set={"timing.configuration_spacing": 0})
+
+
+def test_distinct_keeps_the_first_of_each_configuration():
+    # the path's worst, lightest and heaviest configurations may be one q
+    worst = Configuration((0.0, 1.0), 0.0, "path")
+    lightest = Configuration((0.0, 1.0), 0.0, "lightest")
+    heaviest = Configuration((0.5, 1.0), 2.0, "heaviest")
+    assert distinct([worst, lightest, heaviest]) == (worst, heaviest)
 
 
 def test_frozen_figures_pick_the_worst_end():

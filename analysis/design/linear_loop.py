@@ -6,8 +6,9 @@ and the controller's linear feedback (``ControllerSpec.linear``), its margins
 
 The configurations the arm visits (``models.design.configurations``) come with it:
 ``frozen_radii`` is the loop's spectral radius with ``M*(q)`` frozen at each of them, and
-``frozen_margins`` the margins (on ``STUDY_GRID_POINTS`` frequencies) at the configurations
-that bound them: the one with the worst radius and the lightest and heaviest of the path.
+``frozen_margins`` the loop-wide margins (on ``STUDY_GRID_POINTS`` frequencies; no
+loop-at-a-time ones) at the configurations that bound them: the one with the worst radius
+and the lightest and heaviest of the path.
 
 The exported plant maps the held voltage ``u`` (V) to the reading ``y`` (rad: the
 measured position error the controller takes, sensor delay included) and the
@@ -32,6 +33,7 @@ from posfb.models.design.configurations import (
     Configuration,
     ConfigurationSet,
     FrozenFigures,
+    distinct,
     frozen_figures,
 )
 from posfb.models.design.loop_transfer import DiscreteSystem
@@ -86,12 +88,10 @@ class LinearDesign:
             i for i, c in enumerate(self.configurations.configurations)
             if c.role in ("lightest", "heaviest")
         ]  # fmt: skip
-        unique = list(dict.fromkeys(chosen))
-        return [
-            (self.configurations.configurations[i],
-             self.at(self.configurations.masses[i]).margins(points))
-            for i in unique
-        ]  # fmt: skip
+        configurations = self.configurations.configurations
+        masses = dict(zip(configurations, self.configurations.masses, strict=True))
+        return [(c, self.at(masses[c]).margins(points, channels=False))
+                for c in distinct([configurations[i] for i in chosen])]  # fmt: skip
 
     @property
     def sample_time(self) -> float:

@@ -38,7 +38,7 @@ from posfb.analysis.uncertainty.plants import plant_family
 from posfb.analysis.uncertainty.sampling import sample_plant
 from posfb.analysis.uncertainty.study import Study
 from posfb.diagrams.resolve import LoadedScenario
-from posfb.models.design.configurations import Configuration
+from posfb.models.design.configurations import Configuration, distinct
 from posfb.models.design.margins import STUDY_GRID_POINTS, SampledFeedback
 from posfb.models.plant import ArmParameters
 
@@ -111,7 +111,7 @@ def active_configurations(loops: StudyLoops) -> tuple[Configuration, ...]:
                                                       configurations)[1:]]  # fmt: skip
     worst = configurations[int(np.argmax(radii))]
     extremes = [c for c in configurations if c.role in ("lightest", "heaviest")]
-    return tuple(dict.fromkeys([worst, *extremes]))
+    return distinct([worst, *extremes])
 
 
 def worst_case(

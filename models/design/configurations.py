@@ -24,7 +24,7 @@ friction and saturation): ``models.design.common_lyapunov`` certifies the loop f
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import Protocol
 
@@ -70,6 +70,15 @@ class Configuration:
         """``t = 0.41 s, q = [0.1, -1.2] rad`` (the role named unless ``path``)."""
         where = f"t = {self.time:.3g} s, q = [{', '.join(f'{v:.3g}' for v in self.q)}] rad"
         return where if self.role == "path" else f"{where} ({self.role})"
+
+
+def distinct(configurations: Sequence[Configuration]) -> tuple[Configuration, ...]:
+    """``configurations`` in order, the first of each ``q`` kept (the path's worst,
+    lightest and heaviest configurations may be one and the same)."""
+    seen: dict[tuple[float, ...], Configuration] = {}
+    for configuration in configurations:
+        seen.setdefault(configuration.q, configuration)
+    return tuple(seen.values())
 
 
 def mass_ratio_eigenvalues(M0: np.ndarray, M: np.ndarray) -> np.ndarray:

@@ -186,11 +186,18 @@ def structured_norm(M: np.ndarray) -> float:
     of ``D M D^-1``), so BFGS from Osborne's balancing finds it. Any ``D`` gives an upper
     bound, so the answer is one even where the top singular value repeats (and the
     gradient does not exist)."""
+    return _scaled_norm(M)[0]
+
+
+def _scaled_norm(M: np.ndarray, start: np.ndarray | None = None) -> tuple[float, np.ndarray | None]:
+    """``structured_norm`` and the log scaling ``x`` it ends at (``None`` for ``n <= 2``),
+    the search started from ``start`` where given (a neighbouring frequency's ``x``: the
+    disk margin's refinement), else from Osborne's balancing."""
     n = len(M)
     if n == 1:
-        return float(abs(M[0, 0]))
+        return float(abs(M[0, 0])), None
     if n == 2:
-        return _structured_norm_2(M)
+        return _structured_norm_2(M), None
 
     def log_top(x: np.ndarray) -> tuple[float, np.ndarray]:
         scale = np.exp(np.concatenate([[0.0], x]))
@@ -198,10 +205,12 @@ def structured_norm(M: np.ndarray) -> float:
         gradient = np.abs(U[:, 0]) ** 2 - np.abs(Vh[0]) ** 2
         return float(np.log(sigma[0])), gradient[1:]
 
-    start = _osborne(np.abs(M))[1:]
+    if start is None:
+        start = _osborne(np.abs(M))[1:]
     found = scipy.optimize.minimize(log_top, start, jac=True, method="BFGS",
-                                    options={"gtol": 1e-9})  # fmt: skip
-    return min(math.exp(found.fun), math.exp(log_top(start)[0]), float(np.linalg.norm(M, 2)))
+                                    options={"gtol": 1e-8})  # fmt: skip
+    value = min(math.exp(found.fun), math.exp(log_top(start)[0]), float(np.linalg.norm(M, 2)))
+    return value, np.asarray(found.x)
 
 
 def _structured_norm_2(M: np.ndarray) -> float:
@@ -304,10 +313,13 @@ def _disk_margin(
         value = structured_norm(balanced[i])
         if value > best:
             best, at = value, i
-    peak, frequency = _peak(
-        np.where(np.arange(len(omega)) == at, best, 0.0), omega,
-        lambda w: structured_norm(sensitivity(np.array([w]))[0] - eye / 2.0),
-    )  # fmt: skip
+    last: list[np.ndarray | None] = [None]  # each refinement step starts at the last one's D
+
+    def refined(w: float) -> float:
+        value, last[0] = _scaled_norm(sensitivity(np.array([w]))[0] - eye / 2.0, last[0])
+        return value
+
+    peak, frequency = _peak(np.where(np.arange(len(omega)) == at, best, 0.0), omega, refined)
     return 1.0 / peak, frequency
 
 
@@ -323,10 +335,12 @@ def disk_margin(loop: Callable[[np.ndarray], np.ndarray], omega: np.ndarray) -> 
 
 
 def break_margins(
-    where: str, loop: Callable[[np.ndarray], np.ndarray], omega: np.ndarray
-) -> BreakMargins:
+    where: str, loop: Callable[[np.ndarray], np.ndarray], omega: np.ndarray,
+    channels: bool = True,
+) -> BreakMargins:  # fmt: skip
     """The margins of the MIMO loop transfer ``loop(omega)`` (frequencies x n x n) broken
-    ``where`` (``BreakMargins``)."""
+    ``where`` (``BreakMargins``); without ``channels``, the loop-wide ones only (no
+    loop-at-a-time margins: ``channels`` is empty)."""
     F = loop(omega)
     n = F.shape[1]
     eye = np.eye(n)
@@ -344,9 +358,9 @@ def break_margins(
         np.linalg.norm(eye - S, 2, axis=(1, 2)), omega,
         lambda w: float(np.linalg.norm(eye - sensitivity(np.array([w]))[0], 2)),
     )  # fmt: skip
-    channels = tuple(
+    per_channel = tuple(
         channel_margins(lambda w, j=j: loop_at_a_time(loop(w), j), omega) for j in range(n)
-    )
+    ) if channels else ()  # fmt: skip
     return BreakMargins(
         where=where,
         disk_margin=alpha,
@@ -355,7 +369,7 @@ def break_margins(
         disk_frequency_rad_per_s=frequency,
         peak_sensitivity=peak_S,
         peak_complementary_sensitivity=peak_T,
-        channels=channels,
+        channels=per_channel,
     )
 
 
@@ -448,8 +462,9 @@ class SampledFeedback:
         )
         return radius, alpha, delay_margin(self.radius, self.sample_time) if delay else math.nan
 
-    def margins(self, points: int = GRID_POINTS) -> LoopMargins:
-        """Every margin of the loop (``LoopMargins``) on a grid of ``points`` frequencies."""
+    def margins(self, points: int = GRID_POINTS, channels: bool = True) -> LoopMargins:
+        """Every margin of the loop (``LoopMargins``) on a grid of ``points`` frequencies;
+        without ``channels``, the loop-wide ones only (``break_margins``)."""
         plant, controller = self.plant, self.controller
         omega = frequency_grid(self.sample_time, points)
 
@@ -463,6 +478,6 @@ class SampledFeedback:
             sample_time=self.sample_time,
             radius=self.radius(),
             delay_margin_s=delay_margin(self.radius, self.sample_time),
-            at_input=break_margins("input", at_input, omega),
-            at_output=break_margins("output", at_output, omega),
+            at_input=break_margins("input", at_input, omega, channels),
+            at_output=break_margins("output", at_output, omega, channels),
         )
