@@ -211,6 +211,15 @@ CASES = {
         ("simulate", "--set", "timing.lost_fraction=2"),
         "timing.lost_fraction = 2.0; a fraction in (0, 1] of the path's excursion is required",
     ),
+    "zero configuration spacing": Case(
+        ("design", "--set", "timing.configuration_spacing=0"),
+        "timing.configuration_spacing = 0.0 is not positive; a finite value > 0 is required",
+    ),
+    "configuration spacing too fine": Case(
+        ("design", "--set", "timing.configuration_spacing=0.0001"),
+        "timing.configuration_spacing = 0.0001 s gives 200001 configurations over 20 s; at "
+        "most 2000 are allowed",
+    ),
     "saturated share above 1": Case(
         ("simulate", "--set", "timing.saturated_share=1.5"),
         "timing.saturated_share = 1.5; a share in [0, 1] is required",
