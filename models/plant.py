@@ -47,7 +47,6 @@ from dataclasses import dataclass, fields, replace
 from pathlib import Path
 
 import numpy as np
-from pydrake.math import RigidTransform
 from pydrake.multibody.parsing import Parser
 from pydrake.multibody.plant import AddMultibodyPlant, MultibodyPlant, MultibodyPlantConfig
 from pydrake.multibody.tree import (
@@ -71,7 +70,7 @@ from posfb.models.friction import DEFAULT_LAW, check_law
 from posfb.models.gear import GearBlock, GearConfig, add_gear
 from posfb.models.package_data import package_path
 from posfb.models.serial_model import SerialArmModel
-from posfb.models.urdf_check import SerialChain, add_urdf_models, check_serial_urdf
+from posfb.models.urdf_check import SerialChain, add_urdf_models, check_serial_urdf, weld_base
 from posfb.models.validation import require_finite, require_nonnegative, require_positive
 
 #: The arm shipped with posfb (the paper's two-link arm).
@@ -284,7 +283,7 @@ def _load_urdf(plant: MultibodyPlant, urdf: Path, chain: SerialChain) -> None:
     except RuntimeError as error:
         first_line = str(error).strip().splitlines()[0]
         raise ValueError(f"URDF {urdf} could not be parsed: {first_line}") from None
-    plant.WeldFrames(plant.world_frame(), plant.GetFrameByName(chain.base), RigidTransform())
+    weld_base(plant, chain.base)
     for index in plant.GetJointActuatorIndices():
         # Voltage saturation is modelled upstream; no extra clamp on the torque.
         plant.get_joint_actuator(index).set_effort_limit(np.inf)

@@ -37,12 +37,11 @@ from pathlib import Path
 
 import numpy as np
 from pydrake.autodiffutils import InitializeAutoDiff
-from pydrake.math import RigidTransform
 from pydrake.multibody.parsing import Parser
 from pydrake.multibody.plant import MultibodyPlant
 from pydrake.systems.framework import Context
 
-from posfb.models.urdf_check import add_urdf_models, check_serial_urdf
+from posfb.models.urdf_check import add_urdf_models, check_serial_urdf, weld_base
 
 #: Angles per joint of the grid that averages ``M*(q)`` into ``M0*`` (module docstring).
 MEAN_GRID = 4
@@ -60,7 +59,7 @@ class SerialArmModel:
         chain = check_serial_urdf(Path(urdf))
         plant = MultibodyPlant(time_step=0.0)
         add_urdf_models(Parser(plant), Path(urdf))
-        plant.WeldFrames(plant.world_frame(), plant.GetFrameByName(chain.base), RigidTransform())
+        weld_base(plant, chain.base)
         plant.Finalize()
         self._setup(
             plant, plant.CreateDefaultContext(), chain.joints, chain.motor_constant, chain.coulomb

@@ -75,6 +75,7 @@ import numpy as np
 
 if TYPE_CHECKING:
     from pydrake.multibody.parsing import Parser
+    from pydrake.multibody.plant import MultibodyPlant
 
 #: XML namespace of posfb's own URDF elements (motor constants, Coulomb levels): a URN,
 #: a fixed identifier that nothing resolves (XML compares it character by character).
@@ -210,6 +211,17 @@ def add_urdf_models(parser: Parser, path: Path) -> None:
             if line not in _SHOWN_WARNINGS:
                 _SHOWN_WARNINGS.add(line)
                 logger.warning("%s", line, extra={"posfb_shown": True})
+
+
+def weld_base(plant: MultibodyPlant, base: str) -> None:
+    """Weld the chain's ``base`` link to the world, unless it is the world itself: a URDF
+    link named ``world`` is Drake's world body, and the file's own fixed joint from it
+    places the arm (published descriptions carry one)."""
+    from pydrake.math import RigidTransform
+
+    frame = plant.GetFrameByName(base)
+    if frame.body().index() != plant.world_body().index():
+        plant.WeldFrames(plant.world_frame(), frame, RigidTransform())
 
 
 def _read_bytes(path: Path) -> bytes:

@@ -4,7 +4,8 @@ carry no gear, no rotor inertia and no motor constants, only each joint's ``<lim
 effort>``.
 
 ``published_urdf`` finds a file of the package; ``with_drive_data`` writes the copy a user
-hands to posfb today: the geometry and the ``world`` link dropped, and per joint a motor
+hands to posfb today (issue 41 takes these edits over): the geometry dropped (its
+``world`` link kept: posfb welds the arm where the file does), and per joint a motor
 constant that gives the rated effort at the voltage limit, a Coulomb level and a viscous
 damping as small shares of the effort (``DRIVE_SHARES``; typical of a harmonic drive's
 no-load losses, a user's estimate, not the arm's data).
@@ -42,9 +43,6 @@ def with_drive_data(source: Path, target: Path) -> Path:
     text = source.read_text()
     for tag in ("visual", "collision", "gazebo"):
         text = re.sub(rf"<{tag}\b.*?</{tag}>", "", text, flags=re.S)
-    text = re.sub(r'<link name="world"\s*/>', "", text)
-    text = re.sub(r'<joint name="[^"]+" type="fixed">\s*<parent link="world"\s*/>.*?</joint>',
-                  "", text, flags=re.S)  # fmt: skip
     text = text.replace("<robot ", '<robot xmlns:posfb="urn:posfb:urdf" ', 1)
     efforts: dict[str, float] = {}
 
