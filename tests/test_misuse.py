@@ -580,11 +580,9 @@ CASES = {
         ("tune", str(SCENARIOS / "paper_nominal.yaml"), "--plants", "0", "--out",
          "{tmp}/t.yaml"), "--plants = 0; an integer >= 1 is required",
     ),  # fmt: skip
-    "tune worse than the start": Case(
-        ("tune", str(SCENARIOS / "three_link_tuned.yaml"), "--set", "actuator.voltage_limit=12",
-         "--plants", "2", "--generations", "2", "--epsilon", "0.5", "--beta", "0.5", "--rounds",
-         "1", "--out", "{tmp}/t.yaml"), "worse than the scenario's own", code=1,
-    ),  # fmt: skip
+    # A tune worse than its start (exit 1, one line) is test_tuning's low-voltage case: a
+    # start over the voltage limit no longer makes a feasible tuned design "worse" by its
+    # predicted error (issue 40), so no short case here reaches the refusal reliably.
     "tune verification plants over their ceiling": Case(
         ("tune", str(SCENARIOS / "paper_nominal.yaml"), "--epsilon", "1e-12", "--out",
          "{tmp}/t.yaml"), "--epsilon = 1e-12 with --beta = 0.001 and --rounds = 2 asks for N",
