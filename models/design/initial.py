@@ -235,6 +235,10 @@ class InitialWeights:
             f"omega)^2, Q2_j = {ref.Qe:g}, R_j = Qp_j / (M0*_jj^2 omega^6),",
             f"lambdas = {ref.lam:g} omega / {ref.bandwidth:.4g}: the paper's weights in the "
             "joint's own time and torque units.",
+            f"scale {self.scale:.4g}: the largest of 1, 2^-1/4, ..., 1/16 at which Lin+LC's "
+            "sampled loop is stable at M0*, at every configuration of the path",
+            f"(M*(q) frozen) and at the path's lightest with M*(q) / "
+            f"{CONFIGURATION_GAIN_MARGIN:g} (a gain margin where the loop is most sensitive).",
         ]
 
     def lqr(self) -> LqrWeights:
