@@ -345,7 +345,7 @@ def design_controllers(
     configurations = path_configurations(
         model, WaveTrajectory(fitted.waves), settings.duration, CONFIGURATION_SPACING
     )
-    angles = tuple(c.q for c in configurations.configurations)
+    masses = configurations.masses  # M*(q) at each configuration, computed once
     lightest = next(M for c, M in zip(configurations.configurations, configurations.masses,
                                       strict=True) if c.role == "lightest")  # fmt: skip
 
@@ -362,8 +362,8 @@ def design_controllers(
         )  # fmt: skip
 
     def lin_lc_passes(scale: float) -> bool:
-        radii = plant_spectral_radii(cached_design(config_at(scale)), model, configurations=angles,
-                                     masses=(lightest / CONFIGURATION_GAIN_MARGIN,))  # fmt: skip
+        radii = plant_spectral_radii(cached_design(config_at(scale)), model,
+                                     masses=(*masses, lightest / CONFIGURATION_GAIN_MARGIN))
         return radii["lin_lc"] < 1.0
 
     scale = largest_bandwidth_scale(lin_lc_passes) or BANDWIDTH_SCALES[-1]
@@ -373,9 +373,9 @@ def design_controllers(
 
     def radius(alpha_star: float) -> float:
         changed = replace(design, config=config.with_alpha_star(alpha_star))
-        return plant_spectral_radii(changed, model, configurations=angles)["proposed"]
+        return plant_spectral_radii(changed, model, masses=masses)["proposed"]
 
-    radius_lin_lc = plant_spectral_radii(design, model, configurations=angles)["lin_lc"]
+    radius_lin_lc = plant_spectral_radii(design, model, masses=masses)["lin_lc"]
     cap = config.nonlinear.alpha_star
     return DesignedControllers(
         weights=weights,

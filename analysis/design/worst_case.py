@@ -138,11 +138,15 @@ def worst_case(
     everywhere = loops.configurations()
     active = active_configurations(loops)
 
+    # the active configurations' places in loops_at(..., everywhere)'s list (0: M0*)
+    at_active = [0, *(everywhere.index(c) + 1 for c in active)]
+
     def describe(source: str, parameters: ArmParameters) -> Plant:
         nonlocal count
         count += 1
-        radii = [loop.radius() for loop in loops.loops_at(parameters, everywhere)]
-        disks = [_disk(loop) for loop in loops.loops_at(parameters, active)]
+        judged = loops.loops_at(parameters, everywhere)
+        radii = [loop.radius() for loop in judged]
+        disks = [_disk(judged[i]) for i in at_active]
         worst_radius, worst_disk = int(np.argmax(radii)), int(np.argmin(disks))
         return Plant(source, radii[worst_radius], disks[worst_disk],
                      tuple(_value(a, parameters) for a in axes),
