@@ -197,9 +197,7 @@ class PerceptronMotorFriction:
         self._joints = n
         self._motor = builder.AddSystem(MultilayerPerceptron([n, n], identity))
         self._motor.set_name("motor")
-        self._coulomb = builder.AddSystem(
-            MultilayerPerceptron([n, n, n], [tanh_layer, identity])
-        )
+        self._coulomb = builder.AddSystem(MultilayerPerceptron([n, n, n], [tanh_layer, identity]))
         self._coulomb.set_name("coulomb_friction")
         builder.Connect(self._motor.get_output_port(), actuation)
         builder.Connect(velocities, self._coulomb.get_input_port())

@@ -14,12 +14,13 @@ from __future__ import annotations
 
 import threading
 from collections.abc import Iterable
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING
 
 import numpy as np
 
+from posfb.models.description import Description
 from posfb.models.lumped import LumpedModel, LumpedParameters
 from posfb.models.serial_model import SerialArmModel
 from posfb.models.urdf_check import check_serial_urdf
@@ -36,12 +37,14 @@ class UrdfNominal:
     """A nominal model computed by Drake from the serial URDF arm at ``urdf``.
 
     ``joints`` (filled in from the file, validated on construction) is its joint
-    count; the file is checked by ``models.urdf_check.check_serial_urdf``."""
+    count; the file is checked by ``models.urdf_check.check_serial_urdf`` with what
+    ``description`` (the scenario's, ``models.description``) adds."""
 
     urdf: str
+    description: Description = field(default_factory=Description)
 
     def __post_init__(self) -> None:
-        chain = check_serial_urdf(Path(self.urdf))
+        chain = check_serial_urdf(Path(self.urdf), self.description)
         object.__setattr__(self, "_joints", len(chain.joints))
 
     @property
@@ -70,9 +73,10 @@ def nominal_model(nominal: NominalModel) -> LumpedModel | SerialArmModel:
     if not isinstance(nominal, UrdfNominal):
         return LumpedModel(nominal)
     models = _thread_models.__dict__.setdefault("by_urdf", {})
-    if nominal.urdf not in models:
-        models[nominal.urdf] = SerialArmModel(nominal.urdf)
-    return models[nominal.urdf]
+    key = (nominal.urdf, nominal.description)
+    if key not in models:
+        models[key] = SerialArmModel(nominal.urdf, nominal.description)
+    return models[key]
 
 
 def trajectory_voltages(

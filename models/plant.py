@@ -60,6 +60,7 @@ from pydrake.multibody.tree import (
 from pydrake.systems.framework import Context, Diagram, DiagramBuilder
 from pydrake.systems.primitives import Demultiplexer
 
+from posfb.models.description import Description, PreparedUrdf, prepare_urdf
 from posfb.models.drive import (
     MotorFriction,
     add_motor_friction,
@@ -105,6 +106,7 @@ class PlantConfig:
     motor_friction_blocks: str = "symbolic"
     friction: object = dataclasses.field(default_factory=DEFAULT_LAW, hash=False)
     gear: GearConfig = dataclasses.field(default_factory=GearConfig)
+    description: Description = dataclasses.field(default_factory=Description)
 
     def __post_init__(self) -> None:
         require_nonnegative("time_step", self.time_step)
@@ -114,6 +116,8 @@ class PlantConfig:
         require_blocks_for(self.motor_friction_blocks, self.friction)
         if not isinstance(self.gear, GearConfig):
             raise ValueError(f"gear = {self.gear!r} is not a GearConfig")
+        if not isinstance(self.description, Description):
+            raise ValueError(f"description = {self.description!r} is not a Description")
 
 
 #: The heaviest tip payload accepted (kg). An absolute cap, not a multiple of
@@ -277,12 +281,12 @@ class Arm:
         return self.state_split.get_output_port(1)
 
 
-def _load_urdf(plant: MultibodyPlant, urdf: Path, chain: SerialChain) -> None:
+def _load_urdf(plant: MultibodyPlant, prepared: PreparedUrdf, chain: SerialChain) -> None:
     try:
-        add_urdf_models(Parser(plant), urdf)
+        add_urdf_models(Parser(plant), prepared)
     except RuntimeError as error:
         first_line = str(error).strip().splitlines()[0]
-        raise ValueError(f"URDF {urdf} could not be parsed: {first_line}") from None
+        raise ValueError(f"URDF {prepared.path} could not be parsed: {first_line}") from None
     weld_base(plant, chain.base)
     for index in plant.GetJointActuatorIndices():
         # Voltage saturation is modelled upstream; no extra clamp on the torque.
@@ -354,11 +358,11 @@ def add_arm(builder: DiagramBuilder, config: PlantConfig | None = None) -> Arm:
     port")."""
     config = config or PlantConfig()
     urdf = Path(config.urdf)
-    chain = check_serial_urdf(urdf)
+    chain = check_serial_urdf(urdf, config.description)
     n = len(chain.joints)
     plant, _ = AddMultibodyPlant(MultibodyPlantConfig(time_step=config.time_step), builder)
     plant.set_name("arm")
-    _load_urdf(plant, urdf, chain)
+    _load_urdf(plant, prepare_urdf(urdf, config.description), chain)
     plant.Finalize()
     _check_state_order(plant, chain.joints)
     actuators = _actuators(plant, chain.joints)

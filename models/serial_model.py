@@ -41,6 +41,7 @@ from pydrake.multibody.parsing import Parser
 from pydrake.multibody.plant import MultibodyPlant
 from pydrake.systems.framework import Context
 
+from posfb.models.description import Description, prepare_urdf
 from posfb.models.urdf_check import add_urdf_models, check_serial_urdf, weld_base
 
 #: Angles per joint of the grid that averages ``M*(q)`` into ``M0*`` (module docstring).
@@ -55,10 +56,10 @@ class SerialArmModel:
     ``of_plant`` gives the model of a plant already built, with the parameters of a
     given Context (a sampled plant)."""
 
-    def __init__(self, urdf: str | Path) -> None:
-        chain = check_serial_urdf(Path(urdf))
+    def __init__(self, urdf: str | Path, description: Description | None = None) -> None:
+        chain = check_serial_urdf(Path(urdf), description)
         plant = MultibodyPlant(time_step=0.0)
-        add_urdf_models(Parser(plant), Path(urdf))
+        add_urdf_models(Parser(plant), prepare_urdf(Path(urdf), description))
         weld_base(plant, chain.base)
         plant.Finalize()
         self._setup(

@@ -106,9 +106,7 @@ class WaveTrajectory:
 
 def _require_times(key: str, times: np.ndarray, fewest: int) -> None:
     if times.ndim != 1 or len(times) < fewest:
-        raise ValueError(
-            f"{key} has {times.size} entries; at least {fewest} are required"
-        )
+        raise ValueError(f"{key} has {times.size} entries; at least {fewest} are required")
     if not np.all(np.isfinite(times)):
         raise ValueError(f"{key} = {times.tolist()} is not finite; finite times are required")
     steps = np.diff(times)

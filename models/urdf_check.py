@@ -77,6 +77,8 @@ if TYPE_CHECKING:
     from pydrake.multibody.parsing import Parser
     from pydrake.multibody.plant import MultibodyPlant
 
+    from posfb.models.description import Description, PreparedUrdf
+
 #: XML namespace of posfb's own URDF elements (motor constants, Coulomb levels): a URN,
 #: a fixed identifier that nothing resolves (XML compares it character by character).
 POSFB_NS = "urn:posfb:urdf"
@@ -154,17 +156,16 @@ def check_arm_urdf(path: str | Path, payload_link: str | None = None) -> None:
     Raises ``FileNotFoundError`` if ``path`` does not exist and ``ValueError``
     (one line naming the element, its value and what is allowed) otherwise."""
     path = Path(path)
-    _check_arm(path, _read_bytes(path), payload_link)
+    _check_arm(path, read_urdf_bytes(path), payload_link)
 
 
 @functools.lru_cache(maxsize=64)
 def _check_arm(path: Path, text: bytes, payload_link: str | None) -> None:
     """``check_arm_urdf`` on the bytes ``text`` of ``path``."""
-    robot = _parse_robot(path, text)
+    robot = parse_robot(path, text)
     try:
         arm = _parse_arm(robot)
-        for joint in (arm.shoulder, arm.elbow):
-            _check_drive(robot, joint)
+        _check_drives(robot, [arm.shoulder, arm.elbow])
         bodies = _bodies(
             arm.links, arm.parent_joint, arm.poses, (arm.shoulder.child, arm.elbow.child)
         )
@@ -195,15 +196,18 @@ class _HeldWarnings(logging.Filter):
         return False
 
 
-def add_urdf_models(parser: Parser, path: Path) -> None:
-    """``parser.AddModels(path)``, each warning Drake's parser logs shown once per process
-    and as one line on Drake's logger: Drake writes some on several lines, and posfb
-    parses one file several times (the plant, the nominal model, each sample)."""
+def add_urdf_models(parser: Parser, prepared: PreparedUrdf) -> None:
+    """Parse the ``prepared`` URDF text (``models.description.prepare_urdf``) into
+    ``parser``'s plant, its note shown once per process; each warning Drake's parser logs
+    is shown once per process and as one line on Drake's logger: Drake writes some on
+    several lines, and posfb parses one file several times (the plant, the nominal model,
+    each sample)."""
+    prepared.show_note()
     logger = logging.getLogger("drake")
     held = _HeldWarnings()
     logger.addFilter(held)
     try:
-        parser.AddModels(str(path))
+        parser.AddModelsFromString(prepared.text, "urdf")
     finally:
         logger.removeFilter(held)
         for record in held.records:
@@ -224,7 +228,7 @@ def weld_base(plant: MultibodyPlant, base: str) -> None:
         plant.WeldFrames(plant.world_frame(), frame, RigidTransform())
 
 
-def _read_bytes(path: Path) -> bytes:
+def read_urdf_bytes(path: Path) -> bytes:
     if path.is_dir():
         raise ValueError(f"URDF {path} is a directory; a URDF file is required")
     if not path.exists():
@@ -239,7 +243,7 @@ def _read_bytes(path: Path) -> bytes:
         ) from None
 
 
-def _parse_robot(path: Path, text: bytes) -> ET.Element:
+def parse_robot(path: Path, text: bytes) -> ET.Element:
     try:
         robot = ET.fromstring(text)
     except ET.ParseError as error:
@@ -320,7 +324,7 @@ SERIAL_JOINTS = (
 )
 
 
-def _read_tree(
+def read_tree(
     robot: ET.Element, rule: str
 ) -> tuple[dict[str, ET.Element], list[_Joint], str, dict[str, _Joint]]:
     """Links, joints (each of a type ``rule`` allows), the root link and each link's
@@ -342,7 +346,7 @@ def _read_tree(
 
 
 def _parse_arm(robot: ET.Element) -> _Arm:
-    links, joints, root, parent_joint = _read_tree(robot, TWO_LINK_JOINTS)
+    links, joints, root, parent_joint = read_tree(robot, TWO_LINK_JOINTS)
     poses = _world_poses(root, links, parent_joint)
     shoulder, elbow = _arm_joints(root, joints, parent_joint)
     return _Arm(links, parent_joint, poses, shoulder, elbow)
@@ -467,7 +471,7 @@ def _arm_joints(
 # --- what models.plant reads --------------------------------------------------
 
 
-def _actuator(robot: ET.Element, joint: str) -> ET.Element | None:
+def actuator_of(robot: ET.Element, joint: str) -> ET.Element | None:
     for transmission in robot.findall("transmission"):
         driven = transmission.find("joint")
         if driven is not None and driven.get("name") == joint:
@@ -495,25 +499,54 @@ def _posfb_element(parent: ET.Element, tag: str, label: str) -> ET.Element | Non
     return None
 
 
-def _check_drive(robot: ET.Element, joint: _Joint) -> tuple[float, float]:
+def _check_drives(robot: ET.Element, joints: list[_Joint]) -> list[tuple[float, float]]:
+    """Each arm joint's Coulomb level (N m) and motor constant (N m/V), checked with its
+    damping, rotor inertia and gear ratio (``_check_drive``); the elements missing on
+    any joint are refused together, in one line."""
+    checked = [_check_drive(robot, joint) for joint in joints]
+    missing: dict[str, list[str]] = {}
+    for joint, (_, _, absent) in zip(joints, checked, strict=True):
+        for element in absent:
+            missing.setdefault(element, []).append(joint.name)
+    if missing:
+        listed = "; ".join(
+            f"{element} of joints {', '.join(names)}" for element, names in missing.items()
+        )
+        raise ValueError(
+            f"{listed} = (missing); each arm joint needs a Coulomb level and a motor "
+            "constant: a scenario's plant.drives (posfb scenario init writes them from the "
+            "file's <limit effort> and <dynamics>), or posfb:coulomb_friction on the joint and "
+            "a <transmission> whose <actuator> carries posfb:motor_constant; a joint that is "
+            "not the arm's (a gripper) is welded with scenario init --weld NAME or plant.weld"
+        )
+    return [(coulomb, motor) for coulomb, motor, _ in checked]
+
+
+def _check_drive(robot: ET.Element, joint: _Joint) -> tuple[float, float, list[str]]:
     """Coulomb level, damping and the actuator's motor constant, rotor inertia
-    and gear ratio of one arm joint; returns its Coulomb level (N m) and motor
-    constant (N m/V)."""
+    and gear ratio of one arm joint; returns its Coulomb level (N m), motor
+    constant (N m/V) and the required elements it lacks (NaN values where missing)."""
     label = f"joint {joint.name!r}"
+    missing = []
     element = _posfb_element(joint.element, "coulomb_friction", label)
-    coulomb = _scalar(_value(element), f"{label} posfb:coulomb_friction value", False, "N m")
+    coulomb = math.nan
+    if element is None:
+        missing.append("posfb:coulomb_friction")
+    else:
+        coulomb = _scalar(_value(element), f"{label} posfb:coulomb_friction value", False, "N m")
     dynamics = joint.element.find("dynamics")
     if dynamics is not None and "damping" in dynamics.attrib:
         _scalar(dynamics.get("damping"), f"{label} dynamics damping", False, "N m s/rad")
-    actuator = _actuator(robot, joint.name)
+    actuator = actuator_of(robot, joint.name)
     if actuator is None:
-        raise ValueError(
-            f"{label} transmission actuator = (missing); a <transmission> of this joint whose "
-            "<actuator> carries posfb:motor_constant is required"
-        )
+        return coulomb, math.nan, [*missing, "transmission actuator"]
     name = f"actuator {actuator.get('name')!r}"
     motor = _posfb_element(actuator, "motor_constant", name)
-    motor_constant = _scalar(_value(motor), f"{name} posfb:motor_constant value", True, "N m/V")
+    motor_constant = math.nan
+    if motor is None:
+        missing.append("actuator posfb:motor_constant")
+    else:
+        motor_constant = _scalar(_value(motor), f"{name} posfb:motor_constant value", True, "N m/V")
     for tag, positive, unit in (
         ("rotor_inertia", False, "kg m^2"),
         ("gear_ratio", True, "dimensionless"),
@@ -521,7 +554,7 @@ def _check_drive(robot: ET.Element, joint: _Joint) -> tuple[float, float]:
         element = actuator.find(f"{{{DRAKE_NS}}}{tag}")
         if element is not None:
             _scalar(_value(element), f"{name} drake:{tag} value", positive, unit)
-    return coulomb, motor_constant
+    return coulomb, motor_constant, missing
 
 
 # --- masses and inertias ------------------------------------------------------
@@ -721,6 +754,7 @@ def _check_link2_inertia(arm: _Arm, bodies: list[_Body]) -> None:
 
 # --- any serial arm -------------------------------------------------------------
 
+
 @dataclass(frozen=True)
 class SerialChain:
     """A checked serial arm: its ``base`` link, the arm ``joints`` from the base to the tip,
@@ -734,7 +768,7 @@ class SerialChain:
     links: tuple[str, ...] = ()
 
 
-def check_serial_urdf(path: str | Path) -> SerialChain:
+def check_serial_urdf(path: str | Path, description: Description | None = None) -> SerialChain:
     """Refuse a URDF that is not a serial chain of actuated revolute joints; return its
     base link and the arm joints' names from the base to the tip.
 
@@ -750,20 +784,24 @@ def check_serial_urdf(path: str | Path) -> SerialChain:
     >= 0, each at most the sum of the other two: the triangle inequality), every arm
     joint's axis nonzero, and each arm joint moving some inertia about its axis (the
     two-link arm's theta7 > 0: the diagonal of the mass matrix without rotor inertia).
-    Raises as ``check_arm_urdf``: one line naming the element."""
+    The file is checked as ``models.description.prepare_urdf`` hands it to Drake, with
+    what ``description`` (the scenario's) adds. Raises as ``check_arm_urdf``: one line
+    naming the element; drive data missing on several joints are named at once."""
+    from posfb.models.description import prepare_urdf
+
     path = Path(path)
-    return _check_serial(path, _read_bytes(path))
+    return _check_serial(path, prepare_urdf(path, description).text.encode())
 
 
 @functools.lru_cache(maxsize=64)
 def _check_serial(path: Path, text: bytes) -> SerialChain:
     """``check_serial_urdf`` on the bytes ``text`` of ``path``."""
-    robot = _parse_robot(path, text)
+    robot = parse_robot(path, text)
     try:
-        links, joints, root, parent_joint = _read_tree(robot, SERIAL_JOINTS)
+        links, joints, root, parent_joint = read_tree(robot, SERIAL_JOINTS)
         poses = _world_poses(root, links, parent_joint)  # refuses loops
-        chain = _serial_chain(root, joints, parent_joint)
-        drives = [_check_drive(robot, joint) for joint in chain]
+        chain = serial_chain(root, joints, parent_joint)
+        drives = _check_drives(robot, chain)
         bodies = _bodies(links, parent_joint, poses)
         _check_moving_masses(links, chain, parent_joint)
         _check_joint_inertias(robot, chain, bodies, parent_joint, poses)
@@ -775,9 +813,7 @@ def _check_serial(path: Path, text: bytes) -> SerialChain:
     )
 
 
-def _serial_chain(
-    root: str, joints: list[_Joint], parent_joint: dict[str, _Joint]
-) -> list[_Joint]:
+def serial_chain(root: str, joints: list[_Joint], parent_joint: dict[str, _Joint]) -> list[_Joint]:
     """The arm joints from the base to the tip; refuses a branch or no arm joint."""
     movable = [joint for joint in joints if joint.kind != "fixed"]
     if not movable:
@@ -839,7 +875,7 @@ def _outboard(link: str, joint: _Joint, parent_joint: dict[str, _Joint]) -> bool
 def _reflected_rotor_inertia(robot: ET.Element, joint: _Joint) -> float:
     """``drake:rotor_inertia * drake:gear_ratio^2`` of the joint's actuator (kg m^2; 0
     without a rotor inertia), as Drake adds it to the mass matrix; both checked already."""
-    actuator = _actuator(robot, joint.name)
+    actuator = actuator_of(robot, joint.name)
     rotor = _value(actuator.find(f"{{{DRAKE_NS}}}rotor_inertia"))
     ratio = _value(actuator.find(f"{{{DRAKE_NS}}}gear_ratio"))
     return (0.0 if rotor is None else float(rotor)) * (1.0 if ratio is None else float(ratio)) ** 2

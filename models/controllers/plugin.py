@@ -107,9 +107,7 @@ class NominalDynamics:
     def __init__(self, model: LumpedModel | SerialArmModel) -> None:
         self._model = model
 
-    def inverse_dynamics(
-        self, q: np.ndarray, qdot: np.ndarray, qddot: np.ndarray
-    ) -> np.ndarray:
+    def inverse_dynamics(self, q: np.ndarray, qdot: np.ndarray, qddot: np.ndarray) -> np.ndarray:
         """``M(q) qddot + C(q, qdot) qdot + G(q) + B qdot + F(qdot)`` (V, Eq. 2): the
         voltage that makes the nominal arm, Coulomb friction included, follow
         ``(q, qdot, qddot)``; the sum of ``rigid_body``, ``viscous_friction`` and

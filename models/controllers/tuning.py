@@ -20,8 +20,10 @@ SAMPLES_PER_BANDWIDTH = 20.0
 
 def positive_setting(owner: str, name: str, value: object) -> float:
     """``value`` as a finite float > 0, or ``PluginError`` naming ``controller.name``."""
-    if isinstance(value, bool) or not isinstance(value, int | float) or not (
-        math.isfinite(value) and value > 0
+    if (
+        isinstance(value, bool)
+        or not isinstance(value, int | float)
+        or not (math.isfinite(value) and value > 0)
     ):
         raise PluginError(
             f"controller.{name} = {value!r} ({owner}); a finite number > 0 is required"

@@ -112,8 +112,10 @@ def solve_lqr(system: AugmentedSystem, Q: np.ndarray, R: np.ndarray) -> LqrSolut
             P = _scaled_care(A, B, Q, R)
         except (np.linalg.LinAlgError, ValueError):
             P = None
-        stable = P is not None and np.all(np.isfinite(P)) and is_hurwitz(
-            np.linalg.eigvals(A - B @ np.linalg.solve(R, B.T @ P))
+        stable = (
+            P is not None
+            and np.all(np.isfinite(P))
+            and is_hurwitz(np.linalg.eigvals(A - B @ np.linalg.solve(R, B.T @ P)))
         )
         if not stable:
             raise ValueError(

@@ -210,9 +210,17 @@ def _negative_margin(Q: np.ndarray, B: np.ndarray) -> tuple[float, float]:
 CACHE_KIND = "common_lyapunov"
 
 #: The solver's statuses an answer is stored as (their index).
-SOLVER_STATUSES = ("optimal", "optimal_inaccurate", "infeasible", "infeasible_inaccurate",
-                   "unbounded", "unbounded_inaccurate", "not solved", "user_limit",
-                   "the Lyapunov equation of one loop")
+SOLVER_STATUSES = (
+    "optimal",
+    "optimal_inaccurate",
+    "infeasible",
+    "infeasible_inaccurate",
+    "unbounded",
+    "unbounded_inaccurate",
+    "not solved",
+    "user_limit",
+    "the Lyapunov equation of one loop",
+)
 
 
 def _equation_candidate(balanced: list[np.ndarray], radii: list[float]) -> np.ndarray | None:

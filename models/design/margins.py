@@ -289,7 +289,9 @@ def _peak(
     i = int(np.argmax(values))
     low, high = omega[max(i - 1, 0)], omega[min(i + 1, len(omega) - 1)]
     found = scipy.optimize.minimize_scalar(
-        lambda w: -function(w), bounds=(low, high), method="bounded",
+        lambda w: -function(w),
+        bounds=(low, high),
+        method="bounded",
         options={"xatol": 1e-9 * high},
     )
     if -found.fun > values[i]:

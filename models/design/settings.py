@@ -58,8 +58,11 @@ def default_of(cls: type, name: str) -> typing.Callable[[], object]:
 Bounds = dataclasses.make_dataclass(
     "Bounds",
     [
-        (entry.name, typing.get_type_hints(UncertaintyBounds)[entry.name],
-         field(default=entry.default))
+        (
+            entry.name,
+            typing.get_type_hints(UncertaintyBounds)[entry.name],
+            field(default=entry.default),
+        )
         for entry in fields(UncertaintyBounds)
     ],  # fmt: skip
     namespace={"__doc__": "Assumption 1's bounds and k_C1 (UncertaintyBounds' fields)."},

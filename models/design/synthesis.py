@@ -280,7 +280,8 @@ def _loop_transitions(
     plant = held_plant(M0, B, sample_time, effects)
     return {
         name: held_transition(
-            plant, filters[name],
+            plant,
+            filters[name],
             _output_gain(name, len(M0), filters[name].C.shape[0], alpha_star),
         )  # fmt: skip
         for name in LOOP_CONTROLLERS
@@ -477,9 +478,11 @@ def compute_design(config: ControllerConfig | None = None) -> Design:
     nc_gain = np.hstack([np.eye(n), -nonlinear.alpha_star * np.eye(n)])
     lin_lc_filter = lc.discretise(T, method)
     proposed_filter = stack(nc, velocity_bound_filter(nonlinear.filter_a, n)).discretise(T, method)
-    radii = _radii(_loop_transitions(
-        M0, B, {"proposed": proposed_filter, "lin_lc": lin_lc_filter}, nonlinear.alpha_star, T
-    ))
+    radii = _radii(
+        _loop_transitions(
+            M0, B, {"proposed": proposed_filter, "lin_lc": lin_lc_filter}, nonlinear.alpha_star, T
+        )
+    )
     continuous_poles = _sorted_poles(augmented.A_a - augmented.B_a1 @ lqr.K)
     poles_with_nc = _sorted_poles(continuous_closed_loop(M0, B, nc, nc_gain))
     lc_filter_poles = _sorted_poles(lc.A)

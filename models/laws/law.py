@@ -57,8 +57,11 @@ def law(name: str, joints: int, memory: int, start: Start, step: Step) -> Law:
         joints,
         ca.Function(f"{name}_start", [q, desired], [start(q, q_d)], ["q", "desired"], ["memory"]),
         ca.Function(
-            f"{name}_step", [state, q, desired], [voltage, internals, following],
-            ["memory", "q", "desired"], ["voltage", "internals", "memory_next"],
+            f"{name}_step",
+            [state, q, desired],
+            [voltage, internals, following],
+            ["memory", "q", "desired"],
+            ["voltage", "internals", "memory_next"],
         ),  # fmt: skip
     )
 
