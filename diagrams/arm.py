@@ -26,7 +26,7 @@ from pathlib import Path
 import numpy as np
 from pydrake.multibody.tree import BodyIndex, Frame, JointActuatorIndex, JointIndex, RevoluteJoint
 
-from posfb.diagrams.scenario import Scenario, resolve_path, scenario_chain
+from posfb.diagrams.scenario import Scenario, resolve_path, scenario_chain, scenario_description
 from posfb.models.plant import JOINT_PARAMETERS, PlantConfig, build_arm_diagram
 
 #: Significant digits of each number in the canonical text.
@@ -71,7 +71,8 @@ def arm_identity(scenario: Scenario, base_dir: Path) -> ArmIdentity:
     ``base_dir``); a bad file is refused naming ``plant.urdf``, as ``resolve`` does."""
     chain = scenario_chain(scenario, base_dir)  # the URDF checked, naming plant.urdf
     urdf = resolve_path(scenario.plant.urdf, base_dir)
-    _, arm, _ = build_arm_diagram(PlantConfig(urdf=str(urdf)))
+    description = scenario_description(scenario, base_dir)
+    _, arm, _ = build_arm_diagram(PlantConfig(urdf=str(urdf), description=description))
     plant = arm.plant
     lines = [f"arm joints: {' '.join(chain.joints)}"]
     for i in range(1, plant.num_bodies()):  # 0 is the world

@@ -49,11 +49,13 @@ from posfb.diagrams.scenario import (
     require_backlash,
     resolve_path,
     scenario_chain,
+    scenario_description,
 )
 from posfb.diagrams.sections import require_dac_resolution, require_encoder_resolution
 from posfb.diagrams.yaml_schema import load_typed, read_text
 from posfb.models.controllers import PluginError, UserPlugin, make_controller
 from posfb.models.controllers.plugin import load_plugin, module_plugin
+from posfb.models.description import Description
 from posfb.models.design import ControllerConfig
 from posfb.models.design.settings import ArmInputs
 from posfb.models.friction import law_spec, law_values, tag
@@ -168,6 +170,7 @@ def with_absolute_paths(loaded: LoadedScenario) -> Scenario:
         return str(resolve_path(text, loaded.base_dir))
 
     scenario.plant.urdf = absolute(scenario.plant.urdf)
+    scenario.plant.package_paths = [absolute(folder) for folder in scenario.plant.package_paths]
     if isinstance(scenario.nominal_model, IdentifiedFromUrdf | UrdfModel):
         scenario.nominal_model.urdf = absolute(scenario.nominal_model.urdf)
     if isinstance(scenario.nominal_model, Identified):
@@ -334,12 +337,15 @@ def _check_csv(settings: TrajectorySettings, trajectory: Trajectory, duration: f
         )
 
 
-def make_nominal(settings: NominalModel, base_dir: Path) -> NominalForm:
-    """The model the controllers are designed from."""
+def make_nominal(
+    settings: NominalModel, base_dir: Path, description: Description | None = None
+) -> NominalForm:
+    """The model the controllers are designed from; a URDF model takes what the scenario
+    adds to its file (``description``: package folders, welds, drives)."""
     if isinstance(settings, Table1):
         return TABLE1
     if isinstance(settings, UrdfModel):
-        return UrdfNominal(str(resolve_path(settings.urdf, base_dir)))
+        return UrdfNominal(str(resolve_path(settings.urdf, base_dir)), description or Description())
     if isinstance(settings, Theta):
         return LumpedParameters(**dataclasses.asdict(settings))
     if isinstance(settings, Identified):
@@ -348,7 +354,7 @@ def make_nominal(settings: NominalModel, base_dir: Path) -> NominalForm:
         path = resolve_path(settings.file, base_dir)
         model = load_model(path)
         if model.kind == "urdf":
-            return UrdfNominal(str(path.parent / model.urdf))
+            return UrdfNominal(str(path.parent / model.urdf), description or Description())
         return LumpedParameters.from_theta(np.asarray(model.values), l1=model.l1, g=model.g)
     return identify_urdf(str(resolve_path(settings.urdf, base_dir)), settings.payload_mass)
 
@@ -527,7 +533,7 @@ def resolve(loaded: LoadedScenario) -> ResolvedScenario:
     chain = scenario_chain(scenario, base)
     joints = len(chain.joints)
     try:
-        nominal = make_nominal(scenario.nominal_model, base)
+        nominal = make_nominal(scenario.nominal_model, base, scenario_description(scenario, base))
     except (ValueError, FileNotFoundError) as error:
         raise ValueError(f"nominal_model: {error}") from None
     if joint_count(nominal) != joints:
@@ -555,6 +561,7 @@ def resolve(loaded: LoadedScenario) -> ResolvedScenario:
             motor_friction_blocks=plant.motor_friction_blocks,
             friction=copy.deepcopy(plant.friction),
             gear=gear,
+            description=scenario_description(scenario, base),
         )
         law_values(plant_config.friction, joints)
     except ValueError as error:

@@ -53,6 +53,7 @@ from posfb.diagrams.sections import Actuator, Sensor, Timing
 from posfb.diagrams.yaml_schema import check_shape, parse, prepare
 from posfb.models.controllers import REGISTRY
 from posfb.models.controllers.registry import settings_kind
+from posfb.models.description import DRIVE_FIELDS, Description, Drives
 from posfb.models.design.settings import ArmInputs, default_of
 from posfb.models.friction import DEFAULT_LAW, LAW_SETTINGS
 from posfb.models.gear import GearConfig
@@ -81,7 +82,6 @@ def resolve_path(text: str, base_dir: Path) -> Path:
         return DEFAULT_URDF.parent / text.removeprefix(SHIPPED_PREFIX)
     path = Path(text).expanduser()
     return path if path.is_absolute() else base_dir / path
-
 
 
 def _rows(matrix: tuple[tuple[float, ...], ...]) -> list[list[float]]:
@@ -127,6 +127,23 @@ FrictionSection = typing.Union[LAW_SETTINGS]  # noqa: UP007 - built from the reg
 
 
 @dataclass
+class DriveSettings:
+    """Each arm joint's drive, replacing the URDF's ``posfb:`` and Drake elements where
+    given (``models.description.Drives``; per-joint lists, one value = every joint):
+    ``motor_constant`` (N m/V), ``gear_ratio``, ``rotor_inertia`` (kg m^2 at the motor),
+    ``damping`` (N m s/rad), ``coulomb`` (N m). Unlike ``parameters`` (the true arm's
+    departures from its description), the drives are the description: the plant and a
+    ``!UrdfModel`` of the same file both take them. The voltage limit is
+    ``actuator.voltage_limit``."""
+
+    motor_constant: list[float] | None = None
+    gear_ratio: list[float] | None = None
+    rotor_inertia: list[float] | None = None
+    damping: list[float] | None = None
+    coulomb: list[float] | None = None
+
+
+@dataclass
 class PlantSettings:
     """The true arm: its URDF, a point payload (kg) at the link-2 tip, the Coulomb
     smoothing velocity (rad/s, ``models.plant``), the implementation of the motor and
@@ -135,7 +152,11 @@ class PlantSettings:
     per-joint lists, one value = every joint; ``models.friction``), and the gear between
     each motor and its link: ``gear_stiffness`` (N m/rad), ``gear_damping`` (N m s/rad),
     ``backlash`` (rad, half-width), at the link side; a joint with stiffness 0 is rigid,
-    every stiffness 0 (the default) is today's rigid arm (``models.gear``)."""
+    every stiffness 0 (the default) is today's rigid arm (``models.gear``). What the
+    scenario adds to a published URDF (``models.description``): ``package_paths``
+    (folders that resolve its ``package://`` meshes, relative to the scenario's folder),
+    ``weld`` (joint name: position, rad or m, for joints that are not the arm's: a
+    gripper) and ``drives`` (``DriveSettings``)."""
 
     urdf: str = SHIPPED_URDF
     payload_mass: float = field(default_factory=default_of(ArmParameters, "payload_mass"))
@@ -148,6 +169,9 @@ class PlantSettings:
     gear_stiffness: list[float] = field(default_factory=default_of(GearConfig, "gear_stiffness"))
     gear_damping: list[float] = field(default_factory=default_of(GearConfig, "gear_damping"))
     backlash: list[float] = field(default_factory=default_of(GearConfig, "backlash"))
+    package_paths: list[str] = field(default_factory=list)
+    weld: dict[str, float] = field(default_factory=dict)
+    drives: DriveSettings = field(default_factory=DriveSettings)
 
 
 # --- nominal model -----------------------------------------------------------------
@@ -406,7 +430,7 @@ def dump_scenario(scenario: Scenario) -> str:
             keys[depth:] = [match.group(2)]
             tag = tagged.get(".".join(keys))
             if tag:
-                line = f"{match.group(0)} {tag}{line[match.end():]}"
+                line = f"{match.group(0)} {tag}{line[match.end() :]}"
         lines.append(line)
     return "\n".join(lines) + "\n"
 
@@ -494,12 +518,39 @@ def get_setting(scenario: Scenario, key: str) -> object:
     return value[index] if index < len(value) else value[0]
 
 
-def scenario_chain(scenario: Scenario, base_dir: Path) -> SerialChain:
-    """The scenario's plant URDF, checked (relative paths from ``base_dir``); a bad file
-    is refused naming ``plant.urdf``."""
-    urdf = resolve_path(scenario.plant.urdf, base_dir)
+def scenario_description(scenario: Scenario, base_dir: Path) -> Description:
+    """What the scenario's ``plant`` section adds to the URDFs it names (package folders
+    relative to ``base_dir``); a bad value is refused naming its key."""
+    plant = scenario.plant
+    drives = plant.drives
     try:
-        return check_serial_urdf(urdf)
+        return Description(
+            package_paths=tuple(
+                str(resolve_path(folder, base_dir)) for folder in plant.package_paths
+            ),
+            welds=tuple(plant.weld.items()),
+            drives=Drives(
+                **{
+                    name: None if getattr(drives, name) is None else tuple(getattr(drives, name))
+                    for name in DRIVE_FIELDS
+                },
+                label="plant.drives",
+            ),
+        )
+    except ValueError as error:
+        message = str(error)
+        if message.startswith(("package_paths", "weld")):
+            message = f"plant.{message}"
+        raise ValueError(message) from None
+
+
+def scenario_chain(scenario: Scenario, base_dir: Path) -> SerialChain:
+    """The scenario's plant URDF, checked (relative paths from ``base_dir``) with what the
+    scenario adds to it; a bad file is refused naming ``plant.urdf``."""
+    urdf = resolve_path(scenario.plant.urdf, base_dir)
+    description = scenario_description(scenario, base_dir)
+    try:
+        return check_serial_urdf(urdf, description)
     except (ValueError, FileNotFoundError) as error:
         raise ValueError(f"plant.urdf = {scenario.plant.urdf!r}: {error}") from None
 

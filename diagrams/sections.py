@@ -144,9 +144,7 @@ def require_dac_resolution(bits: int) -> None:
 
 def default_simulator() -> SimulatorConfig:
     """Drake's RK3 with error control at accuracy 3e-3 (``diagrams.closed_loop``)."""
-    return SimulatorConfig(
-        integration_scheme="runge_kutta3", accuracy=3e-3, use_error_control=True
-    )
+    return SimulatorConfig(integration_scheme="runge_kutta3", accuracy=3e-3, use_error_control=True)
 
 
 @dataclass

@@ -327,21 +327,27 @@ def _check_state_order(plant: MultibodyPlant, joints: tuple[str, ...]) -> None:
 
 
 def _payload(plant: MultibodyPlant, last_link: str) -> str | None:
-    """The payload body, if the URDF has one; it must be welded to the last link."""
+    """The payload body, if the URDF has one; it must be welded to the last link (directly
+    or through bodies welded to it)."""
     if not plant.HasBodyNamed(PAYLOAD_BODY):
         return None
     body = plant.GetBodyByName(PAYLOAD_BODY)
-    for index in plant.GetJointIndices():
-        joint = plant.get_joint(index)
-        if joint.child_body().index() == body.index() and (
-            joint.num_velocities() != 0 or joint.parent_body().name() != last_link
-        ):
-            raise ValueError(
-                f"link {PAYLOAD_BODY!r} hangs from {joint.parent_body().name()!r} by a "
-                f"{joint.type_name()} joint; a fixed joint to the last link "
-                f"{last_link!r} is required"
-            )
-    return PAYLOAD_BODY
+    carrier = body
+    while carrier.index() != plant.world_body().index():
+        joint = next(
+            plant.get_joint(index)
+            for index in plant.GetJointIndices()
+            if plant.get_joint(index).child_body().index() == carrier.index()
+        )
+        if joint.num_velocities() != 0:
+            break
+        carrier = joint.parent_body()
+        if carrier.name() == last_link:
+            return PAYLOAD_BODY
+    raise ValueError(
+        f"link {PAYLOAD_BODY!r} moves with {carrier.name()!r}; a link welded to the last "
+        f"link {last_link!r} is required"
+    )
 
 
 def add_arm(builder: DiagramBuilder, config: PlantConfig | None = None) -> Arm:

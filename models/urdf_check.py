@@ -212,6 +212,7 @@ def add_urdf_models(parser: Parser, prepared: PreparedUrdf) -> None:
         logger.removeFilter(held)
         for record in held.records:
             line = " ".join(record.getMessage().split())
+            line = line.replace("<literal-string>.urdf", str(prepared.path))
             if line not in _SHOWN_WARNINGS:
                 _SHOWN_WARNINGS.add(line)
                 logger.warning("%s", line, extra={"posfb_shown": True})
@@ -320,7 +321,8 @@ TWO_LINK_JOINTS = (
 #: What a serial arm accepts as joints (in messages).
 SERIAL_JOINTS = (
     "revolute or continuous is required for an arm joint (posfb drives rotary joints "
-    "through motors) and fixed for a welded body"
+    "through motors) and fixed for a welded body (prismatic, planar, floating and mimic "
+    "joints are welded, models.description)"
 )
 
 

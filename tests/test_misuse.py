@@ -42,6 +42,7 @@ STUDY = "seed: 1\nsamples: 2\nduration: 0.5\ncontrollers: [lin_lc]\n"
 PRISMATIC = DEFAULT_URDF.read_text().replace(
     '<joint name="joint2" type="continuous">', '<joint name="joint2" type="prismatic">'
 )
+SPHERICAL = PRISMATIC.replace('type="prismatic"', 'type="spherical"')
 THREE_LINK_URDF = (DEFAULT_URDF.parent / "three_link_arm.urdf").read_text()
 FILES = {
     "study.yaml.svg": "<svg/>\n",
@@ -83,6 +84,7 @@ FILES = {
     "plugin_broadcast.yaml": "controller: !Python {file: broadcast.py, class: Mine}\n",
     "one_waypoint.yaml": "trajectory: !Waypoints {times: [0], positions: [[0, 0]]}\n",
     "prismatic.urdf": PRISMATIC,
+    "spherical.urdf": SPHERICAL,
     "planar3.urdf": planar_arm_text(3),
     "triangle3.urdf": THREE_LINK_URDF.replace(
         'iyy="0.01125" iyz="0" izz="0.01125"', 'iyy="0.01125" iyz="0" izz="0.03"'
@@ -530,8 +532,8 @@ CASES = {
         ("scenario", "init", "--urdf", "{tmp}/no.urdf", "--out", "{tmp}/s.yaml"), "does not exist"
     ),
     "init invalid URDF": Case(
-        ("scenario", "init", "--urdf", "{tmp}/prismatic.urdf", "--out", "{tmp}/s.yaml"),
-        "prismatic",
+        ("scenario", "init", "--urdf", "{tmp}/spherical.urdf", "--out", "{tmp}/s.yaml"),
+        "spherical",
     ),
     "init n-joint URDF inertia breaks the triangle inequality": Case(
         ("scenario", "init", "--urdf", "{tmp}/triangle3.urdf", "--out", "{tmp}/s.yaml"),

@@ -141,16 +141,16 @@ def _edited(tmp_path: Path, old: str, new: str, count: int = 1) -> Path:
 @pytest.mark.parametrize(
     ("old", "new", "needle"),
     [
-        ('<joint name="joint3" type="continuous">', '<joint name="joint3" type="prismatic">',
-         "joint 'joint3' type = prismatic; revolute or continuous is required"),
+        ('<joint name="joint3" type="continuous">', '<joint name="joint3" type="spherical">',
+         "joint 'joint3' type = spherical; revolute or continuous is required"),
         ('<parent link="link2"/>\n    <child link="link3"/>',
          '<parent link="link1"/>\n    <child link="link3"/>',
          "link 'link1' carries the arm joints joint2, joint3"),
         ('<posfb:motor_constant value="1.2"/>', "",
-         "actuator 'motor3' posfb:motor_constant value = (missing)"),
+         "actuator posfb:motor_constant of joints joint3 = (missing)"),
         ('<mass value="0.5"/>', '<mass value="0"/>', "link 'link3' mass = 0"),
         ('<posfb:coulomb_friction value="2.5"/>', "",
-         "joint 'joint2' posfb:coulomb_friction value = (missing)"),
+         "posfb:coulomb_friction of joints joint2 = (missing)"),
     ],
 )  # fmt: skip
 def test_bad_arms_are_refused_in_one_line_naming_the_element(tmp_path, old, new, needle):

@@ -96,9 +96,7 @@ def chosen_command(argv: Sequence[str]) -> str | None:
     return next((token for token in argv if token in COMMANDS), None)
 
 
-def build_parser(
-    argv: Sequence[str] | None = None, every: bool = False
-) -> argparse.ArgumentParser:
+def build_parser(argv: Sequence[str] | None = None, every: bool = False) -> argparse.ArgumentParser:
     """The parser of ``posfb``, for the arguments ``argv`` (default: ``sys.argv[1:]``).
 
     Only the chosen subcommand's module is imported and its options added; every
@@ -207,4 +205,3 @@ def main(argv: Sequence[str] | None = None) -> int:
             "input; please report it with the traceback above\n"
         )
         return EXIT_INTERNAL_ERROR
-

@@ -171,8 +171,9 @@ def _check_times(times: np.ndarray, sample_time: float) -> None:
     if step == 0.0:
         found = f"row {row} repeats row {row - 1}'s time_s = {times[row]:g}"
     elif step < 0.0:
-        found = (f"row {row}'s time_s = {times[row]:g} is before row {row - 1}'s "
-                 f"({times[row - 1]:g})")
+        found = (
+            f"row {row}'s time_s = {times[row]:g} is before row {row - 1}'s ({times[row - 1]:g})"
+        )
     else:
         found = f"row {row} (time_s = {times[row]:g}) is {step:g} s after row {row - 1}"
     raise ValueError(

@@ -52,10 +52,15 @@ def agreement(linear_passed: bool, run: ExactArmRun) -> str:
     """One line: the exact arm's verdict beside the linear one, and where they disagree."""
     span = f"{run.duration:g} s"
     if run.ok:
-        said = "as the linear checks say" if linear_passed else (
-            "though the linear checks fail: a linear instability may settle into a small "
-            "limit cycle, or the arm pass the failing configurations quickly; the run "
-            "verdict's bounds are not a stability proof")
+        said = (
+            "as the linear checks say"
+            if linear_passed
+            else (
+                "though the linear checks fail: a linear instability may settle into a small "
+                "limit cycle, or the arm pass the failing configurations quickly; the run "
+                "verdict's bounds are not a stability proof"
+            )
+        )
         return f"exact arm: the {span} run of the scenario's arm is ok ({said})"
     if run.verdict.status == REFUSED:
         return f"exact arm: not run: the controller refuses the scenario ({run.verdict.message})"

@@ -96,7 +96,8 @@ def frozen_worst(design: LinearDesign, frozen: Frozen) -> dict[str, tuple[float,
     radii = design.frozen_radii()
     if radii is not None and design.configurations is not None:
         worst["spectral_radius"] = (
-            radii.worst, design.configurations.configurations[radii.worst_index]
+            radii.worst,
+            design.configurations.configurations[radii.worst_index],
         )
     for name, end in FROZEN_FIGURES:
         values = [(_figure(m, name), c) for c, m in frozen]
@@ -109,8 +110,7 @@ def frozen_worst(design: LinearDesign, frozen: Frozen) -> dict[str, tuple[float,
 def _frozen_dict(design: LinearDesign, frozen: Frozen) -> dict[str, object]:
     worst = frozen_worst(design, frozen)
     return {
-        name: {"value": _number(value), "time": where.time, "q": list(where.q),
-               "role": where.role}
+        name: {"value": _number(value), "time": where.time, "q": list(where.q), "role": where.role}
         for name, (value, where) in worst.items()
     } | {"evaluated_at": [{"time": c.time, "q": list(c.q), "role": c.role} for c, _ in frozen]}
 
@@ -182,8 +182,10 @@ def _frozen_lines(design: LinearDesign, frozen: Frozen) -> list[str]:
     names = {"spectral_radius": "spectral radius", "disk_margin": "disk margin",
              "delay_margin_s": "delay margin", "peak_sensitivity": "peak |S|",
              "peak_complementary_sensitivity": "peak |T|"}  # fmt: skip
-    lines = ["  over the path's configurations (M*(q) frozen; margins at "
-             f"{len(frozen)} of them, the worst radius's and the path's lightest and heaviest):"]
+    lines = [
+        "  over the path's configurations (M*(q) frozen; margins at "
+        f"{len(frozen)} of them, the worst radius's and the path's lightest and heaviest):"
+    ]
     lines += [f"    worst {names[n]} {shown[n](v)} at {c.describe()}"
               for n, (v, c) in worst.items()]  # fmt: skip
     if design.configurations is not None:

@@ -256,8 +256,12 @@ class TuningProblem:
             else held_design_radius(design, self.controller, self.nominal_held)
         )
         nominal_radius = max(
-            [at_M0] + [self._radius(design, self.nominal_held_at[c])
-                       for owner, c in self.active if owner == NOMINAL]  # fmt: skip
+            [at_M0]
+            + [
+                self._radius(design, self.nominal_held_at[c])
+                for owner, c in self.active
+                if owner == NOMINAL
+            ]  # fmt: skip
         )
         worst = max(self.radii(design, self.plants), default=math.nan)
         if nominal_radius >= 1.0:

@@ -187,8 +187,10 @@ def _radius_text(design: Design, loop: str, radius: float) -> str:
     """``radius``, and with a configuration set the radius at ``M0*`` beside it."""
     if design.frozen_radii is None:
         return f"{radius:.4f}"
-    return f"{radius:.4f} (worst over the path's configurations; at M0*: " \
+    return (
+        f"{radius:.4f} (worst over the path's configurations; at M0*: "
         f"{design.frozen_radii[loop].at_M0:.4f})"
+    )
 
 
 def format_report(design: Design, relevant: tuple[str, ...] | None = None) -> str:
@@ -202,8 +204,10 @@ def format_report(design: Design, relevant: tuple[str, ...] | None = None) -> st
     nonlinear = relevant is None or bool(NONLINEAR_CHECKS & set(relevant))
     header = f"Design of Sec. 3 at T_s = {config.sample_time:g} s"
     if nonlinear:
-        header += (f", alpha* = {config.nonlinear.alpha_star:g}, K_alpha = "
-                   f"{config.nonlinear.K_alpha:g}, G(s) pole a = {config.nonlinear.filter_a:g}")
+        header += (
+            f", alpha* = {config.nonlinear.alpha_star:g}, K_alpha = "
+            f"{config.nonlinear.K_alpha:g}, G(s) pole a = {config.nonlinear.filter_a:g}"
+        )
     lines = [
         f"{header}, filters discretised by {DISCRETISATION_NAMES[config.discretisation]}",
         *_matrix("K = [K1 K2 K3] (Eq. 14)", design.K),

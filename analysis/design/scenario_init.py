@@ -24,6 +24,8 @@ import numpy as np
 
 from posfb.analysis.common.errors import UsageError
 from posfb.analysis.common.outputs import atomic_file, output_file
+from posfb.models.description import DRIVE_FIELDS, Description, Drives
+from posfb.models.drive_rules import DerivedDrives
 
 #: Step (s) of the time grid on which the trajectory's scale is searched; the chosen
 #: trajectory is then checked at every sample instant, as ``scenario check`` does.
@@ -45,11 +47,16 @@ class InitOptions:
     voltage_limit: float | None = None
     duration: float | None = None
     force: bool = False
+    package_paths: tuple[Path, ...] = ()
+    welds: tuple[str, ...] = ()
+    drives: Path | None = None
 
 
 @dataclass(frozen=True)
 class Settings:
-    """The validated options with every default filled in from its section."""
+    """The validated options with every default filled in from its section; ``description``
+    is what the scenario adds to the URDF (package folders, welds, the derived drives,
+    ``models.drive_rules``)."""
 
     urdf: Path
     out: Path
@@ -57,6 +64,46 @@ class Settings:
     encoder_counts: int
     voltage_limit: float
     duration: float
+    description: Description
+    derived: DerivedDrives
+
+
+def _welds(options: InitOptions) -> tuple[tuple[str, float | None], ...]:
+    """``--weld NAME[=POSITION]`` values as (name, position)."""
+    welds = []
+    for text in options.welds:
+        name, _, position = text.partition("=")
+        try:
+            value = float(position) if position else None
+        except ValueError:
+            value = math.nan
+        if not name or (value is not None and not math.isfinite(value)):
+            raise UsageError(
+                f"--weld {text!r}; NAME or NAME=POSITION (a joint of the URDF, a finite "
+                "position in rad or m) is required"
+            )
+        welds.append((name, value))
+    return tuple(welds)
+
+
+def _given_drives(path: Path | None) -> Drives:
+    """The user's ``--drives`` file: ``plant.drives``' keys (``DriveSettings``)."""
+    if path is None:
+        return Drives(label="--drives")
+    from posfb.diagrams.scenario import DriveSettings
+    from posfb.diagrams.yaml_schema import load_typed, read_text
+
+    try:
+        settings = load_typed(DriveSettings, read_text(path, "--drives"), f"--drives {path}")
+        return Drives(
+            **{
+                name: None if getattr(settings, name) is None else tuple(getattr(settings, name))
+                for name in DRIVE_FIELDS
+            },
+            label="--drives",
+        )
+    except (ValueError, OSError) as error:
+        raise UsageError(str(error)) from None
 
 
 def settings_of(options: InitOptions) -> Settings:
@@ -103,14 +150,22 @@ def settings_of(options: InitOptions) -> Settings:
     if not out.parent.is_dir():
         raise UsageError(f"--out {out}: folder {out.parent} does not exist")
     output_file("--out", str(out), force=True)  # writable: refused before the work, not after
+    from posfb.models.drive_rules import derive_drives
     from posfb.models.urdf_check import check_serial_urdf
 
     urdf = urdf_file(options.urdf)
+    given = _given_drives(options.drives)
     try:
-        check_serial_urdf(urdf)
+        located = Description(tuple(str(p) for p in options.package_paths), _welds(options))
+    except ValueError as error:
+        raise UsageError(f"--{error}".replace("--package_paths", "--package-path")) from None
+    try:
+        derived = derive_drives(urdf, located, voltage, given)
+        description = Description(located.package_paths, located.welds, derived.written)
+        check_serial_urdf(urdf, description)
     except (ValueError, FileNotFoundError) as error:
         raise UsageError(f"--urdf: {error}") from None
-    return Settings(urdf, out, sample_time, counts, voltage, duration)
+    return Settings(urdf, out, sample_time, counts, voltage, duration, description, derived)
 
 
 def urdf_file(urdf: Path | str) -> Path:
@@ -154,8 +209,9 @@ def limited(lower: float, upper: float) -> bool:
     return math.isfinite(lower) and math.isfinite(upper) and upper - lower < 2 * math.pi
 
 
-def start_posture(urdf: Path) -> tuple[tuple[str, ...], np.ndarray, np.ndarray, np.ndarray,
-                                        np.ndarray]:  # fmt: skip
+def start_posture(urdf: Path, description: Description) -> tuple[
+    tuple[str, ...], np.ndarray, np.ndarray, np.ndarray, np.ndarray
+]:
     """Joint names, limits and the trajectory's offsets: a joint whose range is less than
     a full turn sits at the centre of its limits; the other joints take the posture of
     least potential energy (the arm hanging), found by L-BFGS-B from the centres (0 for
@@ -167,8 +223,8 @@ def start_posture(urdf: Path) -> tuple[tuple[str, ...], np.ndarray, np.ndarray, 
     from posfb.models.plant import PlantConfig, build_arm_diagram
     from posfb.models.urdf_check import check_serial_urdf
 
-    chain = check_serial_urdf(urdf)
-    _, arm, _ = build_arm_diagram(PlantConfig(urdf=str(urdf)))
+    chain = check_serial_urdf(urdf, description)
+    _, arm, _ = build_arm_diagram(PlantConfig(urdf=str(urdf), description=description))
     plant = arm.plant
     context = plant.CreateDefaultContext()
     handles = [plant.GetJointByName(name) for name in chain.joints]
@@ -199,12 +255,12 @@ def start_posture(urdf: Path) -> tuple[tuple[str, ...], np.ndarray, np.ndarray, 
     return chain.joints, lower, upper, start, free
 
 
-def arm_facts(urdf: Path) -> ArmFacts:
-    """``ArmFacts`` of the URDF at ``urdf`` (checked)."""
+def arm_facts(urdf: Path, description: Description) -> ArmFacts:
+    """``ArmFacts`` of the URDF at ``urdf`` (checked) with what ``description`` adds."""
     from posfb.models.nominal import UrdfNominal, nominal_model
 
-    joints, lower, upper, offsets, free = start_posture(urdf)
-    model = nominal_model(UrdfNominal(str(urdf)))
+    joints, lower, upper, offsets, free = start_posture(urdf, description)
+    model = nominal_model(UrdfNominal(str(urdf), description))
     return ArmFacts(joints, lower, upper, offsets, free, model.M0(), model.B(),
                     model.coulomb_levels())  # fmt: skip
 
@@ -223,13 +279,15 @@ class FittedTrajectory:
     peak_time: np.ndarray
 
 
-def peak_voltages(urdf: Path, waves: tuple, times: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def peak_voltages(
+    settings: Settings, waves: tuple, times: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
     """Per joint, the largest ``|u|`` of the nominal inverse dynamics (Eq. 2, gravity and
     friction included) along ``waves`` at ``times``, and when."""
     from posfb.models.nominal import UrdfNominal, nominal_model, trajectory_voltages
     from posfb.models.trajectory import WaveTrajectory
 
-    model = nominal_model(UrdfNominal(str(urdf)))
+    model = nominal_model(UrdfNominal(str(settings.urdf), settings.description))
     trajectory = WaveTrajectory(waves)
     voltages = trajectory_voltages(model, trajectory, times)
     where = np.argmax(np.abs(voltages), axis=0)
@@ -252,11 +310,11 @@ def fit_trajectory(settings: Settings, facts: ArmFacts) -> FittedTrajectory:
         return initial_waves(facts.offsets, facts.lower, facts.upper, scale)
 
     def peak(scale: float, times: np.ndarray = grid) -> float:
-        return float(peak_voltages(settings.urdf, waves_at(scale), times)[0].max())
+        return float(peak_voltages(settings, waves_at(scale), times)[0].max())
 
     scale = largest_scale(peak, allowed)
     if scale is None:
-        hold = peak_voltages(settings.urdf, waves_at(1e-3), grid)[0]
+        hold = peak_voltages(settings, waves_at(1e-3), grid)[0]
         j = int(np.argmax(hold))
         raise UsageError(
             f"--voltage-limit {settings.voltage_limit:g} V is too low for this arm: holding "
@@ -266,7 +324,7 @@ def fit_trajectory(settings: Settings, facts: ArmFacts) -> FittedTrajectory:
             f"{math.ceil(100 * hold.max() / VOLTAGE_HEADROOM) / 100:g} or more is needed"
         )
     while True:  # confirm at the sample instants, where scenario check looks
-        peaks, times = peak_voltages(settings.urdf, waves_at(scale), samples)
+        peaks, times = peak_voltages(settings, waves_at(scale), samples)
         if peaks.max() <= allowed:
             return FittedTrajectory(waves_at(scale), scale, peaks, times)
         scale *= 0.98 * allowed / peaks.max()
@@ -340,7 +398,7 @@ def design_controllers(
                     settings.voltage_limit)  # fmt: skip
     filter_a = filter_pole(settings.sample_time)
     gamma = h_gamma([w.frequency for w in fitted.waves])
-    nominal = UrdfNominal(str(settings.urdf))
+    nominal = UrdfNominal(str(settings.urdf), settings.description)
     model = nominal_model(nominal)
     configurations = path_configurations(
         model, WaveTrajectory(fitted.waves), settings.duration, CONFIGURATION_SPACING
@@ -362,8 +420,11 @@ def design_controllers(
         )  # fmt: skip
 
     def lin_lc_passes(scale: float) -> bool:
-        radii = plant_spectral_radii(cached_design(config_at(scale)), model,
-                                     masses=(*masses, lightest / CONFIGURATION_GAIN_MARGIN))
+        radii = plant_spectral_radii(
+            cached_design(config_at(scale)),
+            model,
+            masses=(*masses, lightest / CONFIGURATION_GAIN_MARGIN),
+        )
         return radii["lin_lc"] < 1.0
 
     scale = largest_bandwidth_scale(lin_lc_passes) or BANDWIDTH_SCALES[-1]
@@ -408,6 +469,14 @@ def scenario_path(urdf: Path, out: Path) -> str:
     return str(target)
 
 
+def welded(settings: Settings) -> tuple:
+    """The joints the description welds (``models.description.Weld``), the automatic ones
+    included, so that the scenario states every position."""
+    from posfb.models.description import prepare_urdf
+
+    return prepare_urdf(settings.urdf, settings.description).welds
+
+
 def _numbers(values: object, digits: int = 4) -> str:
     return ", ".join(f"{float(v):.{digits}g}" for v in np.ravel(values))
 
@@ -416,6 +485,7 @@ def build_scenario(settings: Settings, facts: ArmFacts, fitted: FittedTrajectory
                    designed: DesignedControllers):  # fmt: skip
     """The ``diagrams.scenario.Scenario`` of the derived settings."""
     from posfb.diagrams.scenario import (
+        DriveSettings,
         PlantSettings,
         Scenario,
         UrdfModel,
@@ -437,7 +507,21 @@ def build_scenario(settings: Settings, facts: ArmFacts, fitted: FittedTrajectory
     }
     sensor = Sensor()
     return Scenario(
-        plant=PlantSettings(urdf=path),
+        plant=PlantSettings(
+            urdf=path,
+            package_paths=[
+                scenario_path(Path(folder), settings.out)
+                for folder in settings.description.package_paths
+            ],
+            weld={w.joint: w.position for w in welded(settings)},
+            drives=DriveSettings(
+                **{
+                    name: None if values is None else list(values)
+                    for name in DRIVE_FIELDS
+                    if (values := getattr(settings.description.drives, name)) is not None
+                }
+            ),
+        ),
         nominal_model=UrdfModel(urdf=path),
         trajectory=Wave(
             joints=[
@@ -486,9 +570,27 @@ def comments(settings: Settings, facts: ArmFacts, fitted: FittedTrajectory,
             f"{', '.join(facts.joints)}), its path relative to this file's folder,",
             "absolute, or package://posfb/ for a shipped arm.",
         ],
+        "plant.package_paths": [
+            "Folders that resolve the file's package:// meshes (--package-path; also",
+            "ROS_PACKAGE_PATH and the file's own ancestor folders).",
+        ],
+        "plant.weld": [
+            "Joints that are not the arm's, welded at these positions (rad or m): "
+            + ", ".join(f"{w.joint} ({w.reason})" for w in welded(settings))
+            + "."
+        ],
+        "plant.drives": [
+            "Each arm joint's drive, where the file has no posfb/Drake element for it",
+            "(models/drive_rules.py); replace a derived value with the datasheet's.",
+        ],
+        **{f"plant.drives.{name}": settings.derived.rules(name) for name in DRIVE_FIELDS},
         "nominal_model": ["What the controllers believe: the same URDF, computed by Drake."],
         "trajectory": trajectory_rule(
-            facts.lower, facts.upper, facts.free, fitted.scale, fitted.peak,
+            facts.lower,
+            facts.upper,
+            facts.free,
+            fitted.scale,
+            fitted.peak,
             settings.voltage_limit,
         ),  # fmt: skip
         "timing": [
@@ -505,9 +607,8 @@ def comments(settings: Settings, facts: ArmFacts, fitted: FittedTrajectory,
             "states every rule.",
         ],
         "controller.Q1": designed.weights.rule(),
-        "controller.alpha_star": designed.alpha.rule(
-            designed.radius_at_cap, designed.radius_lin_lc
-        ) + ([f"NOT MET: {designed.reason()}"] if designed.reason() else []),
+        "controller.alpha_star": designed.alpha.rule(designed.radius_at_cap, designed.radius_lin_lc)
+        + ([f"NOT MET: {designed.reason()}"] if designed.reason() else []),
         "controller.H": h_gamma_rule(designed.gamma),
         "controller.filter_a": filter_pole_rule(settings.sample_time),
         "controller.bounds": ["Assumption 1: the default, half of each nominal norm."],
@@ -573,7 +674,7 @@ def write_scenario(options: InitOptions, log: Callable[[str], None] = lambda _: 
     from posfb.diagrams.scenario import dump_scenario
 
     settings = settings_of(options)
-    facts = arm_facts(settings.urdf)
+    facts = arm_facts(settings.urdf, settings.description)
     fitted = fit_trajectory(settings, facts)
     designed = design_controllers(settings, facts, fitted)
     scenario = build_scenario(settings, facts, fitted, designed)

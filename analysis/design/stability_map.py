@@ -59,7 +59,7 @@ from posfb.diagrams.resolve import (
     make_nominal,
     resolve,
 )
-from posfb.diagrams.scenario import Scenario, apply_setting
+from posfb.diagrams.scenario import Scenario, apply_setting, scenario_description
 from posfb.models.controllers import require_design
 from posfb.models.design import Design, cached_design, held_design_radius, with_effects
 from posfb.models.design.closed_loop import NO_EFFECTS, HeldPlant, LoopEffects, held_plant
@@ -174,8 +174,10 @@ class MapSetup:
         of a grid column shares them)."""
         if sample_time not in self._held:
             self._held[sample_time] = tuple(
-                tuple(held_plant(M, plant.B, sample_time, plant.effects)
-                      for M in (plant.M0, *plant.M_at))  # fmt: skip
+                tuple(
+                    held_plant(M, plant.B, sample_time, plant.effects)
+                    for M in (plant.M0, *plant.M_at)
+                )  # fmt: skip
                 for plant in self.plants
             )
         return self._held[sample_time]
@@ -369,7 +371,11 @@ def _setting(key: str, value: float) -> str:
 def check_endpoints(loaded: LoadedScenario, axes: Sequence[MapAxis]) -> None:
     """Each axis's ends must be values the scenario takes (the other keys at the
     scenario's values); a refused design is allowed, a refused value is not."""
-    nominal = make_nominal(loaded.scenario.nominal_model, loaded.base_dir)
+    nominal = make_nominal(
+        loaded.scenario.nominal_model,
+        loaded.base_dir,
+        scenario_description(loaded.scenario, loaded.base_dir),
+    )
     for axis in axes:
         for value in (axis.values[0], axis.values[-1]):
             try:
@@ -410,7 +416,11 @@ def map_setup(
                      if c.role in ("lightest", "heaviest"))  # fmt: skip
     return MapSetup(
         loaded=loaded,
-        nominal=make_nominal(loaded.scenario.nominal_model, loaded.base_dir),
+        nominal=make_nominal(
+            loaded.scenario.nominal_model,
+            loaded.base_dir,
+            scenario_description(loaded.scenario, loaded.base_dir),
+        ),
         controller=loop_controller(relevant),
         plants=tuple(draw_plants(family, resolved, seed, plants, configurations=extremes)),
         margin=margin,

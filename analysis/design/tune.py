@@ -494,8 +494,9 @@ def _tune_controller(
     for round_ in range(settings.rounds):
         count = settings.plants * 2**round_
         design_set = _drawn(
-            draw_plants(family, resolved, settings.seed, count, errors=True,
-                        configurations=angles),  # fmt: skip
+            draw_plants(
+                family, resolved, settings.seed, count, errors=True, configurations=angles
+            ),  # fmt: skip
             count,
             (members, f"the first generation's {members} designs"),
             partial(judging_seconds, resolved, controller, before),
@@ -517,8 +518,9 @@ def _tune_controller(
             )
         after = problem.settings(found.x)
         fresh_set = _drawn(
-            draw_plants(family, resolved, settings.seed + 1 + round_, checks,
-                        configurations=angles),  # fmt: skip
+            draw_plants(
+                family, resolved, settings.seed + 1 + round_, checks, configurations=angles
+            ),  # fmt: skip
             checks,
             (1, "the chosen design"),
             partial(judging_seconds, resolved, controller, after),

@@ -120,8 +120,11 @@ def _margins_change(entry: TunedController) -> str:
     return ", ".join(
         f"{name} {_margin_text(entry.margins_before, figure)} -> "
         f"{_margin_text(entry.margins_after, figure)}"
-        for name, figure in (("disk margin", "disk"), ("delay margin", "delay"),
-                             ("peak |S|", "peak"))  # fmt: skip
+        for name, figure in (
+            ("disk margin", "disk"),
+            ("delay margin", "delay"),
+            ("peak |S|", "peak"),
+        )  # fmt: skip
     )
 
 

@@ -214,10 +214,14 @@ def worst_case_to_dict(found: WorstCase) -> dict[str, object]:
         "evaluations": found.evaluations,
         "configurations": {"count": found.configurations, "active": list(found.active)},
         "nominal": plant(found.nominal),
-        "largest_radius": {"sampled": plant(found.sampled_radius),
-                           "searched": plant(found.searched_radius)},  # fmt: skip
-        "smallest_disk_margin": {"sampled": plant(found.sampled_disk),
-                                 "searched": plant(found.searched_disk)},  # fmt: skip
+        "largest_radius": {
+            "sampled": plant(found.sampled_radius),
+            "searched": plant(found.searched_radius),
+        },  # fmt: skip
+        "smallest_disk_margin": {
+            "sampled": plant(found.sampled_disk),
+            "searched": plant(found.searched_disk),
+        },  # fmt: skip
     }
 
 

@@ -234,9 +234,7 @@ def identify_log(
             quantisation_step=step, settings=settings,
         )  # fmt: skip
         result = Identification(loaded, record, theta=theta)
-        regressor, target = (
-            lambda q, v, a: theta_regressor(q, v, a, nominal.l1, nominal.g)
-        ), None
+        regressor, target = (lambda q, v, a: theta_regressor(q, v, a, nominal.l1, nominal.g)), None
     else:
         model = serial_model(config)
         serial = identify_serial(

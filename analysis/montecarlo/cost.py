@@ -73,9 +73,7 @@ def calibrate(study: Study, todo: int) -> CostEstimate:
     context = multiprocessing.get_context("forkserver")
     context.set_forkserver_preload([FORKSERVER_INIT, worker.__name__])
     with ProcessPoolExecutor(max_workers=1, mp_context=context) as pool:
-        times, memory_mib = pool.submit(
-            calibration_samples, canonical_text(study), count
-        ).result()
+        times, memory_mib = pool.submit(calibration_samples, canonical_text(study), count).result()
     warm = times[1:] or times
     per_sample = sum(warm) / len(warm)
     return CostEstimate(

@@ -61,6 +61,7 @@ def _joints(metrics: Mapping[str, object]) -> int:
     """The joint count of a run's metrics (its ``rms_q*`` entries)."""
     return sum(1 for key in metrics if key.startswith("rms_q"))
 
+
 #: The scalar ``samples`` columns compared (then the JSON ones, ``SAMPLE_JSON_COLUMNS``).
 SAMPLE_COLUMNS = ("encoder_counts", "payload_mass", "inside_bounds")
 

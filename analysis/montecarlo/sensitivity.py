@@ -137,9 +137,7 @@ def markdown(found: list[Sensitivity]) -> list[str]:
     return lines
 
 
-def plot(
-    found: list[Sensitivity], controllers: tuple[str, ...], joints: int, out: Path
-) -> None:
+def plot(found: list[Sensitivity], controllers: tuple[str, ...], joints: int, out: Path) -> None:
     """Tornado bars of the strongest rank correlations, one panel per controller and joint."""
     width = 6 * max(joints, 2)
     figure = Figure(figsize=(width, 2.6 * len(controllers) + 0.8), layout="constrained")

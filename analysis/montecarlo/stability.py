@@ -100,9 +100,7 @@ def markdown(found: list[LoopStability]) -> list[str]:
     if not found:
         return []
     joints = len(found[0].correlation)
-    medians_header = "".join(
-        f" median RMS j{j} rho < 1 | rho >= 1 |" for j in range(1, joints + 1)
-    )
+    medians_header = "".join(f" median RMS j{j} rho < 1 | rho >= 1 |" for j in range(1, joints + 1))
     lines = [
         "## Per-sample sampled-data stability",
         "",

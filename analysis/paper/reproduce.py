@@ -234,7 +234,8 @@ class Reproduction:
             ],
             "error_share_after_reversal": [
                 diagnostics.reversal_share(
-                    self.base.trajectory, result.times[1:], error[:, j], j, REVERSAL_WINDOW_S)
+                    self.base.trajectory, result.times[1:], error[:, j], j, REVERSAL_WINDOW_S
+                )
                 for j in range(2)
             ],
         }
@@ -315,9 +316,7 @@ class Reproduction:
         self.results.set(("evidence", "reversal_window_s"), REVERSAL_WINDOW_S)
 
     def _graph(self) -> None:
-        source = graphviz_source(
-            ClosedLoopRunner(self.base).diagram
-        )
+        source = graphviz_source(ClosedLoopRunner(self.base).diagram)
         path, note = render(source, self.out / "closed_loop_proposed.svg")
         self.artefacts.append(path)
         self.results.set(("artefacts", "graph"), path.name)

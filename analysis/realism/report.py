@@ -333,10 +333,7 @@ def markdown(found: Findings, command: str) -> str:
     ]
     if missing or unfinished:
         lines += [
-            "**Incomplete:** "
-            + "; ".join(
-                [*(f"{n}: not run" for n in missing), *unfinished]
-            ),
+            "**Incomplete:** " + "; ".join([*(f"{n}: not run" for n in missing), *unfinished]),
             "",
         ]
     lines += _effects_section(found.studies)

@@ -112,7 +112,6 @@ class SobolIndex:
     total_conf: float
 
 
-
 def quantile_interval(
     values: ArrayLike,
     q: float,

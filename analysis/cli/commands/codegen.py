@@ -114,8 +114,10 @@ def _tolerance(result: CheckResult, precision: str, given: float | None) -> str:
     if given is not None:
         return f"{result.tolerance_V:.3g} V (--tolerance)"
     relative = TOLERANCE[precision]
-    return (f"{result.tolerance_V:.3g} V ({precision}'s default: {relative:.2g} of the log's "
-            f"largest commanded voltage, {result.tolerance_V / relative:.3g} V)")
+    return (
+        f"{result.tolerance_V:.3g} V ({precision}'s default: {relative:.2g} of the log's "
+        f"largest commanded voltage, {result.tolerance_V / relative:.3g} V)"
+    )
 
 
 def _failure(log: str, result: CheckResult, precision: str, given: float | None) -> str:

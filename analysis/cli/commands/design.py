@@ -135,8 +135,10 @@ def add_map_arguments(parser: argparse.ArgumentParser) -> None:
                        help="also mark this scenario's values of the two keys (e.g. posfb "
                        "tune's output)")  # fmt: skip
     group.add_argument(
-        "--out", metavar="DIR", help="write stability_map.png, .svg and .json into DIR (with "
-        "--margins: margins.json and the Bode, Nyquist and sensitivity figures)"
+        "--out",
+        metavar="DIR",
+        help="write stability_map.png, .svg and .json into DIR (with "
+        "--margins: margins.json and the Bode, Nyquist and sensitivity figures)",
     )
 
 

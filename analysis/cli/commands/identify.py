@@ -29,27 +29,63 @@ def configure(parser: argparse.ArgumentParser) -> None:
         "writes one)",
     )  # fmt: skip
     add_scenario_arguments(parser, ())
-    parser.add_argument("--validate", type=Path, metavar="LOG2",
-                        help="a second log of the same arm to validate the model on")
-    parser.add_argument("--out", type=Path, metavar="MODEL.yaml",
-                        help="write the model (nominal_model: !Identified {file: ...})")
-    parser.add_argument("--study-out", type=Path, metavar="STUDY.yaml",
-                        help="write a Monte-Carlo study whose plants are drawn from the "
-                        "identification's uncertainty (for montecarlo run, tune --study)")
-    parser.add_argument("--study-scenario", type=Path, metavar="S.yaml",
-                        help="the scenario --study-out's samples run, of the same true arm "
-                        "(default: --scenario, the identification's)")
-    parser.add_argument("--study-samples", type=_positive_int, default=100, metavar="N",
-                        help="samples of --study-out's study (default 100)")
-    parser.add_argument("--figure", type=Path, metavar="FILE",
-                        help="with --validate: measured against predicted (.svg or .png)")
-    parser.add_argument("--cutoff", type=positive, metavar="HZ",
-                        help="the filters' cutoff in Hz (default: a tenth of the log's "
-                        "Nyquist frequency)")
-    parser.add_argument("--stiction-velocity", type=nonnegative, metavar="RAD_PER_S",
-                        help="rows slower than this stay out of the fit (default 0.3)")
-    parser.add_argument("--window", type=positive, metavar="S",
-                        help="output-error window of --validate in s (default 1)")
+    parser.add_argument(
+        "--validate",
+        type=Path,
+        metavar="LOG2",
+        help="a second log of the same arm to validate the model on",
+    )
+    parser.add_argument(
+        "--out",
+        type=Path,
+        metavar="MODEL.yaml",
+        help="write the model (nominal_model: !Identified {file: ...})",
+    )
+    parser.add_argument(
+        "--study-out",
+        type=Path,
+        metavar="STUDY.yaml",
+        help="write a Monte-Carlo study whose plants are drawn from the "
+        "identification's uncertainty (for montecarlo run, tune --study)",
+    )
+    parser.add_argument(
+        "--study-scenario",
+        type=Path,
+        metavar="S.yaml",
+        help="the scenario --study-out's samples run, of the same true arm "
+        "(default: --scenario, the identification's)",
+    )
+    parser.add_argument(
+        "--study-samples",
+        type=_positive_int,
+        default=100,
+        metavar="N",
+        help="samples of --study-out's study (default 100)",
+    )
+    parser.add_argument(
+        "--figure",
+        type=Path,
+        metavar="FILE",
+        help="with --validate: measured against predicted (.svg or .png)",
+    )
+    parser.add_argument(
+        "--cutoff",
+        type=positive,
+        metavar="HZ",
+        help="the filters' cutoff in Hz (default: a tenth of the log's Nyquist frequency)",
+    )
+    parser.add_argument(
+        "--stiction-velocity",
+        type=nonnegative,
+        metavar="RAD_PER_S",
+        help="rows slower than this stay out of the fit (default 0.3)",
+    )
+    parser.add_argument(
+        "--window",
+        type=positive,
+        metavar="S",
+        help="output-error window of --validate in s (default 1)",
+    )
     parser.add_argument("--json", action="store_true", help="print one JSON object")
     parser.set_defaults(handler=run)
     actions = parser.add_subparsers(dest="action", parser_class=type(parser))
@@ -61,13 +97,25 @@ def configure(parser: argparse.ArgumentParser) -> None:
     plan.add_argument("--out", type=Path, required=True, metavar="TRAJ.csv")
     plan.add_argument("--duration", type=positive, default=60.0, help="seconds (default 60)")
     plan.add_argument("--harmonics", type=int, default=5, help="per joint (default 5)")
-    plan.add_argument("--period", type=positive, default=10.0,
-                      help="period of the series in s, dividing --duration (default 10)")
+    plan.add_argument(
+        "--period",
+        type=positive,
+        default=10.0,
+        help="period of the series in s, dividing --duration (default 10)",
+    )
     plan.add_argument("--seed", type=int, default=0, help="the optimiser's random start")
-    plan.add_argument("--excursion", type=positive, metavar="RAD",
-                      help="largest excursion from the rest position (default pi/2)")
-    plan.add_argument("--velocity-limit", type=positive, metavar="RAD_PER_S",
-                      help="default: the URDF's joint velocity limits, else 2 rad/s")
+    plan.add_argument(
+        "--excursion",
+        type=positive,
+        metavar="RAD",
+        help="largest excursion from the rest position (default pi/2)",
+    )
+    plan.add_argument(
+        "--velocity-limit",
+        type=positive,
+        metavar="RAD_PER_S",
+        help="default: the URDF's joint velocity limits, else 2 rad/s",
+    )
     plan.add_argument("--json", action="store_true", help="print one JSON object")
     plan.set_defaults(handler=run_plan)  # fmt: skip
 

@@ -70,9 +70,7 @@ def configure(parser: argparse.ArgumentParser) -> None:
         "--workers", type=_positive_int, default=1,
         help="local worker processes (capped at the cores available unless --oversubscribe)",
     )  # fmt: skip
-    run.add_argument(
-        "--oversubscribe", action="store_true", help="allow more --workers than cores"
-    )
+    run.add_argument("--oversubscribe", action="store_true", help="allow more --workers than cores")
     run.add_argument("--seed", type=_seed, help="override the study's seed")
     run.add_argument(
         "--dask-scheduler", metavar="ADDRESS", help="run on this Dask cluster (tcp://host:port)"

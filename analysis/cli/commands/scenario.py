@@ -43,14 +43,41 @@ def configure(parser: argparse.ArgumentParser) -> None:
     )
     init.add_argument("--urdf", required=True, type=Path, help="the arm (urdf/README.md)")
     init.add_argument("--out", required=True, type=Path, help="the scenario YAML to write")
-    init.add_argument("--sample-time", type=float, metavar="TS",
-                      help="T_s in seconds (default: timing.sample_time's)")
-    init.add_argument("--encoder-counts", type=int, metavar="N",
-                      help="encoder counts per revolution (default: sensor.encoder_counts')")
-    init.add_argument("--voltage-limit", type=float, metavar="V",
-                      help="armature-voltage limit, V (default: actuator.voltage_limit's)")
-    init.add_argument("--duration", type=float, metavar="D",
-                      help="simulated seconds (default: timing.duration's)")
+    init.add_argument(
+        "--sample-time",
+        type=float,
+        metavar="TS",
+        help="T_s in seconds (default: timing.sample_time's)",
+    )
+    init.add_argument(
+        "--encoder-counts",
+        type=int,
+        metavar="N",
+        help="encoder counts per revolution (default: sensor.encoder_counts')",
+    )
+    init.add_argument(
+        "--voltage-limit",
+        type=float,
+        metavar="V",
+        help="armature-voltage limit, V (default: actuator.voltage_limit's)",
+    )
+    init.add_argument(
+        "--duration", type=float, metavar="D", help="simulated seconds (default: timing.duration's)"
+    )
+    init.add_argument(
+        "--package-path", action="append", default=[], type=Path, metavar="DIR",
+        dest="package_paths", help="a folder that resolves the URDF's package:// meshes (a "
+        "package.xml in it or below it, or a folder named as the package); repeatable",
+    )  # fmt: skip
+    init.add_argument(
+        "--weld", action="append", default=[], metavar="NAME[=POSITION]", dest="welds",
+        help="weld a joint that is not the arm's (a gripper) at POSITION (rad or m; default "
+        "0 within its limits); repeatable",
+    )  # fmt: skip
+    init.add_argument(
+        "--drives", type=Path, metavar="FILE.yaml", help="the drives' datasheet values "
+        "(plant.drives' keys: motor_constant, gear_ratio, rotor_inertia, damping, coulomb)",
+    )  # fmt: skip
     init.add_argument("--force", action="store_true", help="overwrite an existing --out")
     init.set_defaults(handler=run_init)  # fmt: skip
 
@@ -119,9 +146,16 @@ def run_init(args: argparse.Namespace) -> int:
 
     result = write_scenario(
         InitOptions(
-            urdf=args.urdf, out=args.out, sample_time=args.sample_time,
-            encoder_counts=args.encoder_counts, voltage_limit=args.voltage_limit,
-            duration=args.duration, force=args.force,
+            urdf=args.urdf,
+            out=args.out,
+            sample_time=args.sample_time,
+            encoder_counts=args.encoder_counts,
+            voltage_limit=args.voltage_limit,
+            duration=args.duration,
+            force=args.force,
+            package_paths=tuple(args.package_paths),
+            welds=tuple(args.welds),
+            drives=args.drives,
         )  # fmt: skip
     )
     print(
