@@ -257,7 +257,9 @@ def _mesh_file(uri: str, urdf: Path, packages: _Packages) -> Path | None:
     parsed = urlparse(uri)
     if parsed.scheme == "package":
         root = packages.root(parsed.netloc)
-        candidate = None if root is None else root / unquote(parsed.path).lstrip("/")
+        if root is None:
+            return None
+        candidate = root / unquote(parsed.path).lstrip("/")
     elif parsed.scheme == "file":
         candidate = Path(unquote(parsed.netloc + parsed.path))
     elif parsed.scheme in ("",) or len(parsed.scheme) == 1:  # a path (or a drive letter)

@@ -33,10 +33,10 @@ from pathlib import Path
 from posfb.models.description import DRIVE_FIELDS, Description, Drives, prepare_urdf
 from posfb.models.urdf_check import (
     DRAKE_NS,
-    POSFB_NAMESPACES,
     SERIAL_JOINTS,
     actuator_of,
     parse_robot,
+    posfb_value,
     read_tree,
     read_urdf_bytes,
     serial_chain,
@@ -106,11 +106,7 @@ def _text(element: ET.Element | None) -> float | None:
 def _posfb(parent: ET.Element | None, tag: str) -> float | None:
     if parent is None:
         return None
-    for namespace in POSFB_NAMESPACES:
-        value = _number(parent.find(f"{{{namespace}}}{tag}"))
-        if value is not None:
-            return value
-    return None
+    return posfb_value(parent, tag, f"{parent.tag} {parent.get('name')!r}")
 
 
 def derive_drives(
@@ -125,6 +121,16 @@ def derive_drives(
     )
     chain = [joint.name for joint in serial_chain(root, joints, parent_joint)]
     robot = parse_robot(path, read_urdf_bytes(path))
+    try:
+        return _derive(path, robot, chain, voltage_limit, given)
+    except ValueError as error:
+        raise ValueError(f"URDF {path}: {error}") from None
+
+
+def _derive(
+    path: Path, robot: ET.Element, chain: list[str], voltage_limit: float, given: Drives
+) -> DerivedDrives:
+    """``derive_drives`` on the parsed file ``robot`` and its arm joints ``chain``."""
     elements = {element.get("name"): element for element in robot.findall("joint")}
     n = len(chain)
     user = {name: given.per_joint(name, n) for name in DRIVE_FIELDS}
@@ -182,7 +188,7 @@ def derive_drives(
     missing = [name for name, k in zip(chain, values["motor_constant"], strict=True) if k != k]
     if missing:
         raise ValueError(
-            f"URDF {path}: motor constant of joints {', '.join(missing)} = (missing): the file "
+            f"motor constant of joints {', '.join(missing)} = (missing): the file "
             "has neither posfb:motor_constant nor <limit effort> > 0 for them; give the "
             "datasheet's with --drives FILE.yaml (motor_constant: [N m/V per joint])"
         )

@@ -501,6 +501,17 @@ def _posfb_element(parent: ET.Element, tag: str, label: str) -> ET.Element | Non
     return None
 
 
+def posfb_value(parent: ET.Element, tag: str, label: str) -> float | None:
+    """The number of ``parent``'s ``<posfb:tag value>`` (``None`` if it has none or it is
+    not a finite number); a ``<tag>`` in another namespace is refused as the check does."""
+    element = _posfb_element(parent, tag, label)
+    try:
+        value = float(_value(element))  # type: ignore[arg-type]
+    except (TypeError, ValueError):
+        return None
+    return value if math.isfinite(value) else None
+
+
 def _check_drives(robot: ET.Element, joints: list[_Joint]) -> list[tuple[float, float]]:
     """Each arm joint's Coulomb level (N m) and motor constant (N m/V), checked with its
     damping, rotor inertia and gear ratio (``_check_drive``); the elements missing on

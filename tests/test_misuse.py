@@ -85,6 +85,9 @@ FILES = {
     "one_waypoint.yaml": "trajectory: !Waypoints {times: [0], positions: [[0, 0]]}\n",
     "prismatic.urdf": PRISMATIC,
     "spherical.urdf": SPHERICAL,
+    "drives_three.yaml": "coulomb: [1, 2, 3]\n",
+    "drives_zero.yaml": "motor_constant: [0]\n",
+    "drives_wrong.yaml": "plant: {drives: {damping: [0.1, 0.2, 0.3]}}\n",
     "planar3.urdf": planar_arm_text(3),
     "triangle3.urdf": THREE_LINK_URDF.replace(
         'iyy="0.01125" iyz="0" izz="0.01125"', 'iyy="0.01125" iyz="0" izz="0.03"'
@@ -531,6 +534,30 @@ CASES = {
     "init missing URDF": Case(
         ("scenario", "init", "--urdf", "{tmp}/no.urdf", "--out", "{tmp}/s.yaml"), "does not exist"
     ),
+    "init package path that is not a folder": Case(
+        ("scenario", "init", "--urdf", "package://posfb/two_link_arm.urdf", "--out",
+         "{tmp}/s.yaml", "--package-path", "{tmp}/a_file"),
+        "--package-path",
+    ),
+    "init weld of an unknown joint": Case(
+        ("scenario", "init", "--urdf", "package://posfb/two_link_arm.urdf", "--out",
+         "{tmp}/s.yaml", "--weld", "no_such_joint"),
+        "weld no_such_joint: no such joint",
+    ),
+    "init drives list of the wrong length": Case(
+        ("scenario", "init", "--urdf", "package://posfb/two_link_arm.urdf", "--out",
+         "{tmp}/s.yaml", "--drives", "{tmp}/drives_three.yaml"),
+        "--drives.coulomb has 3 values; one (every joint) or 2",
+    ),
+    "init non-positive motor constant": Case(
+        ("scenario", "init", "--urdf", "package://posfb/two_link_arm.urdf", "--out",
+         "{tmp}/s.yaml", "--drives", "{tmp}/drives_zero.yaml"),
+        "--drives.motor_constant[0] = 0.0; a value > 0",
+    ),
+    "scenario drives list of the wrong length": Case(
+        ("simulate", "--scenario", "{tmp}/drives_wrong.yaml"),
+        "plant.drives.damping has 3 values",
+    ),
     "init invalid URDF": Case(
         ("scenario", "init", "--urdf", "{tmp}/spherical.urdf", "--out", "{tmp}/s.yaml"),
         "spherical",
@@ -541,8 +568,7 @@ CASES = {
     ),
     "init URDF with posfb elements in another namespace": Case(
         ("scenario", "init", "--urdf", "{tmp}/other_ns3.urdf", "--out", "{tmp}/s.yaml"),
-        "<coulomb_friction> is in namespace https://posfb.org/urdf; posfb reads it in the "
-        "namespace urn:posfb:urdf",
+        "> is in namespace https://posfb.org/urdf; posfb reads it in the namespace urn:posfb:urdf",
     ),
     "init over an existing file": Case(
         ("scenario", "init", "--urdf", str(DEFAULT_URDF), "--out", "{tmp}/a_file"), "--force",

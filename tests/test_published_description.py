@@ -1,0 +1,122 @@
+"""A published arm description enters posfb as it is (issue 41): ``scenario init`` ->
+``design`` -> ``simulate`` with no edit of the file, the drive data in the scenario."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from pydrake.multibody.tree import JointActuatorIndex
+
+import posfb
+from posfb.analysis.design.scenario_init import InitOptions, write_scenario
+from posfb.models.description import Description, Drives, prepare_urdf
+from posfb.models.plant import DEFAULT_URDF, PlantConfig, build_arm_diagram
+from posfb.models.serial_model import SerialArmModel
+from tests.helpers.published import VOLTS, featured_description
+
+
+@pytest.fixture(scope="module")
+def featured(tmp_path_factory):
+    """The featured description, its bytes, and the scenario init writes for it."""
+    folder = tmp_path_factory.mktemp("published")
+    urdf = featured_description(folder)
+    before = urdf.read_bytes()
+    out = folder / "arm.yaml"
+    result = write_scenario(
+        InitOptions(urdf=urdf, out=out, voltage_limit=VOLTS, welds=("gripper_turn",))
+    )
+    return urdf, before, out, result
+
+
+def test_init_design_and_simulate_take_the_file_unedited(featured):
+    urdf, before, out, result = featured
+    assert result.joints == 3  # the fingers and the gripper joint welded
+    design = posfb.design(out, "lin_lc")
+    assert design is not None
+    run = posfb.simulate(posfb.load_scenario(out, set={"timing.duration": 1.0}), "lin_lc")
+    assert len(run.result.times) > 1
+    assert urdf.read_bytes() == before  # posfb never edits the user's file
+
+
+def test_the_scenario_states_the_welds_and_the_derived_drives(featured):
+    _, _, out, _ = featured
+    scenario = posfb.load_scenario(out).scenario
+    welds = {"gripper_turn": 0.0, "finger1_joint": 0.01, "finger2_joint": 0.01}
+    assert scenario.plant.weld == welds
+    drives = scenario.plant.drives
+    # The rules of models/drive_rules.py on the file's own numbers (featured_description):
+    # kappa = effort / voltage limit, Coulomb = <dynamics friction>, gear = mechanicalReduction.
+    assert drives.motor_constant == pytest.approx([150 / VOLTS, 80 / VOLTS, 40 / VOLTS])
+    assert drives.coulomb == pytest.approx([3.0, 1.6, 0.8])  # 0.02 x effort
+    assert drives.gear_ratio == pytest.approx([50.0] * 3)
+    assert drives.damping is None  # the file's <dynamics damping>, read by Drake itself
+    text = out.read_text()
+    assert "<limit effort> / the voltage limit" in text and "<dynamics friction>" in text
+
+
+def test_the_prepared_text_resolves_welds_orders_and_drops(featured):
+    urdf, _, _, _ = featured
+    prepared = prepare_urdf(urdf, Description(welds=(("gripper_turn", None),)))
+    welds = {w.joint: (w.position, w.reason) for w in prepared.welds}
+    # 0 clipped into the fingers' limits [0.01, 0.04]; the mimic joint follows its leader.
+    assert welds == {
+        "gripper_turn": (0.0, "asked"),
+        "finger1_joint": (0.01, "prismatic"),
+        "finger2_joint": (0.01, "prismatic"),
+    }
+    # Per arm link: the missing visual, the .stl and the .dae collision meshes.
+    assert len(prepared.dropped) == 9
+    assert prepared.text.count("file://") == 3  # the visual .obj of each link kept
+    note = prepared.note()
+    assert "\n" not in note and "3 visual meshes: not found" in note
+
+
+def test_transmissions_out_of_order_drive_their_own_joints(featured):
+    urdf, _, _, _ = featured
+    description = Description(
+        welds=(("gripper_turn", None),), drives=Drives(motor_constant=(1.0,), coulomb=(0.0,))
+    )
+    _, arm, _ = build_arm_diagram(PlantConfig(urdf=str(urdf), description=description))
+    for j, joint in enumerate(arm.layout.joints):
+        assert arm.plant.get_joint_actuator(JointActuatorIndex(j)).joint().name() == joint
+
+
+def test_a_package_path_and_ros_package_path_resolve_meshes(tmp_path, monkeypatch):
+    urdf = featured_description(tmp_path / "src")
+    moved = tmp_path / "elsewhere" / "arm.urdf"  # outside the package: no ancestor serves
+    moved.parent.mkdir()
+    moved.write_bytes(urdf.read_bytes())
+    welds = (("gripper_turn", None),)
+    assert "file://" not in prepare_urdf(moved, Description(welds=welds)).text
+    found = prepare_urdf(moved, Description(package_paths=(str(tmp_path / "src"),), welds=welds))
+    assert found.text.count("file://") == 3
+    monkeypatch.setenv("ROS_PACKAGE_PATH", str(tmp_path / "src"))
+    assert prepare_urdf(moved, Description(welds=welds)).text.count("file://") == 3
+
+
+def test_drives_override_the_urdfs_posfb_values_in_plant_and_nominal_model():
+    drives = Drives(motor_constant=(2.0, 3.0), coulomb=(0.5,), damping=(0.25,))
+    description = Description(drives=drives)
+    _, arm, _ = build_arm_diagram(PlantConfig(description=description))
+    parameters = arm.default_parameters
+    assert parameters.motor_constant == (2.0, 3.0)
+    assert parameters.coulomb == (0.5, 0.5)
+    assert parameters.damping == (0.25, 0.25)
+    model = SerialArmModel(DEFAULT_URDF, description)
+    # Eq. 2 in volts: the Coulomb level F* = f_c / kappa, the damping B* = b / kappa.
+    assert model.coulomb_levels() == pytest.approx([0.5 / 2.0, 0.5 / 3.0])
+    assert np.diag(model.B()) == pytest.approx([0.25 / 2.0, 0.25 / 3.0])
+
+
+def test_every_missing_drive_element_is_named_at_once(featured):
+    urdf, _, _, _ = featured
+    from posfb.models.urdf_check import check_serial_urdf
+
+    with pytest.raises(ValueError) as error:
+        check_serial_urdf(urdf, Description(welds=(("gripper_turn", None),)))
+    message = str(error.value)
+    assert "\n" not in message
+    assert "posfb:coulomb_friction of joints joint1, joint2, joint3" in message
+    assert "actuator posfb:motor_constant of joints joint3, joint1, joint2" in message or (
+        "actuator posfb:motor_constant of joints joint1, joint2, joint3" in message
+    )
