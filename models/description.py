@@ -60,6 +60,14 @@ DRIVE_FIELDS = {
     "coulomb": ("N m", False),
 }
 
+#: The URDF element each drive field (but damping, ``<dynamics damping>``) is read from.
+DRIVE_ELEMENTS = {
+    "motor_constant": "posfb:motor_constant",
+    "coulomb": "posfb:coulomb_friction",
+    "gear_ratio": "drake:gear_ratio",
+    "rotor_inertia": "drake:rotor_inertia",
+}
+
 #: Joint types posfb welds without being asked: no motor of posfb's drives them.
 WELDED_TYPES = ("prismatic", "planar", "floating")
 
@@ -357,11 +365,8 @@ def _weld_joints(
         position = positions.get(name)
         if position is None and mimic is not None and mimic.get("joint") in joints:
             leader = mimic.get("joint")
-            base = (
-                weld(leader, "leads a mimic joint").position
-                if _welded(joints[leader], leader, positions)
-                else 0.0
-            )
+            reason = _weld_reason(joints[leader], leader, positions)
+            base = weld(leader, reason).position if reason else 0.0
             position = float(mimic.get("multiplier", "1")) * base + float(mimic.get("offset", "0"))
         if position is None:
             position = float(np.clip(0.0, lower, upper)) if lower <= upper else 0.0
@@ -369,21 +374,23 @@ def _weld_joints(
         return welds[name]
 
     for name, element in joints.items():
-        kind = element.get("type")
-        if name in positions:
-            weld(name, "asked")
-        elif kind in WELDED_TYPES:
-            weld(name, kind)
-        elif element.find("mimic") is not None and kind != "fixed":
-            weld(name, "mimic")
+        reason = _weld_reason(element, name, positions)
+        if reason:
+            weld(name, reason)
     for item in welds.values():
         _make_fixed(joints[item.joint], item.position)
     return tuple(welds[name] for name in joints if name in welds)
 
 
-def _welded(element: ET.Element, name: str, positions: dict[str, float | None]) -> bool:
+def _weld_reason(element: ET.Element, name: str, positions: dict[str, float | None]) -> str:
+    """Why the joint is welded: ``asked``, its type (``WELDED_TYPES``) or ``mimic``; ``""``
+    for an arm joint (or a fixed one)."""
     kind = element.get("type")
-    return name in positions or kind in WELDED_TYPES or element.find("mimic") is not None
+    if name in positions:
+        return "asked"
+    if kind in WELDED_TYPES:
+        return kind
+    return "mimic" if element.find("mimic") is not None and kind != "fixed" else ""
 
 
 def _floats(element: ET.Element | None, attribute: str, default: str) -> np.ndarray:
@@ -445,10 +452,10 @@ def _order_transmissions(robot: ET.Element, drives: Drives, welded: set[str]) ->
     the drive values written where ``drives`` gives them."""
     from posfb.models.urdf_check import (
         DRAKE_NS,
-        POSFB_NAMESPACES,
         POSFB_NS,
         SERIAL_JOINTS,
         actuator_of,
+        drive_element,
         read_tree,
         serial_chain,
     )
@@ -478,19 +485,19 @@ def _order_transmissions(robot: ET.Element, drives: Drives, welded: set[str]) ->
         if joint.name not in by_joint:
             by_joint[joint.name] = _new_transmission(robot, joint.name)
         actuator = actuator_of(robot, joint.name)
-        for name, parent, tag in (
-            ("coulomb", joint.element, f"{{{POSFB_NS}}}coulomb_friction"),
-            ("motor_constant", actuator, f"{{{POSFB_NS}}}motor_constant"),
-            ("rotor_inertia", actuator, f"{{{DRAKE_NS}}}rotor_inertia"),
-            ("gear_ratio", actuator, f"{{{DRAKE_NS}}}gear_ratio"),
+        namespaces = {"posfb": POSFB_NS, "drake": DRAKE_NS}
+        for name, parent in (
+            ("coulomb", joint.element),
+            ("motor_constant", actuator),
+            ("rotor_inertia", actuator),
+            ("gear_ratio", actuator),
         ):
             if values[name] is None:
                 continue
-            local = tag.rpartition("}")[2]
-            found = [parent.find(f"{{{ns}}}{local}") for ns in (*POSFB_NAMESPACES, DRAKE_NS)]
-            element = next((e for e in found if e is not None), None)
+            element = drive_element(parent, DRIVE_ELEMENTS[name])
             if element is None:
-                element = ET.SubElement(parent, tag)
+                prefix, _, local = DRIVE_ELEMENTS[name].partition(":")
+                element = ET.SubElement(parent, f"{{{namespaces[prefix]}}}{local}")
             element.set("value", repr(float(values[name][j])))
         if values["damping"] is not None:
             dynamics = joint.element.find("dynamics")

@@ -30,26 +30,26 @@ import xml.etree.ElementTree as ET
 from dataclasses import dataclass
 from pathlib import Path
 
-from posfb.models.description import DRIVE_FIELDS, Description, Drives, prepare_urdf
+from posfb.models.description import (
+    DRIVE_ELEMENTS,
+    DRIVE_FIELDS,
+    Description,
+    Drives,
+    prepare_urdf,
+)
 from posfb.models.urdf_check import (
-    DRAKE_NS,
     SERIAL_JOINTS,
     actuator_of,
+    drive_element,
+    finite_number,
     parse_robot,
-    posfb_value,
     read_tree,
     read_urdf_bytes,
     serial_chain,
 )
 
 #: Where a value comes from when it is the file's own element (not written again).
-FILE_ELEMENT = {
-    "motor_constant": "posfb:motor_constant",
-    "coulomb": "posfb:coulomb_friction",
-    "damping": "<dynamics damping>",
-    "gear_ratio": "drake:gear_ratio",
-    "rotor_inertia": "drake:rotor_inertia",
-}
+FILE_ELEMENT = {**DRIVE_ELEMENTS, "damping": "<dynamics damping>"}
 
 
 @dataclass(frozen=True)
@@ -85,28 +85,12 @@ class DerivedDrives:
 
 
 def _number(element: ET.Element | None, attribute: str = "value") -> float | None:
-    if element is None or element.get(attribute) is None:
-        return None
-    try:
-        value = float(element.get(attribute))
-    except ValueError:
-        return None
-    return value if math.isfinite(value) else None
+    return None if element is None else finite_number(element.get(attribute))
 
 
-def _text(element: ET.Element | None) -> float | None:
-    """An element's text as a finite number (``None`` where it is not one)."""
-    try:
-        value = float(element.text)  # type: ignore[union-attr, arg-type]
-    except (AttributeError, TypeError, ValueError):
-        return None
-    return value if math.isfinite(value) else None
-
-
-def _posfb(parent: ET.Element | None, tag: str) -> float | None:
-    if parent is None:
-        return None
-    return posfb_value(parent, tag, f"{parent.tag} {parent.get('name')!r}")
+def _element(parent: ET.Element | None, field: str) -> float | None:
+    """The number of ``parent``'s own element for ``field`` (``FILE_ELEMENT``)."""
+    return None if parent is None else _number(drive_element(parent, FILE_ELEMENT[field]))
 
 
 def derive_drives(
@@ -141,45 +125,31 @@ def _derive(
         actuator = actuator_of(robot, name)
         dynamics = joint.find("dynamics")
         effort = _number(joint.find("limit"), "effort")
-        ratio = _text(None if actuator is None else actuator.find("mechanicalReduction"))
+        reduction = None if actuator is None else actuator.find("mechanicalReduction")
+        ratio = None if reduction is None else finite_number(reduction.text)
         candidates = {
             "motor_constant": [
-                (_posfb(actuator, "motor_constant"), FILE_ELEMENT["motor_constant"]),
                 (
                     None if not effort or effort <= 0 else effort / voltage_limit,
                     f"<limit effort> / the voltage limit {voltage_limit:g} V",
                 ),
             ],
             "coulomb": [
-                (_posfb(joint, "coulomb_friction"), FILE_ELEMENT["coulomb"]),
                 (_number(dynamics, "friction"), "<dynamics friction>"),
                 (0.0, "0, the file states no friction"),
             ],
-            "damping": [
-                (_number(dynamics, "damping"), FILE_ELEMENT["damping"]),
-                (0.0, "0, the file states no damping"),
-            ],
+            "damping": [(0.0, "0, the file states no damping")],
             "gear_ratio": [
-                (
-                    None
-                    if actuator is None
-                    else _number(actuator.find(f"{{{DRAKE_NS}}}gear_ratio")),
-                    FILE_ELEMENT["gear_ratio"],
-                ),
                 (ratio if ratio and ratio > 0 else None, "<mechanicalReduction>"),
                 (1.0, "1, the file states no gear"),
             ],
-            "rotor_inertia": [
-                (
-                    None
-                    if actuator is None
-                    else _number(actuator.find(f"{{{DRAKE_NS}}}rotor_inertia")),
-                    FILE_ELEMENT["rotor_inertia"],
-                ),
-                (0.0, "0, the file states none"),
-            ],
+            "rotor_inertia": [(0.0, "0, the file states none")],
         }
+        own = {"damping": _number(dynamics, "damping"), "coulomb": _element(joint, "coulomb")}
+        for field in ("motor_constant", "gear_ratio", "rotor_inertia"):
+            own[field] = _element(actuator, field)
         for field, options in candidates.items():
+            options = [(own[field], FILE_ELEMENT[field]), *options]
             if user[field] is not None:
                 options = [(user[field][j], "--drives")]
             value, source = next(((v, s) for v, s in options if v is not None), (None, ""))

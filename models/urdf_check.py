@@ -501,15 +501,29 @@ def _posfb_element(parent: ET.Element, tag: str, label: str) -> ET.Element | Non
     return None
 
 
-def posfb_value(parent: ET.Element, tag: str, label: str) -> float | None:
-    """The number of ``parent``'s ``<posfb:tag value>`` (``None`` if it has none or it is
-    not a finite number); a ``<tag>`` in another namespace is refused as the check does."""
-    element = _posfb_element(parent, tag, label)
+def finite_number(text: str | None) -> float | None:
+    """``text`` as a finite number, ``None`` where it is absent or not one (the check
+    refuses it; ``scenario init``'s rules pass on to the next source)."""
     try:
-        value = float(_value(element))  # type: ignore[arg-type]
+        value = float(text)  # type: ignore[arg-type]
     except (TypeError, ValueError):
         return None
     return value if math.isfinite(value) else None
+
+
+def drive_element(parent: ET.Element, tag: str) -> ET.Element | None:
+    """``parent``'s drive element ``tag``, written ``posfb:NAME`` (in any of
+    ``POSFB_NAMESPACES``) or ``drake:NAME``; ``None`` if it has none."""
+    prefix, _, local = tag.partition(":")
+    if prefix == "drake":
+        return parent.find(f"{{{DRAKE_NS}}}{local}")
+    return _posfb_element(parent, local, f"{parent.tag} {parent.get('name')!r}")
+
+
+def posfb_value(parent: ET.Element, tag: str, label: str) -> float | None:
+    """The number of ``parent``'s ``<posfb:tag value>`` (``None`` if it has none or it is
+    not a finite number); a ``<tag>`` in another namespace is refused as the check does."""
+    return finite_number(_value(_posfb_element(parent, tag, label)))
 
 
 def _check_drives(robot: ET.Element, joints: list[_Joint]) -> list[tuple[float, float]]:

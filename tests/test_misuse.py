@@ -184,6 +184,11 @@ THREE_LINK = str(SCENARIOS / "three_link_nominal.yaml")
 SIX_JOINT = str(SCENARIOS / "six_joint_nominal.yaml")
 STUDIES = SCENARIOS.parent / "studies"
 
+def _init(options: tuple[str, ...], needle: str, *, urdf: str = str(DEFAULT_URDF)) -> Case:
+    """A ``scenario init`` case of ``urdf`` into a fresh file, with ``options``."""
+    return Case(("scenario", "init", "--urdf", urdf, "--out", "{tmp}/s.yaml", *options), needle)
+
+
 CASES = {
     # shipped files by name (analysis.common.shipped)
     "unknown shipped study": Case(
@@ -515,60 +520,40 @@ CASES = {
     "one waypoint": Case(("simulate", "--scenario", "{tmp}/one_waypoint.yaml"), "at least 2"),
     "check missing file": Case(("scenario", "check", "{tmp}/nope.yaml"), "does not exist"),
     # scenario init: options checked where they enter
-    "init zero sample time": Case(
-        ("scenario", "init", "--urdf", str(DEFAULT_URDF), "--out", "{tmp}/s.yaml",
-         "--sample-time", "0"), "--sample-time",
-    ),  # fmt: skip
-    "init zero encoder counts": Case(
-        ("scenario", "init", "--urdf", str(DEFAULT_URDF), "--out", "{tmp}/s.yaml",
-         "--encoder-counts", "0"), "--encoder-counts",
-    ),  # fmt: skip
-    "init too few encoder counts": Case(
-        ("scenario", "init", "--urdf", str(DEFAULT_URDF), "--out", "{tmp}/s.yaml",
-         "--encoder-counts", "3"), "--encoder-counts 3; at least 4 counts",
-    ),  # fmt: skip
-    "init negative voltage limit": Case(
-        ("scenario", "init", "--urdf", str(DEFAULT_URDF), "--out", "{tmp}/s.yaml",
-         "--voltage-limit", "-1"), "--voltage-limit",
-    ),  # fmt: skip
-    "init missing URDF": Case(
-        ("scenario", "init", "--urdf", "{tmp}/no.urdf", "--out", "{tmp}/s.yaml"), "does not exist"
+    "init zero sample time": _init(("--sample-time", "0"), "--sample-time"),
+    "init zero encoder counts": _init(("--encoder-counts", "0"), "--encoder-counts"),
+    "init too few encoder counts": _init(
+        ("--encoder-counts", "3"), "--encoder-counts 3; at least 4 counts"
     ),
-    "init package path that is not a folder": Case(
-        ("scenario", "init", "--urdf", "package://posfb/two_link_arm.urdf", "--out",
-         "{tmp}/s.yaml", "--package-path", "{tmp}/a_file"),
-        "--package-path",
+    "init negative voltage limit": _init(("--voltage-limit", "-1"), "--voltage-limit"),
+    "init missing URDF": _init((), "does not exist", urdf="{tmp}/no.urdf"),
+    "init package path that is not a folder": _init(
+        ("--package-path", "{tmp}/a_file"), "--package-path"
     ),
-    "init weld of an unknown joint": Case(
-        ("scenario", "init", "--urdf", "package://posfb/two_link_arm.urdf", "--out",
-         "{tmp}/s.yaml", "--weld", "no_such_joint"),
-        "weld no_such_joint: no such joint",
+    "init weld of an unknown joint": _init(
+        ("--weld", "no_such_joint"), "weld no_such_joint: no such joint"
     ),
-    "init drives list of the wrong length": Case(
-        ("scenario", "init", "--urdf", "package://posfb/two_link_arm.urdf", "--out",
-         "{tmp}/s.yaml", "--drives", "{tmp}/drives_three.yaml"),
+    "init drives list of the wrong length": _init(
+        ("--drives", "{tmp}/drives_three.yaml"),
         "--drives.coulomb has 3 values; one (every joint) or 2",
     ),
-    "init non-positive motor constant": Case(
-        ("scenario", "init", "--urdf", "package://posfb/two_link_arm.urdf", "--out",
-         "{tmp}/s.yaml", "--drives", "{tmp}/drives_zero.yaml"),
-        "--drives.motor_constant[0] = 0.0; a value > 0",
+    "init non-positive motor constant": _init(
+        ("--drives", "{tmp}/drives_zero.yaml"), "--drives.motor_constant[0] = 0.0; a value > 0"
     ),
     "scenario drives list of the wrong length": Case(
         ("simulate", "--scenario", "{tmp}/drives_wrong.yaml"),
         "plant.drives.damping has 3 values",
     ),
-    "init invalid URDF": Case(
-        ("scenario", "init", "--urdf", "{tmp}/spherical.urdf", "--out", "{tmp}/s.yaml"),
-        "spherical",
-    ),
-    "init n-joint URDF inertia breaks the triangle inequality": Case(
-        ("scenario", "init", "--urdf", "{tmp}/triangle3.urdf", "--out", "{tmp}/s.yaml"),
+    "init invalid URDF": _init((), "spherical", urdf="{tmp}/spherical.urdf"),
+    "init n-joint URDF inertia breaks the triangle inequality": _init(
+        (),
         "link 'link2' inertia ixx iyy izz ixy ixz iyz = 0.0002 0.01125 0.03 0 0 0",
+        urdf="{tmp}/triangle3.urdf",
     ),
-    "init URDF with posfb elements in another namespace": Case(
-        ("scenario", "init", "--urdf", "{tmp}/other_ns3.urdf", "--out", "{tmp}/s.yaml"),
+    "init URDF with posfb elements in another namespace": _init(
+        (),
         "> is in namespace https://posfb.org/urdf; posfb reads it in the namespace urn:posfb:urdf",
+        urdf="{tmp}/other_ns3.urdf",
     ),
     "init over an existing file": Case(
         ("scenario", "init", "--urdf", str(DEFAULT_URDF), "--out", "{tmp}/a_file"), "--force",
