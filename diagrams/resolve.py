@@ -353,8 +353,8 @@ def make_nominal(
             raise ValueError("!Identified needs file: the model posfb identify --out wrote")
         path = resolve_path(settings.file, base_dir)
         model = load_model(path)
-        if model.kind == "urdf":
-            return UrdfNominal(str(path.parent / model.urdf), description or Description())
+        if model.kind == "urdf":  # written with the scenario's description in it
+            return UrdfNominal(str(path.parent / model.urdf))
         return LumpedParameters.from_theta(np.asarray(model.values), l1=model.l1, g=model.g)
     return identify_urdf(str(resolve_path(settings.urdf, base_dir)), settings.payload_mass)
 

@@ -217,7 +217,7 @@ def _prepare(
 ) -> PreparedUrdf:
     from posfb.models.urdf_check import parse_robot
 
-    robot = parse_robot(path, text)
+    robot = parse_robot(path, text, comments=True)
     try:
         welds = _weld_joints(robot, description.welds)
         dropped = _resolve_geometry(robot, path, _Packages(path, description, ros_package_path))
@@ -318,7 +318,7 @@ def _drop_unmodelled(robot: ET.Element) -> None:
     defined = {material.get("name") for material in robot.findall("material")}
     for material in robot.findall("link/visual/material"):
         name = material.get("name")
-        if len(material) and name in defined:
+        if any(isinstance(child.tag, str) for child in material) and name in defined:
             for child in list(material):
                 material.remove(child)
         defined.add(name)

@@ -244,9 +244,12 @@ def read_urdf_bytes(path: Path) -> bytes:
         ) from None
 
 
-def parse_robot(path: Path, text: bytes) -> ET.Element:
+def parse_robot(path: Path, text: bytes, *, comments: bool = False) -> ET.Element:
+    """The ``<robot>`` element of the URDF text ``text`` (read from ``path``), with the
+    comments inside it where ``comments``."""
     try:
-        robot = ET.fromstring(text)
+        parser = ET.XMLParser(target=ET.TreeBuilder(insert_comments=comments))
+        robot = ET.fromstring(text, parser)
     except ET.ParseError as error:
         raise ValueError(f"URDF {path} is not well-formed XML: {error}") from None
     if robot.tag != "robot":
@@ -490,6 +493,8 @@ def _posfb_element(parent: ET.Element, tag: str, label: str) -> ET.Element | Non
         if element is not None:
             return element
     for child in parent:
+        if not isinstance(child.tag, str):  # a comment
+            continue
         namespace, _, local = child.tag.rpartition("}")
         if local == tag:
             where = f"namespace {namespace[1:]}" if namespace else "no namespace"

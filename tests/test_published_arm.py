@@ -1,5 +1,5 @@
-"""A published six-joint description (example-robot-data's UR5, with the drive data a
-user gives: ``helpers.published``) through ``scenario init`` and ``scenario check``: its
+"""A published six-joint description (example-robot-data's UR5 as it is, with the drive
+data a user gives: ``helpers.published``) through ``scenario init`` and ``scenario check``: its
 ``M*(q)`` varies 17x along the path, so the paper's bandwidth per sample leaves Lin+LC's
 sampled loop unstable at configurations the arm visits; init lowers the bandwidth until
 the loop passes over them, the checks pass, and the exact arm's 10 s run agrees
@@ -8,11 +8,12 @@ the loop passes over them, the checks pass, and the exact arm's 10 s run agrees
 from __future__ import annotations
 
 from dataclasses import replace
+from pathlib import Path
 
 import pytest
 
 import posfb
-from helpers.published import UR5, published_urdf, with_drive_data
+from helpers.published import SO101, UR5, VOLTS, published_urdf, user_drives
 from posfb.analysis.design.exact_arm import exact_arm_run
 from posfb.analysis.design.report import nominal_design, relevant_checks
 from posfb.analysis.design.scenario_init import InitOptions, write_scenario
@@ -26,9 +27,25 @@ pytestmark = pytest.mark.slow
 def ur5(tmp_path_factory):
     """``scenario init``'s scenario for the UR5 over 10 s, and what init reported."""
     folder = tmp_path_factory.mktemp("ur5")
-    urdf = with_drive_data(published_urdf(UR5), folder / "ur5.urdf")
-    result = write_scenario(InitOptions(urdf=urdf, out=folder / "ur5.yaml", duration=10.0))
+    urdf = published_urdf(UR5)
+    before = urdf.read_bytes()
+    drives = user_drives(urdf, folder / "drives.yaml")
+    options = InitOptions(urdf=urdf, out=folder / "ur5.yaml", duration=10.0,
+                          voltage_limit=VOLTS, drives=drives)  # fmt: skip
+    result = write_scenario(options)
+    assert urdf.read_bytes() == before
     return posfb.load_scenario(result.path), result
+
+
+def test_the_published_file_enters_as_it_is(ur5):
+    """The scenario names the package's own file; the drives are the user's and init's
+    rule (issue 41)."""
+    loaded, _ = ur5
+    plant = loaded.scenario.plant
+    assert Path(plant.urdf) == published_urdf(UR5)
+    efforts = [150.0] * 3 + [28.0] * 3  # the file's <limit effort>
+    assert plant.drives.motor_constant == pytest.approx([e / VOLTS for e in efforts])
+    assert plant.drives.coulomb == pytest.approx([0.02 * e for e in efforts])
 
 
 def test_init_lowers_the_bandwidth_until_the_path_passes(ur5):
@@ -82,3 +99,19 @@ def test_tune_certifies_a_design_that_tracks_on_the_exact_arm(ur5, tmp_path):
     resolved = resolve(LoadedScenario(with_controller(tuned.scenario, "lin_lc"), tuned.base_dir))
     run = exact_arm_run(resolved)
     assert run.verdict.status == "ok", run.verdict.message
+
+
+def test_a_five_joint_arm_with_a_gripper_reaches_a_run_unedited(tmp_path):
+    """example-robot-data's SO-101 (five arm joints and a revolute gripper joint, no
+    drive data but its ``<limit effort>``): ``scenario init --weld gripper`` takes the file
+    as it is, and Lin+LC's run of the scenario is ``ok`` (issue 41)."""
+    urdf = published_urdf(SO101)
+    before = urdf.read_bytes()
+    out = tmp_path / "so101.yaml"
+    result = write_scenario(
+        InitOptions(urdf=urdf, out=out, voltage_limit=VOLTS, welds=("gripper",))
+    )
+    assert result.joints == 5
+    loaded = posfb.load_scenario(out, set={"timing.duration": 2.0})
+    assert posfb.simulate(loaded, "lin_lc").verdict.status == "ok"
+    assert urdf.read_bytes() == before

@@ -120,3 +120,53 @@ def test_every_missing_drive_element_is_named_at_once(featured):
     assert "actuator posfb:motor_constant of joints joint3, joint1, joint2" in message or (
         "actuator posfb:motor_constant of joints joint1, joint2, joint3" in message
     )
+
+
+def test_identification_reads_the_description_and_writes_a_self_contained_model(
+    featured, tmp_path
+):
+    """``identify`` on a log of the featured arm (its drives only in the scenario): the
+    written ``MODEL.urdf`` is posfb's complete file (welds fixed, meshes absolute, the
+    drives written in), loads with no description, and an ``!Identified`` scenario's
+    controllers take its identified drives, not the scenario's ``plant.drives``."""
+    from posfb.diagrams.resolve import resolve
+    from posfb.models.urdf_check import check_serial_urdf
+
+    _, _, out, _ = featured
+    log = tmp_path / "log.csv"
+    posfb.simulate(posfb.load_scenario(out, set={"timing.duration": 10.0}), "lin_lc").save(log)
+    result = posfb.identify(log, out)
+    result.save(tmp_path / "model.yaml")
+    written = tmp_path / "model.urdf"  # beside the model file (Identification.save)
+    assert check_serial_urdf(written).joints == ("joint1", "joint2", "joint3")
+    identified = SerialArmModel(written).motor_constant
+    # The log's arm is the description with init's drives: kappa = effort / voltage limit.
+    np.testing.assert_allclose(identified, [150 / VOLTS, 80 / VOLTS, 40 / VOLTS], rtol=0.02)
+    model = f"!Identified {{file: {tmp_path / 'model.yaml'}}}"
+    loaded = posfb.load_scenario(out, set={"nominal_model": model, "timing.duration": 1.0})
+    nominal = resolve(loaded).config.design.nominal
+    assert nominal.description == Description()  # the file holds the welds and drives
+    np.testing.assert_array_equal(SerialArmModel(nominal.urdf).motor_constant, identified)
+    assert posfb.simulate(loaded, "lin_lc").verdict.status == "ok"
+
+
+def test_generated_code_takes_the_scenarios_drives(featured, tmp_path):
+    """The C law of a scenario whose drives live only in ``plant.drives`` replays that
+    scenario's log to round-off, and not a log whose drives (so whose nominal Coulomb
+    compensation, Eq. 2's F*) are others."""
+    from posfb.analysis.codegen.check import check
+    from posfb.analysis.codegen.package import generate
+    from posfb.diagrams.resolve import LoadedScenario, resolve
+    from posfb.diagrams.scenario import with_controller
+
+    _, _, out, _ = featured
+
+    def lin_lc(settings):
+        loaded = posfb.load_scenario(out, set={"timing.duration": 1.0, **settings})
+        return LoadedScenario(with_controller(loaded.scenario, "lin_lc"), loaded.base_dir)
+
+    package = generate(resolve(lin_lc({})), None, "double")
+    own = posfb.simulate(lin_lc({})).frame()
+    assert check(package, own).largest_difference_V <= 1e-12
+    other = lin_lc({"plant.drives.coulomb": [6.0, 3.2, 1.6]})
+    assert not check(package, posfb.simulate(other).frame()).passed

@@ -102,7 +102,7 @@ class Identification:
         urdf = path.with_suffix(".urdf")
         write_urdf(
             self.serial.model.urdf, self.serial.consistent, urdf,
-            motor_constant=self.serial.motor_constant,
+            motor_constant=self.serial.motor_constant, description=self.serial.model.description,
         )  # fmt: skip
         save_model(
             IdentifiedModelFile.of_estimate(
@@ -201,8 +201,11 @@ def serial_model(config: ClosedLoopConfig) -> SerialModel:
     """The regressor of the scenario's URDF nominal model (``!UrdfModel``)."""
     from posfb.models.plant import PlantConfig, build_arm_diagram
 
-    _, arm, context = build_arm_diagram(PlantConfig(urdf=config.design.nominal.urdf))
-    return SerialModel.of_arm(arm, context, urdf=config.design.nominal.urdf)
+    nominal = config.design.nominal
+    _, arm, context = build_arm_diagram(
+        PlantConfig(urdf=nominal.urdf, description=nominal.description)
+    )
+    return SerialModel.of_arm(arm, context, nominal.urdf, nominal.description)
 
 
 def identify_log(

@@ -15,6 +15,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -29,6 +30,9 @@ from posfb.models.identification.excitation import (
 from posfb.models.identification.theta_regressor import theta_regressor
 from posfb.models.lumped import LumpedModel, LumpedParameters
 
+if TYPE_CHECKING:
+    from posfb.models.plant import PlantConfig
+
 #: Velocity limit (rad/s) where the URDF gives none.
 DEFAULT_VELOCITY_LIMIT = 2.0
 
@@ -41,11 +45,12 @@ DEFAULT_HARMONICS = 5
 DEFAULT_PERIOD = 10.0
 
 
-def _urdf_limits(urdf: str, joints: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """The plant URDF's position limits and velocity limits (``inf`` where none)."""
+def _urdf_limits(plant: PlantConfig, joints: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The plant URDF's position limits and velocity limits (``inf`` where none), as the
+    scenario's description (welds) leaves its arm joints."""
     from posfb.models.plant import PlantConfig, build_arm_diagram
 
-    _, arm, _ = build_arm_diagram(PlantConfig(urdf=urdf))
+    _, arm, _ = build_arm_diagram(PlantConfig(urdf=plant.urdf, description=plant.description))
     plant = arm.plant
     lower, upper, velocity = (np.full(joints, np.inf) * s for s in (-1.0, 1.0, 1.0))
     for j, name in enumerate(arm.layout.joints):
@@ -128,7 +133,7 @@ def plan_for_scenario(
         raise ValueError(f"excursion = {excursion!r} rad; a finite value > 0 is required")
     joints = config.joints
     rest = np.asarray(config.trajectory.evaluate(0.0)[0], dtype=float)
-    lower, upper, urdf_velocity = _urdf_limits(config.plant.urdf, joints)
+    lower, upper, urdf_velocity = _urdf_limits(config.plant, joints)
     lower = np.maximum(lower, rest - excursion)
     upper = np.minimum(upper, rest + excursion)
     if velocity_limit is None:

@@ -147,13 +147,15 @@ def require_same_arm(identified: LoadedScenario, experiment: LoadedScenario) -> 
             "required (the study names it)"
         )
     own, other = true_arm(identified), true_arm(experiment)
-    if own.plant.urdf != other.plant.urdf or any(
+    described = (own.plant.urdf, own.plant.description)
+    if described != (other.plant.urdf, other.plant.description) or any(
         getattr(own.parameters, name) != getattr(other.parameters, name)
         for name in JOINT_PARAMETERS
     ):
         raise ValueError(
-            f"study scenario {experiment.source}: its true arm (plant.urdf and "
-            f"plant.parameters) differs from that of the identified scenario "
+            f"study scenario {experiment.source}: its true arm (plant.urdf with its package "
+            "paths, welds and drives, and plant.parameters) differs from that of the "
+            f"identified scenario "
             f"{identified.source}; the same arm is required (the draws are relative to it)"
         )
 

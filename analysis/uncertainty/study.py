@@ -61,7 +61,6 @@ naming the key.
 
 import copy
 import dataclasses
-import functools
 import hashlib
 import math
 from dataclasses import dataclass, field, replace
@@ -83,7 +82,6 @@ from posfb.diagrams.resolve import (
 )
 from posfb.diagrams.scenario import (
     ControllerSection,
-    PlantSettings,
     Python,
     Scenario,
     apply_setting,
@@ -314,14 +312,10 @@ def slots(joints: int) -> tuple[tuple[str, int], ...]:
     )
 
 
-@functools.lru_cache(maxsize=32)
-def _urdf_joints(urdf: str) -> int:
-    return scenario_joints(Scenario(plant=PlantSettings(urdf=urdf)), Path.cwd())
-
-
 def study_joints(study: Study) -> int:
-    """``n``: the joints of the study's plant URDF (its paths are absolute)."""
-    return _urdf_joints(study.base.plant.urdf)
+    """``n``: the joints of the study's plant URDF with what its scenario adds to it
+    (welds; its paths are absolute)."""
+    return scenario_joints(study.base, Path.cwd())
 
 
 #: The sampling designs a study may name (``Study.sampling``).

@@ -42,8 +42,15 @@ from pathlib import Path
 import numpy as np
 import scipy.linalg
 
+from posfb.models.description import Description, prepare_urdf
 from posfb.models.identification.serial_regressor import DRIVE_PARAMETERS, BaseParameters
-from posfb.models.urdf_check import DRAKE_NS, POSFB_NAMESPACES, POSFB_NS, check_serial_urdf
+from posfb.models.urdf_check import (
+    DRAKE_NS,
+    POSFB_NAMESPACES,
+    POSFB_NS,
+    check_serial_urdf,
+    parse_robot,
+)
 from posfb.models.validation import require_finite, shown
 
 #: The log-Cholesky coordinates of one link, in order (module docstring).
@@ -517,6 +524,7 @@ def write_urdf(
     model: ConsistentModel,
     out: str | Path,
     motor_constant: np.ndarray | None = None,
+    description: Description | None = None,
 ) -> Path:
     """Write ``nominal_urdf`` with ``model``'s parameters to ``out`` and return ``out``.
 
@@ -530,19 +538,23 @@ def write_urdf(
     is given. Everything else (geometry, limits, the motor constants otherwise, the
     comments inside ``<robot>`` but those of a rewritten ``<inertial>``) is the nominal
     file's, re-indented,
-    under a comment that names the fit. ``nominal_urdf`` must pass
+    under a comment that names the fit. The file is the nominal one as posfb hands it
+    to Drake with what ``description`` (the scenario's) adds (``models.description``:
+    welded joints fixed, meshes as absolute URIs, the scenario's drives written in), so
+    ``out`` loads with no description. ``nominal_urdf`` must pass
     ``models.urdf_check.check_serial_urdf`` with the model's joints and links; ``out``'s
     folder must exist."""
     if not isinstance(model, ConsistentModel):
         raise ValueError(f"model = {model!r}; a ConsistentModel (fit_consistent) is required")
     nominal_urdf, out = Path(nominal_urdf), Path(out)
-    chain = check_serial_urdf(nominal_urdf)
+    chain = check_serial_urdf(nominal_urdf, description)
     if not out.parent.is_dir():
         raise ValueError(
             f"out = {str(out)!r}: its folder does not exist; an existing one is required"
         )
-    tree = ET.parse(nominal_urdf, ET.XMLParser(target=ET.TreeBuilder(insert_comments=True)))
-    robot = tree.getroot()
+    prepared = prepare_urdf(nominal_urdf, description)
+    robot = parse_robot(nominal_urdf, prepared.text.encode(), comments=True)
+    tree = ET.ElementTree(robot)
     links = {element.get("name"): element for element in robot.findall("link")}
     by_name = {element.get("name"): element for element in robot.findall("joint")}
     moved = tuple((name, by_name[name].find("child").get("link")) for name in chain.joints)

@@ -24,10 +24,11 @@ errors, regularised towards the nominal URDF: ``consistent.fit_consistent``) are
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
+from posfb.models.description import Description
 from posfb.models.identification.checks import estimate_warnings
 from posfb.models.identification.consistent import ConsistentModel, fit_consistent
 from posfb.models.identification.estimate import Estimate, FilterSettings, fit_log
@@ -50,14 +51,18 @@ class SerialModel:
     motor_constant: np.ndarray
     nominal: np.ndarray
     urdf: str
+    description: Description = field(default_factory=Description)
 
     @classmethod
-    def of_arm(cls, arm: Arm, root_context, urdf: str) -> SerialModel:
-        """The model of ``arm`` (built from ``urdf``) with the parameters in
-        ``root_context``."""
+    def of_arm(
+        cls, arm: Arm, root_context, urdf: str, description: Description | None = None
+    ) -> SerialModel:
+        """The model of ``arm`` (built from ``urdf`` with what ``description``, the
+        scenario's, adds to it) with the parameters in ``root_context``."""
         regressor = SerialRegressor.of_arm(arm, root_context)
         return cls(
             urdf=str(urdf),
+            description=description or Description(),
             regressor=regressor,
             base=base_parameters(regressor),
             motor_constant=np.asarray(read_parameters(arm, root_context).motor_constant),

@@ -1,19 +1,19 @@
 """Published arm descriptions from the registry's ``example-robot-data`` package (PyPI,
 installed with posfb's dev extra), with the drive data a user gives for them: the files
 carry no gear, no rotor inertia and no motor constants, only each joint's ``<limit
-effort>``.
+effort>`` (and ``<dynamics damping="0" friction="0">``).
 
-``published_urdf`` finds a file of the package; ``with_drive_data`` writes the copy a user
-hands to posfb today (issue 41 takes these edits over): the geometry dropped (its
-``world`` link kept: posfb welds the arm where the file does), and per joint a motor
-constant that gives the rated effort at the voltage limit, a Coulomb level and a viscous
-damping as small shares of the effort (``DRIVE_SHARES``; typical of a harmonic drive's
-no-load losses, a user's estimate, not the arm's data).
+``published_urdf`` finds a file of the package; posfb reads it as it is (issue 41).
+``user_drives`` writes the ``--drives`` file a user hands to ``scenario init`` with it:
+per arm joint a Coulomb level and a viscous damping as small shares of the rated effort
+(``DRIVE_SHARES``; typical of a harmonic drive's no-load losses, a user's estimate, not
+the arm's data). The motor constant is init's own rule: the rated effort at the voltage
+limit ``VOLTS``.
 """
 
 from __future__ import annotations
 
-import re
+import xml.etree.ElementTree as ET
 from importlib import metadata
 from pathlib import Path
 
@@ -28,6 +28,7 @@ DRIVE_SHARES = {"coulomb": 0.02, "damping": 0.01}
 VOLTS = 24.0
 
 UR5 = "ur_description/urdf/ur5_joint_limited_robot.urdf"
+SO101 = "so_arm_description/urdf/so101.urdf"
 
 
 def published_urdf(relative: str) -> Path:
@@ -38,35 +39,20 @@ def published_urdf(relative: str) -> Path:
     return path
 
 
-def with_drive_data(source: Path, target: Path) -> Path:
-    """Write ``source`` with the user's edits (module docstring) to ``target``."""
-    text = source.read_text()
-    for tag in ("visual", "collision", "gazebo"):
-        text = re.sub(rf"<{tag}\b.*?</{tag}>", "", text, flags=re.S)
-    text = text.replace("<robot ", '<robot xmlns:posfb="urn:posfb:urdf" ', 1)
-    efforts: dict[str, float] = {}
-
-    def joint(match: re.Match) -> str:
-        block = match.group(0)
-        name = re.search(r'name="([^"]+)"', block).group(1)
-        effort = float(re.search(r'effort="([^"]+)"', block).group(1))
-        efforts[name] = effort
-        block = re.sub(r"<dynamics[^>]*/>", "", block)
-        damping, coulomb = (DRIVE_SHARES[k] * effort for k in ("damping", "coulomb"))
-        drive = (f'<dynamics damping="{damping:g}"/>'
-                 f'<posfb:coulomb_friction value="{coulomb:g}"/>')  # fmt: skip
-        return block.replace("</joint>", drive + "</joint>")
-
-    text = re.sub(r'<joint name="[^"]+" type="revolute">.*?</joint>', joint, text, flags=re.S)
-
-    def transmission(match: re.Match) -> str:
-        block = match.group(0)
-        name = re.search(r'<joint name="([^"]+)"', block).group(1)
-        constant = f'<posfb:motor_constant value="{efforts[name] / VOLTS:g}"/>'
-        return block.replace("</actuator>", constant + "</actuator>")
-
-    text = re.sub(r"<transmission\b.*?</transmission>", transmission, text, flags=re.S)
-    target.write_text(text)
+def user_drives(urdf: Path, target: Path) -> Path:
+    """Write the ``--drives`` YAML for ``urdf``'s revolute joints (module docstring),
+    in the file's order, which the registry's serial arms declare base to tip."""
+    efforts = [
+        float(joint.find("limit").get("effort"))
+        for joint in ET.parse(urdf).getroot().findall("joint")
+        if joint.get("type") in ("revolute", "continuous")
+    ]
+    target.write_text(
+        "".join(
+            f"{name}: [{', '.join(f'{share * effort:g}' for effort in efforts)}]\n"
+            for name, share in DRIVE_SHARES.items()
+        )
+    )
     return target
 
 
