@@ -100,12 +100,6 @@ def test_exact_held_voltage_data_leave_no_bias_of_the_filters(plan_csv):
 
 
 @pytest.mark.slow
-@pytest.mark.xfail(
-    reason="issue 42: with a quantised encoder the stated sigma are not honest (on this "
-    "machine 75 of 88 identifiable theta within 3 sigma, below the 90 % claimed, at the "
-    "commit before issue 40 too); the property stays asserted until issue 42 fixes it",
-    strict=False,
-)
 def test_stated_intervals_hold_over_ten_perturbed_arms(plan_csv, tmp_path):
     """Issue 29: logs simulated by posfb (Lin+LC along the planned excitation, 20 000
     counts, T_s = 10 ms, 60 s) on the paper's arm with every physical parameter
@@ -117,7 +111,9 @@ def test_stated_intervals_hold_over_ten_perturbed_arms(plan_csv, tmp_path):
         parameters = perturbed_parameters(seed)
         truth = true_theta(parameters)
         log = read_log(simulated_log(tmp_path, f"seed{seed}", plan_csv, parameters))
-        estimate = identify_theta(log.time, log.q, log.u, l1=TABLE1.l1, g=TABLE1.g).estimate
+        estimate = identify_theta(
+            log.time, log.q, log.u, l1=TABLE1.l1, g=TABLE1.g, reference=log.reference
+        ).estimate
         precise = estimate.relative_std < 0.02
         error = np.abs(estimate.values - truth) / np.abs(truth)
         assert np.all(error[precise] < 0.05), (seed, error[precise])

@@ -368,6 +368,16 @@ def test_bad_inputs_are_refused_naming_the_parameter(arms, bases, urdfs, tmp_pat
         fit_consistent(base, beta, -ones, pi)
     with pytest.raises(ValueError, match="^beta_cov is not symmetric"):
         fit_consistent(base, beta, np.triu(np.ones((base.size, base.size))), pi)
+    # Round-off asymmetry (issue 42: 1e-11 and 2e-4 of sigma_i sigma_j on published arms
+    # with pinv) is within SYMMETRY_TOLERANCE's margin below 2e-4, above 1e-11.
+    rng = np.random.default_rng(4)
+    factor = rng.normal(size=(base.size, base.size))
+    covariance = factor @ factor.T + np.eye(base.size)
+    sigma = np.sqrt(np.diag(covariance))
+    skew = np.triu(rng.uniform(-1, 1, covariance.shape), 1) * np.outer(sigma, sigma)
+    fit_consistent(base, beta, covariance + 1e-11 * skew, pi)
+    with pytest.raises(ValueError, match="^beta_cov is not symmetric: entries"):
+        fit_consistent(base, beta, covariance + 2e-4 * skew, pi)
     with pytest.raises(ValueError, match=r"^prior has shape \(3,\)"):
         fit_consistent(base, beta, ones, pi[:3])
     with pytest.raises(ValueError, match="^regularisation = 0"):

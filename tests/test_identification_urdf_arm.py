@@ -44,7 +44,8 @@ def test_a_four_link_arm_is_identified_and_its_model_controls_the_true_arm(tmp_p
                      "coulomb", "motor_constant")
     }  # fmt: skip
     plan = tmp_path / "plan.csv"
-    posfb.plan_excitation(arm_yaml).save(plan)
+    planned = posfb.plan_excitation(arm_yaml)
+    planned.save(plan)
     logs = [tmp_path / "planned.csv", tmp_path / "scenario_trajectory.csv"]
     for log, changes in zip(logs, (
         {"trajectory": f"!CsvFile {{path: {plan}}}", "timing.duration": 60.0},
@@ -55,6 +56,9 @@ def test_a_four_link_arm_is_identified_and_its_model_controls_the_true_arm(tmp_p
     model = tmp_path / "model.yaml"
     result = posfb.identify(logs[0], arm_yaml, validate=logs[1])
     result.save(model)
+    # One regressor (issue 42 item 5): the plan reports the condition number identify
+    # reports on its log (the log's tracking and encoder aside).
+    assert result.estimate.condition_number == pytest.approx(planned.fit_condition, rel=0.15)
     assert np.all(result.validation.voltage_nrmse < 10.0), result.validation.voltage_nrmse
     assert np.all(result.validation.output_nrmse < 10.0), result.validation.output_nrmse
     # The true arm as a URDF: its standard parameters written as write_urdf writes a fit.

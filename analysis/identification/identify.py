@@ -79,13 +79,20 @@ class Identification:
         }
         result["condition_number"] = estimate.condition_number
         result["cutoff_hz"] = estimate.cutoff_hz
+        result["cutoff_rule"] = estimate.cutoff_rule
+        result["estimator"] = (
+            "least_squares" if self.log.reference is None else "instrumental_variables"
+        )
         result["rows"] = list(estimate.rows)
         result["validation"] = (
             None
             if self.validation is None
             else {
-                "voltage_nrmse_percent": [float(x) for x in self.validation.voltage_nrmse],
-                "output_nrmse_percent": [float(x) for x in self.validation.output_nrmse],
+                "voltage_nrmse_percent": _listed(self.validation.voltage_nrmse),
+                "nominal_voltage_nrmse_percent": _listed(self.validation.nominal_voltage_nrmse),
+                "encoder_floor_nrmse_percent": _listed(self.validation.encoder_floor_nrmse),
+                "removed_percent": _listed(self.validation.removed_percent),
+                "output_nrmse_percent": _listed(self.validation.output_nrmse),
                 "window_s": self.validation.window,
             }
         )
@@ -103,6 +110,7 @@ class Identification:
         write_urdf(
             self.serial.model.urdf, self.serial.consistent, urdf,
             motor_constant=self.serial.motor_constant, description=self.serial.model.description,
+            declared=self.serial.declared,
         )  # fmt: skip
         save_model(
             IdentifiedModelFile.of_estimate(
@@ -150,8 +158,11 @@ class Identification:
         estimate = self.estimate
         lines = [
             f"identified from {self.log.source}: {self.log.time.size} samples at "
-            f"{self.log.sample_time:g} s, filters at {estimate.cutoff_hz:g} Hz, rows used per "
-            f"joint {', '.join(str(r) for r in estimate.rows)}",
+            f"{self.log.sample_time:g} s, rows used per joint "
+            f"{', '.join(str(r) for r in estimate.rows)}; "
+            + ("instrumental variables (the log's reference)" if self.log.reference is not None
+               else "least squares (the log has no reference)"),  # fmt: skip
+            f"filters' cutoff {estimate.cutoff_rule or f'{estimate.cutoff_hz:g} Hz'}",
             f"condition number of the scaled regressor: {estimate.condition_number:.3g}",
             f"{'':8s} {'estimate':>12s} {'std':>10s} {'rel. std':>9s} {'model':>12s}",
         ]
@@ -184,6 +195,19 @@ class Identification:
                 + f"; output error ({checked.window:g} s windows) "
                 + ", ".join(f"{x:.2f} %" for x in checked.output_nrmse)
             )
+            if checked.nominal_voltage_nrmse is not None:
+                lines.append(
+                    "  the nominal model's voltage NRMSE on that log: "
+                    + ", ".join(f"{x:.2f} %" for x in checked.nominal_voltage_nrmse)
+                    + "; the identified model removes "
+                    + ", ".join(f"{x:.0f} %" for x in checked.removed_percent)
+                    + " of its error"
+                )
+            if checked.encoder_floor_nrmse is not None:
+                lines.append(
+                    "  the encoder's floor (what a perfect model would still show): "
+                    + ", ".join(f"{x:.2f} %" for x in checked.encoder_floor_nrmse)
+                )
         lines += [f"warning: {w}" for w in self.warnings]
         return "\n".join(lines)
 
@@ -195,6 +219,10 @@ class Identification:
         if self.validation is None:
             raise ValueError("no validation to draw: identify with a second log (validate)")
         validation_figure(self.validation, Path(path))
+
+
+def _listed(values: np.ndarray | None) -> list[float] | None:
+    return None if values is None else [float(x) for x in values]
 
 
 def serial_model(config: ClosedLoopConfig) -> SerialModel:
@@ -234,23 +262,27 @@ def identify_log(
     if isinstance(nominal, LumpedParameters):
         theta = identify_theta(
             record.time, record.q, record.u, l1=nominal.l1, g=nominal.g,
-            quantisation_step=step, settings=settings,
+            quantisation_step=step, settings=settings, reference=record.reference,
         )  # fmt: skip
         result = Identification(loaded, record, theta=theta)
         regressor, target = (lambda q, v, a: theta_regressor(q, v, a, nominal.l1, nominal.g)), None
+        described = (nominal.theta, None)
     else:
         model = serial_model(config)
         serial = identify_serial(
-            model, record.time, record.q, record.u, quantisation_step=step, settings=settings
-        )
+            model, record.time, record.q, record.u, quantisation_step=step, settings=settings,
+            reference=record.reference,
+        )  # fmt: skip
         result = Identification(loaded, record, serial=serial)
         size = model.base.size
         regressor, target = model.columns, serial.torque
+        described = (model.base.combine(model.nominal), model.torque)
     values = result.model_values if result.theta is not None else result.model_values[:size]
     if second is None:
         return result
     checked = validate(
         second.time, second.q, second.u, regressor, values,
-        target=target, settings=settings, window=window,
+        target=target, window=window, nominal=described, quantisation_step=step,
+        settings=replace(settings, cutoff_hz=result.estimate.cutoff_hz),
     )  # fmt: skip
     return replace(result, validation=checked)

@@ -8,6 +8,14 @@ simulated run is a valid log. Identification reads only
 * ``u{j}_applied_V`` per joint: the voltage the drive applied from that instant to the
   next (held, as a sampled controller's is).
 
+and, where the log has them (``posfb simulate --out`` writes them; a controller knows
+its reference), the controller's reference:
+
+* ``q{j}_desired_rad`` per joint, with ``q{j}_desired_velocity_rad_per_s`` and
+  ``q{j}_desired_acceleration_rad_per_s2`` (differentiated from the positions where
+  absent). With it the fit uses instrumental variables (``models.identification.
+  estimate``), which the encoder's quantisation does not bias.
+
 CSV (``.csv``) or Parquet (``.parquet``); any other column (a simulated log's true
 positions included) is ignored. ``TEMPLATE`` is a two-joint example a user fills from
 a drive's record.
@@ -19,6 +27,8 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
+
+from posfb.models.identification.estimate import Reference
 
 #: Relative spread of the sample intervals a log may have (clock jitter, round-off).
 EVEN_TOLERANCE = 1e-3
@@ -38,13 +48,15 @@ time_s,q1_measured_rad,q2_measured_rad,u1_applied_V,u2_applied_V
 class EncoderLog:
     """What identification reads from a log: ``time`` (N,), the measured positions
     ``q`` and applied voltages ``u`` (N, n), the encoder's step per joint where the log
-    gave counts (else ``None``) and the file it came from."""
+    gave counts (else ``None``), the file it came from and the controller's
+    ``reference`` where the log gives it."""
 
     time: np.ndarray
     q: np.ndarray
     u: np.ndarray
     source: str
     quantisation_step: np.ndarray | None = None
+    reference: Reference | None = None
 
     @property
     def joints(self) -> int:
@@ -162,4 +174,31 @@ def read_log(
     if step is not None:
         q = q * step
     even_time = time[0] + median * np.arange(time.size)
-    return EncoderLog(even_time, q, data[:, n + 1 :], str(path), step)
+    reference = _reference(table, columns, n, median, str(path))
+    return EncoderLog(even_time, q, data[:, n + 1 :], str(path), step, reference)
+
+
+def _reference(table, columns: list[str], n: int, sample_time: float, source: str):
+    """The controller's reference (module docstring), ``None`` where the log lacks it."""
+    names = [f"q{j}_desired_rad" for j in range(1, n + 1)]
+    if not all(c in columns for c in names):
+        return None
+    parts = [names]
+    for kind in ("velocity_rad_per_s", "acceleration_rad_per_s2"):
+        wanted = [f"q{j}_desired_{kind}" for j in range(1, n + 1)]
+        parts.append(wanted if all(c in columns for c in wanted) else None)
+    try:
+        q = table[names].to_numpy(dtype=float)
+        derived = [q]
+        for wanted in parts[1:]:
+            derived.append(
+                np.gradient(derived[-1], sample_time, axis=0)
+                if wanted is None
+                else table[wanted].to_numpy(dtype=float)
+            )
+    except ValueError:
+        raise ValueError(f"log {source}: every column read must hold numbers") from None
+    for name, values in zip(("q<j>_desired", "its derivatives"), (q, derived), strict=True):
+        if not np.all(np.isfinite(np.asarray(values))):
+            raise ValueError(f"log {source}: {name} is not finite; finite numbers are required")
+    return Reference(*derived)

@@ -7,8 +7,10 @@ joint within ``excursion`` rad of it and inside the plant URDF's position limits
 it has finite ones; ``|q'|`` under ``velocity_limit`` (default: the URDF's velocity
 limit where finite, else ``DEFAULT_VELOCITY_LIMIT``); ``|u|`` of the nominal model's
 inverse dynamics under ``actuator.voltage_limit``; sampled at ``timing.sample_time``. The
-regressor is theta's for the paper's arm, a URDF arm's base-parameter regressor else
-(``models.identification.serial``).
+regressor is the one ``identify`` fits: theta's for the paper's arm; for a URDF arm its
+base-parameter regressor with the motor-constant ratio columns of the nominal voltage
+(``SerialModel.fit_columns``), so the condition number the plan reports is the one
+``identify`` reports on a log of it.
 """
 
 from __future__ import annotations
@@ -21,13 +23,19 @@ import numpy as np
 
 from posfb.analysis.identification.identify import serial_model
 from posfb.diagrams.resolve import LoadedScenario, resolve
+from posfb.models.identification.estimate import (
+    FilterSettings,
+    Motion,
+    Reference,
+    planned_condition,
+)
 from posfb.models.identification.excitation import (
     ExcitationPlan,
     per_sample,
     plan_excitation,
     write_trajectory_csv,
 )
-from posfb.models.identification.theta_regressor import theta_regressor
+from posfb.models.identification.theta_regressor import COULOMB_PARAMETERS, theta_regressor
 from posfb.models.lumped import LumpedModel, LumpedParameters
 
 if TYPE_CHECKING:
@@ -63,10 +71,13 @@ def _urdf_limits(plant: PlantConfig, joints: int) -> tuple[np.ndarray, np.ndarra
 
 @dataclass(frozen=True)
 class PlannedExcitation:
-    """A plan for a scenario's arm: the optimiser's ``plan`` and the scenario's name."""
+    """A plan for a scenario's arm: the optimiser's ``plan``, the scenario's name and the
+    condition number ``identify`` reports on an exact log of the plan (its default
+    filter and row selection: ``estimate.planned_condition``)."""
 
     plan: ExcitationPlan
     source: str
+    fit_condition: float
 
     def save(self, path: str | Path) -> Path:
         """Write the plan as a ``!CsvFile`` trajectory (``time_s, q1_rad, ..``)."""
@@ -78,6 +89,7 @@ class PlannedExcitation:
         return {
             "condition_number_start": plan.condition_start,
             "condition_number": plan.condition,
+            "fit_condition_number": self.fit_condition,
             "limits_met": plan.limits_met,
             "duration_s": plan.duration,
             "period_s": plan.trajectory.period,
@@ -96,7 +108,8 @@ class PlannedExcitation:
             f"excitation for {self.source}: {plan.duration:g} s, {plan.trajectory.harmonics} "
             f"harmonics of a {plan.trajectory.period:g} s period (Swevers et al. 1997)",
             f"condition number of the scaled regressor: {plan.condition_start:.3g} at the "
-            f"random start -> {plan.condition:.3g}",
+            f"random start -> {plan.condition:.3g} (on one period); identify's on a log of "
+            f"it (filtered, without the rows near rest): {self.fit_condition:.3g}",
             "limits " + ("met" if plan.limits_met else "NOT met") + " at every sample:",
         ]
         for j in joints:
@@ -124,10 +137,10 @@ def plan_for_scenario(
     if isinstance(nominal, LumpedParameters):
         model = LumpedModel(nominal)
         regressor = lambda q, v, a: theta_regressor(q, v, a, nominal.l1, nominal.g)  # noqa: E731
-        voltage = per_sample(model.inverse_dynamics)
+        voltage, coulomb = per_sample(model.inverse_dynamics), COULOMB_PARAMETERS
     else:
         serial = serial_model(config)
-        regressor, voltage = serial.columns, serial.voltage
+        regressor, voltage, coulomb = serial.fit_columns, serial.voltage, serial.coulomb()
     excursion = DEFAULT_EXCURSION if excursion is None else excursion
     if not (np.isfinite(excursion) and excursion > 0.0):
         raise ValueError(f"excursion = {excursion!r} rad; a finite value > 0 is required")
@@ -154,4 +167,12 @@ def plan_for_scenario(
         voltage_limit=np.asarray(config.voltage_limit, dtype=float),
         seed=seed,
     )
-    return PlannedExcitation(plan, loaded.source)
+    time = plan.sample_times()
+    q, qdot, qddot = plan.trajectory.sample(time)
+    counts = np.asarray(config.sensor.encoder_counts, dtype=float)
+    step = 2.0 * np.pi / counts if np.all(counts > 0) else None
+    settings = FilterSettings().with_rule(time, q, Reference(q, qdot, qddot), step)
+    motion = Motion(time, q, qdot, qddot, voltage(q, qdot, qddot),
+                    settings.cutoff(float(time[1] - time[0])))  # fmt: skip
+    fit = planned_condition(motion, regressor, coulomb, settings)
+    return PlannedExcitation(plan, loaded.source, fit)

@@ -48,10 +48,15 @@ from posfb.models.urdf_check import (
     DRAKE_NS,
     POSFB_NAMESPACES,
     POSFB_NS,
+    actuator_of,
     check_serial_urdf,
     parse_robot,
 )
 from posfb.models.validation import require_finite, shown
+
+#: How far ``beta_cov`` may be from symmetric, relative to ``sigma_i sigma_j``: far above
+#: the round-off of any covariance computed in double precision, far below a mistake.
+SYMMETRY_TOLERANCE = 1e-8
 
 #: The log-Cholesky coordinates of one link, in order (module docstring).
 LOG_CHOLESKY = ("alpha", "d1", "d2", "d3", "s12", "s23", "s13", "t1", "t2", "t3")
@@ -237,8 +242,16 @@ def _covariance_factor(beta_cov: object, size: int) -> tuple[np.ndarray, np.ndar
             f"beta_cov has shape {np.shape(beta_cov)}; {size} finite variances or a finite "
             f"({size}, {size}) covariance (one row per base parameter) is required"
         )
-    if not np.allclose(cov, cov.T, rtol=1e-10, atol=0.0):
-        raise ValueError("beta_cov is not symmetric; a symmetric covariance is required")
+    scale = np.sqrt(np.abs(np.outer(np.diag(cov), np.diag(cov))))
+    asymmetry = np.abs(cov - cov.T)
+    if np.any(asymmetry > SYMMETRY_TOLERANCE * scale):
+        worst = np.unravel_index(int(np.argmax(asymmetry - SYMMETRY_TOLERANCE * scale)), cov.shape)
+        raise ValueError(
+            f"beta_cov is not symmetric: entries {worst} and {worst[::-1]} differ by "
+            f"{asymmetry[worst]:.3g}; a symmetric covariance (within {SYMMETRY_TOLERANCE:g} "
+            "of sigma_i sigma_j) is required"
+        )
+    cov = 0.5 * (cov + cov.T)
     try:
         factor = np.linalg.cholesky(cov)
     except np.linalg.LinAlgError:
@@ -519,12 +532,21 @@ def _set_drive(
         _posfb_element(actuator, "motor_constant").set("value", _number(motor_constant))
 
 
+#: The comment ``write_urdf`` puts in the actuator of a joint whose motor constant the
+#: log did not identify.
+DECLARED_COMMENT = (
+    " posfb identify: this motor constant is the description's; the log did not identify "
+    "its ratio to joint 1's "
+)
+
+
 def write_urdf(
     nominal_urdf: str | Path,
     model: ConsistentModel,
     out: str | Path,
     motor_constant: np.ndarray | None = None,
     description: Description | None = None,
+    declared: tuple[str, ...] = (),
 ) -> Path:
     """Write ``nominal_urdf`` with ``model``'s parameters to ``out`` and return ``out``.
 
@@ -535,10 +557,11 @@ def write_urdf(
     damping>`` and ``posfb:coulomb_friction``, its actuator ``drake:rotor_inertia =
     rotor_inertia / gear_ratio^2`` (the URDF's ``drake:gear_ratio`` kept, 1 where it has
     none), and ``posfb:motor_constant`` where ``motor_constant`` (one per joint, N m/V)
-    is given. Everything else (geometry, limits, the motor constants otherwise, the
-    comments inside ``<robot>`` but those of a rewritten ``<inertial>``) is the nominal
-    file's, re-indented,
-    under a comment that names the fit. The file is the nominal one as posfb hands it
+    is given; the actuator of each joint in ``declared`` gets a comment saying its motor
+    constant is the description's (not identifiable from the log). Everything else
+    (geometry, limits, the motor constants otherwise, the comments inside ``<robot>`` but
+    those of a rewritten ``<inertial>``) is the nominal file's, re-indented, under a
+    comment that names the fit. The file is the nominal one as posfb hands it
     to Drake with what ``description`` (the scenario's) adds (``models.description``:
     welded joints fixed, meshes as absolute URIs, the scenario's drives written in), so
     ``out`` loads with no description. ``nominal_urdf`` must pass
@@ -582,6 +605,8 @@ def write_urdf(
     for drive, constant in zip(model.drives, constants, strict=True):
         value = None if constant is None else float(constant)
         _set_drive(robot, by_name[drive.joint], drive, value)
+        if drive.joint in declared:
+            actuator_of(robot, drive.joint).insert(0, ET.Comment(DECLARED_COMMENT))
     robot.insert(
         0,
         ET.Comment(

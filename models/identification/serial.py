@@ -24,14 +24,14 @@ errors, regularised towards the nominal URDF: ``consistent.fit_consistent``) are
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
 from posfb.models.description import Description
-from posfb.models.identification.checks import estimate_warnings
+from posfb.models.identification.checks import IDENTIFIABLE_RELATIVE_STD, estimate_warnings
 from posfb.models.identification.consistent import ConsistentModel, fit_consistent
-from posfb.models.identification.estimate import Estimate, FilterSettings, fit_log
+from posfb.models.identification.estimate import Estimate, FilterSettings, Reference, fit_log
 from posfb.models.identification.serial_regressor import (
     BaseParameters,
     SerialRegressor,
@@ -92,6 +92,14 @@ class SerialModel:
             columns[:, j, j - 1] = -self.motor_constant[j] * voltage[:, j]
         return columns
 
+    def fit_columns(self, q: np.ndarray, v: np.ndarray, a: np.ndarray) -> np.ndarray:
+        """The columns ``identify`` fits on a log with the controller's reference, for a
+        motion the nominal arm makes: the base regressor, then the ratio columns of the
+        nominal voltage ``(N, n, p_base + n - 1)`` (what ``identify plan`` conditions)."""
+        return np.concatenate(
+            [self.columns(q, v, a), self.ratio_columns(self.voltage(q, v, a))], axis=2
+        )
+
     def ratio_names(self) -> tuple[str, ...]:
         return tuple(f"{joint}.motor_constant_ratio" for joint in self.regressor.joints[1:])
 
@@ -112,23 +120,48 @@ class SerialModel:
 @dataclass(frozen=True)
 class SerialIdentification:
     """The estimate (the base parameters, then the motor-constant ratios of joints
-    2..n), the consistent model, the identified motor constants and the warnings."""
+    2..n where fitted), the consistent model, the identified motor constants, the
+    warnings and the joints whose motor constants are kept as ``declared``."""
 
     model: SerialModel
     estimate: Estimate
     consistent: ConsistentModel
     motor_constant: np.ndarray
     warnings: tuple[str, ...]
+    declared: tuple[str, ...] = ()
 
     @property
     def model_values(self) -> np.ndarray:
-        """The consistent arm's base parameters, then the ratios (as estimated)."""
-        ratios = self.estimate.values[self.model.base.size :]
+        """The consistent arm's base parameters, then the ratios the model takes (1 for
+        the joints in ``declared``: their motor constants are the description's)."""
+        if self.estimate.values.size == self.model.base.size:  # no ratios fitted
+            return self.consistent.beta
+        ratios = self.motor_constant[1:] / self.model.motor_constant[1:]
         return np.concatenate([self.consistent.beta, ratios])
 
     def torque(self, voltage: np.ndarray) -> np.ndarray:
         """``kappa u`` with the identified motor constants."""
         return voltage * self.motor_constant
+
+
+def _identified_ratios(estimate: Estimate, size: int) -> tuple[np.ndarray, list[str]]:
+    """The motor-constant ratios the model takes: the estimate's where identifiable
+    (relative standard error at most ``IDENTIFIABLE_RELATIVE_STD``), else 1 (the declared
+    constant), and the names of the joints kept so. An identifiable ratio that is not
+    positive is refused: the log's voltages are not this arm's in volts."""
+    values, relative = estimate.values[size:], estimate.relative_std[size:]
+    names = [name.removesuffix(".motor_constant_ratio") for name in estimate.names[size:]]
+    identified = relative <= IDENTIFIABLE_RELATIVE_STD
+    if np.any(identified & (values <= 0.0)):
+        raise ValueError(
+            f"the log gives motor-constant ratios {np.round(values, 4).tolist()} for joints "
+            f"{', '.join(names)} (relative to joint 1's nominal one), with standard errors "
+            f"{np.round(estimate.std[size:], 4).tolist()} at the filters' cutoff "
+            f"{estimate.cutoff_rule or f'{estimate.cutoff_hz:g} Hz'}; positive ones are "
+            "required: a log of this arm, its voltages in volts, is required"
+        )
+    kept = [name for name, ok in zip(names, identified, strict=True) if not ok]
+    return np.where(identified, values, 1.0), kept
 
 
 def identify_serial(
@@ -139,29 +172,48 @@ def identify_serial(
     *,
     quantisation_step: np.ndarray | None = None,
     settings: FilterSettings | None = None,
+    reference: Reference | None = None,
 ) -> SerialIdentification:
-    """The base parameters of ``model``'s arm from a log (module docstring)."""
-    settings = settings or FilterSettings()
+    """The base parameters of ``model``'s arm from a log (module docstring); with the
+    controller's ``reference``, by instrumental variables and with the motor-constant
+    ratios, else by least squares with the declared motor constants."""
+    settings = (settings or FilterSettings()).with_rule(
+        time, q_measured, reference, quantisation_step
+    )
+    fit_ratios = reference is not None
+    if reference is not None:
+        reference = replace(
+            reference, voltage=model.voltage(reference.q, reference.qdot, reference.qddot)
+        )
 
     def fit(q: np.ndarray) -> Estimate:
         return fit_log(
-            time, q, voltage, model.columns, (*model.base.names, *model.ratio_names()),
-            coulomb=model.coulomb(), target=model.reference_torque,
-            voltage_columns=model.ratio_columns, settings=settings,
+            time, q, voltage, model.columns,
+            (*model.base.names, *(model.ratio_names() if fit_ratios else ())),
+            coulomb=model.coulomb(), target=model.reference_torque if fit_ratios else model.torque,
+            voltage_columns=model.ratio_columns if fit_ratios else None, settings=settings,
+            reference=reference,
         )  # fmt: skip
 
     estimate = fit(q_measured)
     warnings = estimate_warnings(
         estimate, None if quantisation_step is None else fit, q_measured, quantisation_step
     )
-    size = model.base.size
-    ratios = estimate.values[size:]
-    if np.any(ratios <= 0.0):
-        raise ValueError(
-            f"the log gives motor-constant ratios {np.round(ratios, 4).tolist()} for joints "
-            "2.. (relative to joint 1's nominal one); positive ones are required: a log of "
-            "this arm, its voltages in volts, is required"
+    if not fit_ratios:
+        warnings.append(
+            "motor constants kept as declared: the log has no reference (q<j>_desired_rad), "
+            "so the ratios of joints 2.. to joint 1's cannot be fitted without the encoder's "
+            "bias; a log with the controller's reference fits them"
         )
+    size = model.base.size
+    ratios, kept = np.ones(len(model.regressor.joints) - 1), []
+    if fit_ratios:
+        ratios, kept = _identified_ratios(estimate, size)
+        if kept:
+            warnings.append(
+                f"motor constants of {', '.join(kept)} kept as declared: their ratios are "
+                "not identifiable from this log (above)"
+            )
     motor_constant = model.motor_constant * np.concatenate([[1.0], ratios])
     consistent = fit_consistent(
         model.base, estimate.values[:size], estimate.covariance[:size, :size], model.nominal
@@ -176,4 +228,7 @@ def identify_serial(
             f"{estimate.names[worst]} is {misfit[worst]:.1f} away (the model written is the "
             "closest consistent one)"
         )
-    return SerialIdentification(model, estimate, consistent, motor_constant, tuple(warnings))
+    declared = tuple(model.regressor.joints[1:]) if not fit_ratios else tuple(kept)
+    return SerialIdentification(
+        model, estimate, consistent, motor_constant, tuple(warnings), declared
+    )

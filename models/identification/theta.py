@@ -22,6 +22,7 @@ from posfb.models.identification.checks import estimate_warnings
 from posfb.models.identification.estimate import (
     Estimate,
     FilterSettings,
+    Reference,
     fit_log,
 )
 from posfb.models.identification.model_file import IdentifiedModelFile
@@ -81,11 +82,15 @@ def identify_theta(
     g: float,
     quantisation_step: np.ndarray | None = None,
     settings: FilterSettings | None = None,
+    reference: Reference | None = None,
 ) -> ThetaIdentification:
     """theta of Eq. 4 from a two-joint log (``time`` (N,), ``q_measured`` and ``voltage``
     (N, 2)); ``quantisation_step`` (rad per count, per joint) enables the coarse-encoder
-    check."""
-    settings = settings or FilterSettings()
+    check; the controller's ``reference`` makes the fit instrumental variables
+    (``estimate``)."""
+    settings = (settings or FilterSettings()).with_rule(
+        time, q_measured, reference, quantisation_step
+    )
 
     def fit(time: np.ndarray, q_measured: np.ndarray, voltage: np.ndarray) -> Estimate:
         return fit_log(
@@ -96,6 +101,7 @@ def identify_theta(
             THETA_NAMES,
             coulomb=COULOMB_PARAMETERS,
             settings=settings,
+            reference=reference,
         )
 
     estimate = fit(time, q_measured, voltage)

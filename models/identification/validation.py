@@ -28,6 +28,7 @@ import scipy.signal
 
 from posfb.models.identification.estimate import (
     FilterSettings,
+    Motion,
     filtered_motion,
     kept_samples,
     lowpass,
@@ -53,7 +54,10 @@ def nrmse(predicted: np.ndarray, measured: np.ndarray) -> np.ndarray:
 class Validation:
     """The NRMSE per joint of the voltage and of the windowed output error, the window
     and the traces a figure draws (times, measured and predicted voltage; measured and
-    simulated positions)."""
+    simulated positions); to read the voltage figure by, where given, the nominal
+    model's on the same log (``nominal_voltage_nrmse``) and the encoder's floor
+    (``encoder_floor_nrmse``: the figure one more dose of the encoder's quantisation
+    error moves the model's own prediction by, what a perfect model still shows)."""
 
     voltage_nrmse: np.ndarray
     output_nrmse: np.ndarray
@@ -64,6 +68,16 @@ class Validation:
     position_time: np.ndarray
     position: np.ndarray
     simulated_position: np.ndarray
+    nominal_voltage_nrmse: np.ndarray | None = None
+    encoder_floor_nrmse: np.ndarray | None = None
+
+    @property
+    def removed_percent(self) -> np.ndarray | None:
+        """Per joint, the share (percent) of the nominal model's voltage error the
+        model removes: ``100 (1 - NRMSE / nominal NRMSE)``."""
+        if self.nominal_voltage_nrmse is None:
+            return None
+        return 100.0 * (1.0 - self.voltage_nrmse / self.nominal_voltage_nrmse)
 
 
 def _accelerations(
@@ -123,9 +137,13 @@ def validate(
     target: Callable[[np.ndarray], np.ndarray] | None = None,
     settings: FilterSettings | None = None,
     window: float = DEFAULT_WINDOW,
+    nominal: tuple[np.ndarray, Callable[[np.ndarray], np.ndarray] | None] | None = None,
+    quantisation_step: np.ndarray | None = None,
 ) -> Validation:
     """The model ``values`` of ``y = regressor(...) p`` checked on a log (module
-    docstring); ``target`` maps voltages to ``y`` as in ``fit_log``."""
+    docstring); ``target`` maps voltages to ``y`` as in ``fit_log``. ``nominal`` (its
+    values and target) adds the nominal model's voltage figure, ``quantisation_step``
+    (rad per count) the encoder's floor (one more uniform dose of one step, seeded)."""
     settings = settings or FilterSettings()
     sample_time = float(time[1] - time[0])
     steps = int(round(window / sample_time))
@@ -137,11 +155,27 @@ def validate(
     sos = lowpass(motion.cutoff_hz, sample_time)
     kept = kept_samples(motion)
     kept = np.arange(kept[0], kept[-1] + 1)
-    predicted = scipy.signal.sosfiltfilt(
-        sos, regressor(motion.q, motion.qdot, motion.qddot) @ values, axis=0
-    )[kept]
-    voltage_seen = motion.voltage if target is None else target(motion.voltage)
-    measured = scipy.signal.sosfiltfilt(sos, voltage_seen, axis=0)[kept]
+
+    def voltage_figure(
+        motion: Motion, values: np.ndarray, target: Callable | None
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """The predicted and the measured ``y`` of ``values`` along ``motion``."""
+        predicted = scipy.signal.sosfiltfilt(
+            sos, regressor(motion.q, motion.qdot, motion.qddot) @ values, axis=0
+        )[kept]
+        seen = motion.voltage if target is None else target(motion.voltage)
+        return predicted, scipy.signal.sosfiltfilt(sos, seen, axis=0)[kept]
+
+    predicted, measured = voltage_figure(motion, values, target)
+    nominal_nrmse = floor = None
+    if nominal is not None:
+        nominal_nrmse = nrmse(*voltage_figure(motion, *nominal))
+    if quantisation_step is not None:
+        dose = np.random.default_rng(0).uniform(-0.5, 0.5, q_measured.shape)
+        again = filtered_motion(time, q_measured + dose * quantisation_step, voltage, settings)
+        floor = nrmse(voltage_figure(again, values, target)[0], predicted) * (
+            np.std(predicted, axis=0) / np.std(measured, axis=0)
+        )
     starts = np.arange(kept[0], kept[-1] - steps, steps)
     if starts.size == 0:
         raise ValueError(
@@ -167,4 +201,6 @@ def validate(
         position_time=time[index].reshape(-1),
         position=recorded.reshape(-1, q_measured.shape[1]),
         simulated_position=simulated.reshape(-1, q_measured.shape[1]),
+        nominal_voltage_nrmse=nominal_nrmse,
+        encoder_floor_nrmse=floor,
     )

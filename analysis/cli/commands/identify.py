@@ -72,7 +72,8 @@ def configure(parser: argparse.ArgumentParser) -> None:
         "--cutoff",
         type=positive,
         metavar="HZ",
-        help="the filters' cutoff in Hz (default: a tenth of the log's Nyquist frequency)",
+        help="the filters' cutoff in Hz (default: the rule of models.identification.estimate."
+        "cutoff_rule: 10 x the motion's band, lowered for a coarse encoder; printed)",
     )
     parser.add_argument(
         "--stiction-velocity",
