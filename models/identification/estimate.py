@@ -135,12 +135,17 @@ class FilterSettings:
 
 def motion_band(time: np.ndarray, positions: np.ndarray) -> tuple[float, float]:
     """``(f_99, a_rms)``: the frequency (Hz) below which ``BAND_POWER`` of the motion's
-    power lies (all joints together, each joint's mean removed) and the RMS of its
+    power lies (all joints together) and the RMS of its
     acceleration within that band (rad/s^2), from the spectrum of ``positions`` ``(N, n)``
     sampled at ``time``. Positions, not velocities: an encoder's error is white in the
     positions, so a quantised record leaves the band where its motion puts it."""
     sample_time = float(time[1] - time[0])
-    moving = positions - positions.mean(axis=0)
+    # The line through the end samples out and a Hann window on: a record that is not a
+    # whole number of periods would otherwise leak power to every frequency.
+    ramp = np.linspace(0.0, 1.0, positions.shape[0])[:, None]
+    moving = positions - positions[0] - ramp * (positions[-1] - positions[0])
+    window = np.hanning(positions.shape[0])
+    moving = moving * window[:, None] / np.sqrt(np.mean(window**2))  # power kept
     spectrum = np.abs(np.fft.rfft(moving, axis=0)) ** 2
     frequency = np.fft.rfftfreq(moving.shape[0], sample_time)
     power = spectrum.sum(axis=1)
