@@ -143,12 +143,21 @@ def _log(rows: int = 400, *, time=None, header="time_s,q1_measured_rad,q2_measur
     return "\n".join(lines) + "\n"
 
 
+def _with_reference(text: str, nan_row: int) -> str:
+    """``text`` (a two-joint ``_log``) with reference columns ``q<j>_desired_rad`` of 0,
+    joint 1's NaN at data row ``nan_row`` (1-based)."""
+    header, *rows = text.splitlines()
+    rows = [row + (",nan,0" if k == nan_row else ",0,0") for k, row in enumerate(rows, 1)]
+    return "\n".join([header + ",q1_desired_rad,q2_desired_rad", *rows]) + "\n"
+
+
 LOGS = {
     "log_missing.csv": _log(header="time_s,q1_measured_rad,u1_applied_V,q9,u2_applied_V"),
     "log_backwards.csv": _log(time=lambda k: 0.01 * k if k != 200 else 0.0),
     "log_uneven.csv": _log(time=lambda k: 0.01 * k + (0.004 if k % 7 == 0 else 0.0)),
     "log_nan.csv": _log(missing=50),
     "log_short.csv": _log(rows=150),
+    "log_bad_reference.csv": _with_reference(_log(), nan_row=1),
     "log_three.csv": _log(
         header="time_s,q1_measured_rad,q2_measured_rad,q3_measured_rad,u1_applied_V,"
         "u2_applied_V,u3_applied_V", joints=3,
@@ -632,6 +641,10 @@ CASES = {
     "log time uneven": Case(("identify", "--log", "{tmp}/log_uneven.csv"), "unevenly spaced"),
     "log with NaN": Case(("identify", "--log", "{tmp}/log_nan.csv"), "is not finite at row"),
     "log too short": Case(("identify", "--log", "{tmp}/log_short.csv"), "too short"),
+    "log with a reference that is not finite": Case(
+        ("identify", "--log", "{tmp}/log_bad_reference.csv"),
+        "q1_desired_rad is not finite at row 1 (nan)",
+    ),
     "log of another arm": Case(
         ("identify", "--log", "{tmp}/log_three.csv"), "voltages for 3 joints and the arm has 2"
     ),

@@ -178,27 +178,33 @@ def read_log(
     return EncoderLog(even_time, q, data[:, n + 1 :], str(path), step, reference)
 
 
-def _reference(table, columns: list[str], n: int, sample_time: float, source: str):
-    """The controller's reference (module docstring), ``None`` where the log lacks it."""
-    names = [f"q{j}_desired_rad" for j in range(1, n + 1)]
-    if not all(c in columns for c in names):
+def _reference(
+    table, columns: list[str], n: int, sample_time: float, source: str
+) -> Reference | None:
+    """The controller's reference (module docstring), ``None`` where the log lacks it;
+    a column of it that is not finite numbers is refused naming the column and row."""
+    parts: list[list[str] | None] = [[f"q{j}_desired_rad" for j in range(1, n + 1)]]
+    if not all(c in columns for c in parts[0]):
         return None
-    parts = [names]
     for kind in ("velocity_rad_per_s", "acceleration_rad_per_s2"):
         wanted = [f"q{j}_desired_{kind}" for j in range(1, n + 1)]
         parts.append(wanted if all(c in columns for c in wanted) else None)
-    try:
-        q = table[names].to_numpy(dtype=float)
-        derived = [q]
-        for wanted in parts[1:]:
-            derived.append(
-                np.gradient(derived[-1], sample_time, axis=0)
-                if wanted is None
-                else table[wanted].to_numpy(dtype=float)
+    derived: list[np.ndarray] = []
+    for wanted in parts:
+        if wanted is None:
+            derived.append(np.gradient(derived[-1], sample_time, axis=0))
+            continue
+        try:
+            values = table[wanted].to_numpy(dtype=float)
+        except ValueError:
+            raise ValueError(f"log {source}: every column read must hold numbers") from None
+        bad = ~np.isfinite(values)
+        if bad.any():
+            row, column = np.argwhere(bad)[0]
+            raise ValueError(
+                f"log {source}: {wanted[column]} is not finite at row {row + 1} "
+                f"({values[row, column]!r}); finite numbers are required (or no reference "
+                "columns: the fit is then least squares)"
             )
-    except ValueError:
-        raise ValueError(f"log {source}: every column read must hold numbers") from None
-    for name, values in zip(("q<j>_desired", "its derivatives"), (q, derived), strict=True):
-        if not np.all(np.isfinite(np.asarray(values))):
-            raise ValueError(f"log {source}: {name} is not finite; finite numbers are required")
+        derived.append(values)
     return Reference(*derived)
