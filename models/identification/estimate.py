@@ -1,10 +1,12 @@
-"""Weighted least squares of a model linear in its parameters, from sampled positions
-and the voltages that moved them (issue 29).
+"""Weighted least squares (or instrumental variables) of a model linear in its
+parameters, from sampled positions and the voltages that moved them (issues 29, 42).
 
 The model is ``y_j(t) = Y_j(q, q', q'') p`` per joint ``j`` (``theta_regressor``: ``y = u``
 in volts; a URDF arm's torque regressor: ``y = kappa u``). A log holds only the measured
 positions ``q_m`` (quantised by the encoder) and the voltages ``u`` the drive applied,
-held over each sample period. ``fit_log`` estimates ``p`` in four steps:
+held over each sample period, and where the log has it the controller's reference.
+``fit_log`` estimates ``p`` in five steps, with the filters' cutoff of ``cutoff_rule``
+unless one is given:
 
 1. **Derivatives** (offline, zero phase): ``q_m`` through a Butterworth low-pass of
    order ``FILTER_ORDER`` run forwards and backwards (``scipy.signal.sosfiltfilt``),
@@ -31,11 +33,21 @@ held over each sample period. ``fit_log`` estimates ``p`` in four steps:
    its ``sigma_j`` and the weighted problem solved again. The covariance of the
    estimate is ``s^2 (W^T W)^-1`` with ``W`` the weighted regressor and ``s^2`` the
    weighted residual variance (about 1); the standard errors are its diagonal's
-   square roots.
+   square roots. Each solve is on the column-scaled QR factors (``solve_scaled``): the
+   covariance is symmetric by construction.
+5. **Instrumental variables** (Soderstrom & Stoica 1983; the reference as instrument, as
+   in closed-loop identification) where the controller's ``reference`` is given: ``Y``
+   holds the encoder's error through ``q_m``, so least squares is biased (errors in
+   variables, towards a smaller scale on a homogeneous equation); the instruments ``Z``
+   are the regressor of the reference motion and the voltage columns of the nominal
+   voltage along it (``Reference.voltage``), filtered alike, and step 4's solves are
+   ``(Z^T A)^-1 Z^T b`` with the covariance ``s^2 (Z^T A)^-1 Z^T Z (A^T Z)^-1``, each of
+   ``A``, ``b`` and ``Z`` with its rows divided by their joint's ``sigma_j``.
 
 The condition number reported is that of the decimated regressor with every column
 scaled to unit norm (so units do not enter it). The stated intervals were checked on
-simulated logs (``tests/test_identification.py``).
+posfb's simulated logs (``tests/test_identification.py``) and on an independent
+generator's (``tests/test_identification_honest.py``).
 """
 
 from __future__ import annotations
