@@ -87,11 +87,13 @@ from posfb.diagrams.scenario import (
     apply_setting,
     controller_kind,
     get_setting,
+    scenario_description,
     scenario_joints,
     with_controller,
 )
 from posfb.diagrams.yaml_schema import load_typed, read_text
 from posfb.models.controllers import PAPER_CONTROLLERS, REGISTRY, require_design
+from posfb.models.description import Description
 from posfb.models.design import ControllerConfig
 from posfb.models.plant import JOINT_PARAMETERS, PARAMETER_UNITS
 
@@ -314,8 +316,15 @@ def slots(joints: int) -> tuple[tuple[str, int], ...]:
 
 def study_joints(study: Study) -> int:
     """``n``: the joints of the study's plant URDF with what its scenario adds to it
-    (welds; its paths are absolute)."""
-    return scenario_joints(study.base, Path.cwd())
+    (welds; its paths are absolute), checked once per process (every sample asks)."""
+    key = (study.base.plant.urdf, scenario_description(study.base, Path.cwd()))
+    if key not in _STUDY_JOINTS:
+        _STUDY_JOINTS[key] = scenario_joints(study.base, Path.cwd())
+    return _STUDY_JOINTS[key]
+
+
+#: ``study_joints``' answers by (plant URDF, description).
+_STUDY_JOINTS: dict[tuple[str, Description], int] = {}
 
 
 #: The sampling designs a study may name (``Study.sampling``).
