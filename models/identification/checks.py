@@ -5,7 +5,10 @@
 * a condition number of the scaled regressor above ``POOR_CONDITION`` is poor
   excitation (Swevers et al. 1997 aim well below it);
 * an encoder too coarse for this log: its quantisation biases an identifiable parameter
-  by more than the parameter's standard error (``_coarse_encoder``).
+  by more than the parameter's standard error (``_coarse_encoder``). Least squares
+  only: instrumental variables (a log with the controller's reference) are not biased by
+  the encoder, whose noise their stated intervals carry (the check's second dose would
+  measure that scatter, not a bias).
 """
 
 from __future__ import annotations

@@ -197,7 +197,7 @@ def identify_serial(
 
     estimate = fit(q_measured)
     warnings = estimate_warnings(
-        estimate, None if quantisation_step is None else fit, q_measured, quantisation_step
+        estimate, None if fit_ratios else fit, q_measured, quantisation_step
     )
     if not fit_ratios:
         warnings.append(

@@ -107,7 +107,7 @@ def identify_theta(
     estimate = fit(time, q_measured, voltage)
     warnings = estimate_warnings(
         estimate,
-        None if quantisation_step is None else (lambda q: fit(time, q, voltage)),
+        None if reference is not None else (lambda q: fit(time, q, voltage)),
         q_measured,
         quantisation_step,
     )
