@@ -162,7 +162,7 @@ class Identification:
             f"{', '.join(str(r) for r in estimate.rows)}; "
             + ("instrumental variables (the log's reference)" if self.log.reference is not None
                else "least squares (the log has no reference)"),  # fmt: skip
-            f"filters' cutoff {estimate.cutoff_rule or f'{estimate.cutoff_hz:g} Hz'}",
+            f"filters' cutoff {estimate.cutoff_words}",
             f"condition number of the scaled regressor: {estimate.condition_number:.3g}",
             f"{'':8s} {'estimate':>12s} {'std':>10s} {'rel. std':>9s} {'model':>12s}",
         ]

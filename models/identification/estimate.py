@@ -243,6 +243,11 @@ class Estimate:
         return np.sqrt(np.diag(self.covariance))
 
     @property
+    def cutoff_words(self) -> str:
+        """The filters' cutoff with the rule that chose it (``cutoff_rule``), or in Hz."""
+        return self.cutoff_rule or f"{self.cutoff_hz:g} Hz"
+
+    @property
     def relative_std(self) -> np.ndarray:
         """``std / |value|`` (``inf`` where the value is 0)."""
         with np.errstate(divide="ignore"):

@@ -157,7 +157,7 @@ def _identified_ratios(estimate: Estimate, size: int) -> tuple[np.ndarray, list[
             f"the log gives motor-constant ratios {np.round(values, 4).tolist()} for joints "
             f"{', '.join(names)} (relative to joint 1's nominal one), with standard errors "
             f"{np.round(estimate.std[size:], 4).tolist()} at the filters' cutoff "
-            f"{estimate.cutoff_rule or f'{estimate.cutoff_hz:g} Hz'}; positive ones are "
+            f"{estimate.cutoff_words}; positive ones are "
             "required: a log of this arm, its voltages in volts, is required"
         )
     kept = [name for name, ok in zip(names, identified, strict=True) if not ok]
