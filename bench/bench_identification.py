@@ -1,10 +1,13 @@
 """What ``posfb identify --log`` spends on a log of a six-joint arm (issue 42, item 8):
 
     .venv/bin/python bench/bench_identification.py [--scenario six_joint_nominal|FILE]
-        [--duration 60] [--repeat 3]
+        [--duration 60] [--sample-time 0.001] [--without-reference] [--repeat 3]
 
 A log of the scenario's own trajectory (Lin+LC, ``--duration`` s, with the reference
-columns ``posfb simulate --out`` writes) is simulated once; then the identification is
+columns ``posfb simulate --out`` writes; ``--sample-time`` sets ``timing.sample_time``, the
+log's row spacing, where given; ``--without-reference`` drops the reference columns, as
+a user's own log may lack them: least squares and the coarse-encoder refit instead of
+instrumental variables) is simulated once; then the identification is
 timed (median and smallest of ``--repeat``), in this process after a first untimed run
 (imports and caches warm). ``--profile`` prints the 15 functions of the largest
 cumulative time of one more run (``cProfile``).
@@ -25,6 +28,8 @@ def main() -> None:
     parser.add_argument("--scenario", default="six_joint_nominal",
                         help="a shipped scenario's name or a scenario file")  # fmt: skip
     parser.add_argument("--duration", type=float, default=60.0)
+    parser.add_argument("--sample-time", type=float, default=None)
+    parser.add_argument("--without-reference", action="store_true")
     parser.add_argument("--repeat", type=int, default=3)
     parser.add_argument("--profile", action="store_true")
     args = parser.parse_args()
@@ -33,11 +38,20 @@ def main() -> None:
     from posfb.analysis.api import shipped_scenarios
 
     source = shipped_scenarios().get(args.scenario, args.scenario)
-    loaded = posfb.load_scenario(source, set={"timing.duration": args.duration})
+    settings = {"timing.duration": args.duration}
+    if args.sample_time is not None:
+        settings["timing.sample_time"] = args.sample_time
+    loaded = posfb.load_scenario(source, set=settings)
     log = Path(tempfile.mkdtemp(prefix="posfb-bench-")) / "log.csv"
     began = time.perf_counter()
     posfb.simulate(loaded, "lin_lc").save(log)
-    print(f"{platform.node()}: {args.scenario}, a {args.duration:g} s log simulated in "
+    if args.without_reference:
+        import pandas as pd
+
+        table = pd.read_csv(log)
+        table.drop(columns=[c for c in table.columns if "_desired" in c]).to_csv(log, index=False)
+    print(f"{platform.node()}: {args.scenario}, a {args.duration:g} s log at "
+          f"{loaded.scenario.timing.sample_time:g} s simulated in "
           f"{time.perf_counter() - began:.1f} s")  # fmt: skip
     posfb.identify(log, loaded)
     times = []

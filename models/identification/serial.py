@@ -19,7 +19,8 @@ The equations ``Y_b,1 beta = kappa_1 u_1`` and ``Y_b,j beta - s_j kappa_j,nom u_
 the voltage columns filtered as the others.
 The physically consistent standard parameters closest to ``beta`` (in its standard
 errors, regularised towards the nominal URDF: ``consistent.fit_consistent``) are what
-``write_urdf`` writes and the controllers then use.
+``write_urdf`` writes and the controllers then use. First moments and inertias beyond
+what the description's links allow are flagged by name (``plausible``).
 """
 
 from __future__ import annotations
@@ -32,6 +33,7 @@ from posfb.models.description import Description
 from posfb.models.identification.checks import IDENTIFIABLE_RELATIVE_STD, estimate_warnings
 from posfb.models.identification.consistent import ConsistentModel, fit_consistent
 from posfb.models.identification.estimate import Estimate, FilterSettings, Reference, fit_log
+from posfb.models.identification.plausible import implausible, standard_bounds
 from posfb.models.identification.serial_regressor import (
     BaseParameters,
     SerialRegressor,
@@ -228,6 +230,10 @@ def identify_serial(
             f"{estimate.names[worst]} is {misfit[worst]:.1f} away (the model written is the "
             "closest consistent one)"
         )
+    warnings += implausible(
+        model.base, standard_bounds(model.regressor, model.nominal), estimate.values[:size],
+        estimate.std[:size], consistent.standard,
+    )  # fmt: skip
     declared = tuple(model.regressor.joints[1:]) if not fit_ratios else tuple(kept)
     return SerialIdentification(
         model, estimate, consistent, motor_constant, tuple(warnings), declared
