@@ -743,7 +743,8 @@ def identify(
         A second log of the same arm: the model's voltage and windowed output error
         against it (NRMSE per joint).
     cutoff_hz, stiction_velocity, window
-        The filters' cutoff (default: a tenth of the log's Nyquist frequency), the
+        The filters' cutoff (default: the stated rule of the motion's band, the
+        Nyquist frequency and the encoder, ``Estimate.cutoff_rule``), the
         velocity below which rows stay out of the fit (rad/s, default 0.3), the output
         error's window (s, default 1).
     set

@@ -1,7 +1,8 @@
 """What ``posfb identify --log`` spends on a log of a six-joint arm (issue 42, item 8):
 
     .venv/bin/python bench/bench_identification.py [--scenario six_joint_nominal|FILE]
-        [--duration 60] [--sample-time 0.001] [--without-reference] [--repeat 3]
+        [--duration 60] [--sample-time 0.001] [--without-reference] [--validate]
+        [--repeat 3]
 
 A log of the scenario's own trajectory (Lin+LC, ``--duration`` s, with the reference
 columns ``posfb simulate --out`` writes; ``--sample-time`` sets ``timing.sample_time``, the
@@ -10,7 +11,9 @@ a user's own log may lack them: least squares and the coarse-encoder refit inste
 instrumental variables) is simulated once; then the identification is
 timed (median and smallest of ``--repeat``), in this process after a first untimed run
 (imports and caches warm). ``--profile`` prints the 15 functions of the largest
-cumulative time of one more run (``cProfile``).
+cumulative time of one more run (``cProfile``). ``--validate`` times ``identify
+--validate`` with the same log as the second one (its windowed output-error simulation
+included).
 """
 
 from __future__ import annotations
@@ -30,6 +33,7 @@ def main() -> None:
     parser.add_argument("--duration", type=float, default=60.0)
     parser.add_argument("--sample-time", type=float, default=None)
     parser.add_argument("--without-reference", action="store_true")
+    parser.add_argument("--validate", action="store_true")
     parser.add_argument("--repeat", type=int, default=3)
     parser.add_argument("--profile", action="store_true")
     args = parser.parse_args()
@@ -53,11 +57,12 @@ def main() -> None:
     print(f"{platform.node()}: {args.scenario}, a {args.duration:g} s log at "
           f"{loaded.scenario.timing.sample_time:g} s simulated in "
           f"{time.perf_counter() - began:.1f} s")  # fmt: skip
-    posfb.identify(log, loaded)
+    second = log if args.validate else None
+    posfb.identify(log, loaded, validate=second)
     times = []
     for _ in range(args.repeat):
         began = time.perf_counter()
-        result = posfb.identify(log, loaded)
+        result = posfb.identify(log, loaded, validate=second)
         times.append(time.perf_counter() - began)
     print(f"identify: median {statistics.median(times):.2f} s, smallest {min(times):.2f} s "
           f"({result.estimate.values.size} values, cutoff "
@@ -67,7 +72,7 @@ def main() -> None:
         import pstats
 
         profile = cProfile.Profile()
-        profile.runcall(posfb.identify, log, loaded)
+        profile.runcall(posfb.identify, log, loaded, validate=second)
         pstats.Stats(profile).sort_stats("cumulative").print_stats(15)
 
 

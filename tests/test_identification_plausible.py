@@ -74,7 +74,8 @@ def test_a_published_file_has_the_base_parameters_of_its_exact_geometry(tmp_path
     try:
         names = []
         for urdf in (source, copy):
-            _, arm, context = build_arm_diagram(PlantConfig(urdf=str(urdf), description=description))
+            config = PlantConfig(urdf=str(urdf), description=description)
+            _, arm, context = build_arm_diagram(config)
             names.append(base_parameters(SerialRegressor.of_arm(arm, context)).names)
     finally:
         copy.unlink()

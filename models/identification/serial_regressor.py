@@ -42,6 +42,7 @@ random states, the base parameters ``beta = K pi`` with ``Y pi = Y_base beta``
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass
 
 import numpy as np
@@ -70,38 +71,65 @@ BASE_TOLERANCE = 1e-8
 
 
 def _skew(vectors: np.ndarray) -> np.ndarray:
-    """``[w]x`` of each row of ``vectors`` (``(N, 3)`` to ``(N, 3, 3)``)."""
+    """``[w]x`` of each row of ``vectors`` (``(..., 3)`` to ``(..., 3, 3)``)."""
     x, y, z = vectors[..., 0], vectors[..., 1], vectors[..., 2]
-    zero = np.zeros_like(x)
-    return np.stack(
-        [
-            np.stack([zero, -z, y], axis=-1),
-            np.stack([z, zero, -x], axis=-1),
-            np.stack([-y, x, zero], axis=-1),
-        ],
-        axis=-2,
-    )
+    out = np.zeros((*vectors.shape, 3))
+    out[..., 0, 1], out[..., 0, 2] = -z, y
+    out[..., 1, 0], out[..., 1, 2] = z, -x
+    out[..., 2, 0], out[..., 2, 1] = -y, x
+    return out
+
+
+def _double_cross(w: np.ndarray, r: np.ndarray) -> np.ndarray:
+    """``w x (w x r)`` of each row of ``w`` (``(N, 3)``) and a fixed ``r`` (``(3,)``):
+    ``w (w . r) - r |w|^2``."""
+    return w * (w @ r)[:, None] - r * np.einsum("ni,ni->n", w, w)[:, None]
 
 
 def _inertia_map(w: np.ndarray) -> np.ndarray:
     """``L(w)`` with ``I w = L(w) [Ixx, Iyy, Izz, Ixy, Ixz, Iyz]`` (``(N, 3, 6)``)."""
     x, y, z = w[:, 0], w[:, 1], w[:, 2]
-    zero = np.zeros_like(x)
-    return np.stack(
-        [
-            np.stack([x, zero, zero, y, z, zero], axis=-1),
-            np.stack([zero, y, zero, x, zero, z], axis=-1),
-            np.stack([zero, zero, z, zero, x, y], axis=-1),
-        ],
-        axis=-2,
-    )
+    out = np.zeros((w.shape[0], 3, 6))
+    out[:, 0, 0], out[:, 0, 3], out[:, 0, 4] = x, y, z
+    out[:, 1, 1], out[:, 1, 3], out[:, 1, 5] = y, x, z
+    out[:, 2, 2], out[:, 2, 4], out[:, 2, 5] = z, x, y
+    return out
 
 
 def _axis_rotations(axis: np.ndarray, angles: np.ndarray) -> np.ndarray:
     """Rotations by ``angles`` (``(N,)``) about the unit ``axis``: Rodrigues' formula."""
-    k = _skew(axis[None, :])[0]
+    k = _skew(axis)
     s, c = np.sin(angles)[:, None, None], np.cos(angles)[:, None, None]
     return np.eye(3) + s * k + (1.0 - c) * (k @ k)
+
+
+def _rotated_rows(x: np.ndarray, terms: np.ndarray, w: np.ndarray) -> np.ndarray:
+    """``R^T x`` of each row of ``x`` (``(N, ..., 3)``) with ``R = sum_i w_i terms_i``
+    (``terms``: ``(3, 3, 3)``; ``w``: ``(N, ..., 3)`` broadcasting with ``x``, ``w_0 = 1``):
+    ``x R``, one product with the fixed ``[R_0 | R_1 | R_2]``."""
+    y = x @ terms.transpose(1, 0, 2).reshape(3, 9)
+    return y[..., :3] + w[..., 1:2] * y[..., 3:6] + w[..., 2:3] * y[..., 6:]
+
+
+def _row_outward(rho: np.ndarray, terms: np.ndarray, w: np.ndarray, p: np.ndarray) -> np.ndarray:
+    """``rho X`` of each row ``rho = [rho_f, rho_n]`` (``(N, K, 6)``), ``X`` the map of a
+    wrench ``[f; n]`` of a child frame (about its origin, in it) to its parent's, ``[R f;
+    R n + p x R f]`` (``R = sum_i w_i terms_i``, ``w``: ``(N, 3)``; ``p``: ``(N, 3)``, the
+    child's origin): ``[(rho_f + rho_n x p) R, rho_n R]``."""
+    force, moment = rho[..., :3], rho[..., 3:]
+    p = p[:, None, :]
+    turned = np.stack(
+        [
+            moment[..., 1] * p[..., 2] - moment[..., 2] * p[..., 1],
+            moment[..., 2] * p[..., 0] - moment[..., 0] * p[..., 2],
+            moment[..., 0] * p[..., 1] - moment[..., 1] * p[..., 0],
+        ],
+        axis=-1,
+    )
+    both = np.concatenate([turned + force, moment], axis=1)
+    rows = rho.shape[1]
+    rotated = _rotated_rows(both, terms, w[:, None, :])
+    return np.concatenate([rotated[:, :rows], rotated[:, rows:]], axis=2)
 
 
 def _pose(transform: RigidTransform) -> tuple[np.ndarray, np.ndarray]:
@@ -255,65 +283,89 @@ class SerialRegressor:
         a = rng.uniform(-SAMPLE_ACCELERATION, SAMPLE_ACCELERATION, size=shape)
         return q, v, a
 
+    @functools.cached_property
+    def _joint_terms(self) -> tuple[np.ndarray, np.ndarray]:
+        """Per joint ``j``, ``X_PB(q_j)`` in Rodrigues' terms (``R(axis, q) = E + sin q K
+        + (1 - cos q) K^2``): ``rotations[j]`` stacks ``R_PF K^i R_BM^T`` (``(3, 3, 3)``,
+        ``i = 0, 1, 2``) and ``offsets[j]`` ``R_PF K^i (-R_BM^T p_BM)`` (``(3, 3)``), so
+        ``R_PB = sum_i w_i R_i`` and ``p_PB = p_PF + sum_i w_i p_i`` with ``w = (1,
+        sin q, 1 - cos q)``."""
+        rotations, offsets = [], []
+        for j in range(self.size):
+            K = _skew(self.axes[j])
+            powers = np.stack([np.eye(3), K, K @ K])
+            rotations.append(self.parent_rotation[j] @ powers @ self.child_rotation[j].T)
+            back = -self.child_rotation[j].T @ self.child_position[j]
+            offsets.append(self.parent_rotation[j] @ powers @ back)
+        return np.stack(rotations), np.stack(offsets)
+
     def inertial_columns(self, q: np.ndarray, v: np.ndarray, a: np.ndarray) -> np.ndarray:
         """``Y`` of the links, ``(N, n, 10 n)``: ``tau = Y @ pi_links`` is the torque
         ``M_links(q) q'' + c(q, q') - tau_g(q)`` (Drake's inverse dynamics without rotor
-        inertia and friction, N m) for the ``(N, n)`` states ``q, v = q', a = q''``."""
+        inertia and friction, N m) for the ``(N, n)`` states ``q, v = q', a = q''``.
+
+        Outward, per joint, the link's velocity, angular acceleration and origin
+        acceleration, with ``X_PB`` in Rodrigues' terms (``_joint_terms``: products with
+        fixed matrices, not one 3 x 3 product per sample) and a cross product with a fixed
+        vector ``p`` as the product with ``[p]x`` from the right (``w x p = w @ [p]x``).
+        Then joint ``k``'s torque from link ``i >= k``'s wrench block (``_link_block``,
+        about B_i's origin, in B_i) is ``rho_ki @ block_i``: ``rho_kk = c_k = [z x r; z]``
+        (``z`` the axis, ``r`` from the joint's point to the link's origin: the moment
+        about the axis, ``z . (n + r x f)``) and ``rho_ki = rho_k,i-1 X_i``, with ``X_i``
+        carrying a wrench of B_i to B_i-1 (``_row_outward``): the rows of joints
+        ``1 .. i`` are carried outward together, a row of 6 per joint and sample rather
+        than a 6 x 10 block per link carried inward."""
         n = self.size
         q, v, a = _motion(n, q=q, v=v, a=a)
         samples = q.shape[0]
+        rotations, offsets = self._joint_terms
         omega = np.zeros((samples, 3))
         omega_dot = np.zeros((samples, 3))
         accel = np.broadcast_to(-self.gravity, (samples, 3)).copy()
-        rotations, offsets, blocks = [], [], []
+        weights, placements, blocks = [], [], []
         for j in range(n):
-            R_PF, p_PF = self.parent_rotation[j], self.parent_position[j]
-            R_BM, p_BM = self.child_rotation[j], self.child_position[j]
-            turn = R_PF @ _axis_rotations(self.axes[j], q[:, j])  # R_PM
-            R_PB = turn @ R_BM.T
-            p_PB = p_PF + (turn @ (-R_BM.T @ p_BM))
-            z = R_BM @ self.axes[j]  # the axis in B
-            r = -p_BM  # from the joint's point to B's origin, in B
+            w = np.stack([np.ones(samples), np.sin(q[:, j]), 1.0 - np.cos(q[:, j])], axis=1)
+
+            def into_b(x: np.ndarray, j: int = j, w: np.ndarray = w) -> np.ndarray:
+                """``R_PB^T x`` of each row ``x`` (a vector of P, in B)."""
+                return _rotated_rows(x, rotations[j], w)
+
+            p_PF = self.parent_position[j]
+            z = self.child_rotation[j] @ self.axes[j]  # the axis in B
+            r = -self.child_position[j]  # from the joint's point to B's origin, in B
             # Acceleration of the joint's point (fixed in P and in B), in P:
-            joint_accel = accel + np.cross(omega_dot, p_PF) + np.cross(omega, np.cross(omega, p_PF))
-            inherited = np.einsum("nji,nj->ni", R_PB, omega)
-            spin = z * v[:, j : j + 1]
-            omega = inherited + spin
+            joint_accel = accel + omega_dot @ _skew(p_PF) + _double_cross(omega, p_PF)
+            inherited = into_b(omega)
+            omega = inherited + z * v[:, j : j + 1]
             omega_dot = (
-                np.einsum("nji,nj->ni", R_PB, omega_dot) + z * a[:, j : j + 1]
-                + np.cross(inherited, spin)
-            )  # fmt: skip
-            accel = (
-                np.einsum("nji,nj->ni", R_PB, joint_accel) + np.cross(omega_dot, r)
-                + np.cross(omega, np.cross(omega, r))
-            )  # fmt: skip
-            rotations.append(R_PB)
-            offsets.append(p_PB)
+                into_b(omega_dot) + z * a[:, j : j + 1] + (inherited @ _skew(z)) * v[:, j : j + 1]
+            )
+            accel = into_b(joint_accel) + omega_dot @ _skew(r) + _double_cross(omega, r)
+            weights.append(w)
+            placements.append(p_PF + w @ offsets[j])
             blocks.append(self._link_block(omega, omega_dot, accel))
         Y = np.zeros((samples, n, 10 * n))
+        rho = np.zeros((samples, 0, 6))
         for i in range(n):
-            wrench = blocks[i]  # (N, 6, 10): force rows then moment rows, about B_i's origin
-            for k in range(i, -1, -1):
-                force, moment = wrench[:, :3], wrench[:, 3:]
-                z = self.child_rotation[k] @ self.axes[k]
-                about_joint = moment + _skew(-self.child_position[k][None])[0] @ force
-                Y[:, k, 10 * i : 10 * i + 10] = np.einsum("i,nij->nj", z, about_joint)
-                if k > 0:
-                    R_PB, p_PB = rotations[k], offsets[k]
-                    force = R_PB @ force
-                    moment = R_PB @ moment + _skew(p_PB) @ force
-                    wrench = np.concatenate([force, moment], axis=1)
+            if i > 0:
+                rho = _row_outward(rho, rotations[i], weights[i], placements[i])
+            z = self.child_rotation[i] @ self.axes[i]
+            own = np.concatenate([np.cross(z, -self.child_position[i]), z])
+            rho = np.concatenate([rho, np.broadcast_to(own, (samples, 1, 6))], axis=1)
+            Y[:, : i + 1, 10 * i : 10 * i + 10] = rho @ blocks[i]
         return Y
 
     @staticmethod
     def _link_block(omega: np.ndarray, omega_dot: np.ndarray, accel: np.ndarray) -> np.ndarray:
         """The ``(N, 6, 10)`` matrix of a link's wrench ``[f; n]`` about its origin, in its
-        frame, in ``[m, h, I]`` (Atkeson et al. 1986)."""
+        frame, in ``[m, h, I]`` (Atkeson et al. 1986): ``f = m a + ([w']x + [w]x^2) h``,
+        ``n = L(w') I + [w]x L(w) I + h x a``."""
         samples = omega.shape[0]
         block = np.zeros((samples, 6, 10))
         w = _skew(omega)
         block[:, :3, 0] = accel
-        block[:, :3, 1:4] = _skew(omega_dot) + w @ w
+        block[:, :3, 1:4] = _skew(omega_dot) + omega[:, :, None] * omega[:, None, :]
+        block[:, :3, 1:4] -= np.einsum("ni,ni->n", omega, omega)[:, None, None] * np.eye(3)
         block[:, 3:, 1:4] = -_skew(accel)
         block[:, 3:, 4:] = _inertia_map(omega_dot) + w @ _inertia_map(omega)
         return block
