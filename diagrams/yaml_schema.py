@@ -20,6 +20,8 @@ from pathlib import Path
 import yaml
 from pydrake.common.yaml import yaml_load_typed
 
+from posfb.models.validation import require_regular_file
+
 
 def _require(condition: bool, message: str) -> None:
     if not condition:
@@ -141,10 +143,7 @@ _TaggedLoader.add_implicit_resolver("tag:yaml.org,2002:float", _FLOAT, list("-+0
 def read_text(path: Path, what: str, missing: type[Exception] = ValueError) -> str:
     """The text of the YAML file ``path`` (a ``what`` such as "scenario"); a folder, a
     missing file (``missing`` is raised), a binary or unreadable file is one line."""
-    if path.is_dir():
-        raise ValueError(f"{what} {path} is a directory; a YAML file is required")
-    if not path.is_file():
-        raise missing(f"{what} {path} does not exist")
+    require_regular_file(what, path, missing)
     try:
         return path.read_text()
     except UnicodeDecodeError:

@@ -102,7 +102,7 @@ def test_the_cli_reference_says_every_exit_code() -> None:
     parser = full_parser()
     assert parser.prog == "posfb"
     for code in ("0 done", "1 ", "2 bad input", "3 a bug", "4 a run diverged", "5 ", "6 ",
-                 "7 ", "8 ", "130 interrupted"):  # fmt: skip
+                 "7 ", "8 ", "9 ", "130 interrupted", "143 terminated"):  # fmt: skip
         assert code in parser.epilog
 
 

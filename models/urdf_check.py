@@ -73,6 +73,8 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from posfb.models.validation import require_regular_file
+
 if TYPE_CHECKING:
     from pydrake.multibody.parsing import Parser
     from pydrake.multibody.plant import MultibodyPlant
@@ -230,12 +232,7 @@ def weld_base(plant: MultibodyPlant, base: str) -> None:
 
 
 def read_urdf_bytes(path: Path) -> bytes:
-    if path.is_dir():
-        raise ValueError(f"URDF {path} is a directory; a URDF file is required")
-    if not path.exists():
-        raise FileNotFoundError(f"URDF {path} does not exist")
-    if not path.is_file():
-        raise ValueError(f"URDF {path} is not a regular file; a URDF file is required")
+    require_regular_file("URDF", path, FileNotFoundError)
     try:
         return path.read_bytes()
     except OSError as error:

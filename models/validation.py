@@ -4,7 +4,10 @@ the value it got and what is allowed."""
 from __future__ import annotations
 
 import math
+import os
+import stat
 from collections.abc import Sequence
+from pathlib import Path
 
 import numpy as np
 
@@ -81,3 +84,26 @@ def require_matrix(name: str, value: Sequence | np.ndarray, shape: tuple[int, in
     if not np.all(np.isfinite(array)):
         raise ValueError(f"{name} has non-finite entries; finite values are required")
     return array
+
+
+def require_regular_file(
+    what: str, path: str | os.PathLike[str], missing: type[Exception] = ValueError
+) -> Path:
+    """``path`` if it names a regular file (a ``what`` such as "log"): a folder, a FIFO,
+    a device or a socket is refused in one line before anything reads it (a FIFO would
+    block the read), a missing file with ``missing``."""
+    path = Path(path)
+    try:
+        mode = path.stat().st_mode
+    except FileNotFoundError:
+        raise missing(f"{what} {path} does not exist") from None
+    except OSError as error:
+        raise ValueError(f"{what} {path} cannot be read: {error.strerror}") from None
+    if stat.S_ISDIR(mode):
+        raise ValueError(f"{what} {path} is a directory; a file is required")
+    if not stat.S_ISREG(mode):
+        raise ValueError(
+            f"{what} {path} is not a regular file (a FIFO, a device or a socket); a file is "
+            "required"
+        )
+    return path

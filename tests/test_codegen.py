@@ -5,6 +5,7 @@ against the simulated controller's."""
 
 from __future__ import annotations
 
+import hashlib
 import json
 import math
 import re
@@ -229,9 +230,38 @@ def test_the_controller_object_is_compiled_once_per_source(tmp_path, monkeypatch
             (tmp_path / folder / name).write_text(text)
         build.compiled_object(tmp_path / folder, package.files, package.name)
     assert [call[0].name for call in compiled] == ["a", "b"]  # "c" came from the cache
-    assert len(list((tmp_path / "cache" / "c_objects").glob("*.o"))) == 2
+    assert len(list((tmp_path / "cache" / "c_objects").glob("*.entry"))) == 2
     first, third = ((tmp_path / f / f"{packages[0].name}.o").read_bytes() for f in "ac")
     assert first == third
+
+
+def test_a_planted_or_damaged_object_is_compiled_again_never_loaded(tmp_path, monkeypatch):
+    """Issue 43: an object in the cache that is not the one posfb wrote (raw bytes at the
+    entry's path, a truncated entry) is compiled again; in a cache others may write to,
+    even an entry with a consistent hash is not read."""
+    from posfb.analysis.codegen import build
+
+    cache = tmp_path / "cache"
+    monkeypatch.setenv(CACHE_ENV, str(cache))
+    package = generate(resolve(posfb.load_scenario(set={"controller.kind": "pid"})), None,
+                       "double")  # fmt: skip
+    for name, text in package.files.items():
+        (tmp_path / name).write_text(text)
+    compiled = []
+    real_compile = build.compile_c
+    monkeypatch.setattr(build, "compile_c", lambda *a: compiled.append(a) or real_compile(*a))
+    fresh = build.compiled_object(tmp_path, package.files, package.name).read_bytes()
+    (entry,) = (cache / "c_objects").glob("*.entry")
+    planted = b"\x7fELF a planted object with a constructor"
+    consistent = b"sha256:" + hashlib.sha256(planted).hexdigest().encode() + b"\n" + planted
+    for damage, mode in ((planted, 0o700), (entry.read_bytes()[:100], 0o700),
+                         (consistent, 0o777)):  # fmt: skip
+        entry.write_bytes(damage)
+        cache.chmod(mode)
+        built = build.compiled_object(tmp_path, package.files, package.name).read_bytes()
+        assert built == fresh
+    cache.chmod(0o700)
+    assert len(compiled) == 4  # the first build and one per damaged entry
 
 
 def test_readme_names_the_limit_and_the_design():

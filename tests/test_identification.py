@@ -16,8 +16,8 @@ from scipy.interpolate import CubicSpline
 import posfb
 from helpers.identification_logs import perturbed_parameters, simulated_log, true_theta
 from posfb.analysis.identification.log import read_log
-from posfb.models.identification.checks import IDENTIFIABLE_RELATIVE_STD
-from posfb.models.identification.estimate import Estimate
+from posfb.models.identification.checks import IDENTIFIABLE_RELATIVE_STD, unit_warning
+from posfb.models.identification.estimate import Estimate, FilterSettings
 from posfb.models.identification.model_file import load_model
 from posfb.models.identification.theta import bounded_model_values, identify_theta
 from posfb.models.identification.theta_regressor import THETA_NAMES, theta_regressor
@@ -97,6 +97,27 @@ def test_exact_held_voltage_data_leave_no_bias_of_the_filters(plan_csv):
     share = np.abs(estimate.values - truth.theta) * column_rms / voltage_rms[:, None]
     share[:, [5, 10]] = 0.0  # the Coulomb levels are 0 here: their columns fit noise only
     assert share.max() < 1e-3, share.max(axis=0)
+
+
+def test_a_log_in_other_units_is_named_by_its_distance_from_the_model(plan_csv):
+    """Issue 43: along a log with voltages in mV (1000 x) or positions in degrees, the
+    scenario's own model asks for voltages orders of magnitude from the log's (measured:
+    0.001 x and 21-28 x); along the arm's own log it does not (1.02-1.05 x)."""
+    import pandas as pd
+
+    table = pd.read_csv(plan_csv)
+    spline = CubicSpline(table["time_s"], table[["q1_rad", "q2_rad"]].to_numpy())
+    time, q, u = _zoh_log(LumpedModel(TABLE1), spline, 20.0)
+    for positions, voltages, warned in ((q, u, False), (q, 1000.0 * u, True),
+                                        (np.degrees(q), u, True)):  # fmt: skip
+        found = unit_warning(
+            time, positions, voltages,
+            lambda q, v, a: theta_regressor(q, v, a, TABLE1.l1, TABLE1.g), TABLE1.theta, None,
+            FilterSettings(cutoff_hz=5.0),
+        )  # fmt: skip
+        assert bool(found) == warned, found
+        if warned:
+            assert "voltages are in mV rather than V" in found[0]
 
 
 @pytest.mark.slow
@@ -223,15 +244,19 @@ def test_a_broken_model_file_is_one_line(tmp_path):
 def test_a_study_out_runs_a_montecarlo_study_and_tunes(plan_csv, tmp_path):
     """``identify --study-out`` -> ``montecarlo run`` -> ``tune --study`` end to end
     (issue 29): the study's plants are drawn from the identification's uncertainty,
-    its controllers use the identified model."""
+    its controllers use the identified model. The model and the study are written in a
+    folder whose name is YAML syntax (issue 43): the study names it quoted."""
     parameters = perturbed_parameters(12)
     log = simulated_log(tmp_path, "experiment", plan_csv, parameters, duration=30.0)
-    model, study = tmp_path / "model.yaml", tmp_path / "study.yaml"
+    folder = tmp_path / 'x"},dir: injected'
+    folder.mkdir()
+    model, study = folder / "model.yaml", folder / "study.yaml"
     # The study's samples run the paper's trajectory on the same arm (--study-scenario),
     # not the excitation the log came from.
     scenario = tmp_path / "tune_me.yaml"
     scenario.write_text(
-        f"nominal_model: !Identified {{file: {model}}}\ntiming: {{duration: 2}}\nplant:\n"
+        f"nominal_model: !Identified {{file: {json.dumps(str(model))}}}\n"
+        "timing: {duration: 2}\nplant:\n"
         + (tmp_path / "experiment.yaml").read_text().split("plant:\n")[1]
     )
     identified = subprocess.run(
@@ -241,7 +266,7 @@ def test_a_study_out_runs_a_montecarlo_study_and_tunes(plan_csv, tmp_path):
         capture_output=True, text=True, timeout=300,
     )  # fmt: skip
     assert identified.returncode == 0, identified.stderr
-    assert "scenario: tune_me.yaml" in study.read_text()
+    assert 'scenario: "../tune_me.yaml"' in study.read_text()  # montecarlo run reads it
     study.write_text(study.read_text() + "duration: 1.0\n")
     run = subprocess.run(
         [*CLI, "montecarlo", "run", str(study), "--db", str(tmp_path / "mc.sqlite"),

@@ -8,6 +8,7 @@ from __future__ import annotations
 import json
 import subprocess
 import sys
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -17,7 +18,7 @@ import posfb
 from helpers.montecarlo_helpers import run_into_store
 from posfb.analysis.common.configurations import scenario_configurations
 from posfb.analysis.common.shipped import shipped_files
-from posfb.analysis.design.worst_case import worst_case
+from posfb.analysis.design.worst_case import format_worst_case, worst_case
 from posfb.analysis.montecarlo.report import write_report
 from posfb.analysis.montecarlo.store import ResultStore
 from posfb.analysis.uncertainty.loops import StudyLoops
@@ -133,6 +134,18 @@ def test_search_finds_no_better_plant_than_the_worst_sampled(paper_study, paper_
             if low is not None and high is not None:
                 assert low - 1e-12 <= plant.values[k] <= high + 1e-12, axis.scalar.column
     assert "coulomb" not in {axis.scalar.key for axis in found.axes}
+
+
+def test_a_worst_case_over_unstable_loops_says_so(paper_worst):
+    """Issue 43: where the nominal or the sampled plants already have rho >= 1, a disk
+    margin of 0 says only that; the report says so (and says nothing on a stable box)."""
+    _, found = paper_worst
+    assert "note:" not in format_worst_case(found, "Lin+LC")
+    unstable = replace(found, nominal=replace(found.nominal, radius=1.2),
+                       sampled_radius=replace(found.sampled_radius, radius=1.3))  # fmt: skip
+    note = format_worst_case(unstable, "Lin+LC").splitlines()[-1]
+    assert note.startswith("note: the nominal plant and the worst sampled plant already have")
+    assert "rho >= 1" in note
 
 
 @pytest.mark.slow

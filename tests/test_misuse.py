@@ -45,6 +45,8 @@ PRISMATIC = DEFAULT_URDF.read_text().replace(
 SPHERICAL = PRISMATIC.replace('type="prismatic"', 'type="spherical"')
 THREE_LINK_URDF = (DEFAULT_URDF.parent / "three_link_arm.urdf").read_text()
 FILES = {
+    "plain.yaml": "timing: {duration: 1.0}\n",
+    "three_link.urdf": THREE_LINK_URDF,
     "study.yaml.svg": "<svg/>\n",
     "study.yaml.html": "<html></html>\n",
     "study.yaml": STUDY,
@@ -391,8 +393,8 @@ CASES = {
     ),
     "C check without a compiler": Case(
         ("codegen", "--controller", "lin_lc", "--out", "{tmp}/c", "--check", "{tmp}/log.csv"),
-        "log.csv: a C compiler is required to build the generated code: no 'cc' on the PATH",
-        path="/nonexistent",
+        "a C compiler is required to build the generated code: no 'cc' on the PATH",
+        path="/nonexistent", code=9,
     ),
     "software in the loop in an unknown precision": Case(
         ("simulate", "--sil", "quad"),
@@ -478,6 +480,14 @@ CASES = {
          "{tmp}/plugin_broadcast.yaml"),
         "--worst-case: controller 'Mine' has no linear design",
     ),
+    **{
+        f"worst case over {count} {option}": Case(
+            ("design", "--worst-case", "--study", "paper_uncertainty", f"--{option}", count),
+            f"--{option} = {count}; an integer from 1 to {ceiling} is required",
+        )
+        for option, count, ceiling in (("plants", "1000000000000", "10,000"),
+                                       ("generations", "1000000", "1,000"))
+    },
     "generations without the worst case": Case(
         ("design", "--generations", "3"), "--generations applies to --worst-case"
     ),
@@ -649,6 +659,14 @@ CASES = {
         ("identify", "--log", "{tmp}/log_three.csv"), "voltages for 3 joints and the arm has 2"
     ),
     "log that does not exist": Case(("identify", "--log", "{tmp}/gone.csv"), "does not exist"),
+    "log that is a folder": Case(("identify", "--log", "{tmp}"), "is a directory; a file is"),
+    "log that is a device": Case(
+        ("identify", "--log", "/dev/zero"), "log /dev/zero is not a regular file (a FIFO"
+    ),
+    "C check of a FIFO": Case(
+        ("codegen", "--controller", "lin_lc", "--out", "{tmp}/c", "--check", "{tmp}/fifo.csv"),
+        "fifo.csv is not a regular file (a FIFO, a device or a socket)",
+    ),
     "identify output without a log": Case(("identify", "--out", "{tmp}/m.yaml"), "needs --log"),
     "plan under the gravity voltage": Case(
         ("identify", "plan", "--out", "{tmp}/p.csv", "--set", "actuator.voltage_limit=0.5"),
@@ -656,6 +674,33 @@ CASES = {
     ),
     "plan with one harmonic": Case(
         ("identify", "plan", "--out", "{tmp}/p.csv", "--harmonics", "1"), "harmonics"
+    ),
+    "identified model over an existing file": Case(
+        ("identify", "--log", "{tmp}/log.csv", "--out", "{tmp}/study.yaml"),
+        "study.yaml exists; another file name is required (or --force", ("study.yaml",),
+    ),
+    "identified model over its own scenario": Case(
+        ("identify", "--log", "{tmp}/log.csv", "--scenario", "{tmp}/plain.yaml", "--out",
+         "{tmp}/plain.yaml"),
+        "plain.yaml is this command's own input", ("plain.yaml",),
+    ),
+    "identified study over the model": Case(
+        ("identify", "--log", "{tmp}/log.csv", "--out", "{tmp}/m.yaml", "--study-out",
+         "{tmp}/m.yaml"),
+        "m.yaml is also --out; a file of its own is required",
+    ),
+    "identified model over its log's URDF": Case(
+        ("identify", "--log", "{tmp}/log.csv", "--scenario",
+         str(SCENARIOS / "three_link_nominal.yaml"), "--out", "{tmp}/three_link.yaml"),
+        "three_link.urdf exists; another file name is required", ("three_link.urdf",),
+    ),
+    "plan of a motion below the encoder": Case(
+        ("identify", "plan", "--out", "{tmp}/p.csv", "--excursion", "1e-9"),
+        "encoder counts (peak to peak) at excursion = 1e-09 rad; at least 20 counts",
+    ),
+    "plan over an existing file": Case(
+        ("identify", "plan", "--out", "{tmp}/short.csv"),
+        "short.csv exists; another file name is required (or --force", ("short.csv",),
     ),
     # outputs
     "export suffix": Case(("simulate", "--out", "{tmp}/run.txt"), ".csv, .parquet, .npz"),
@@ -947,6 +992,7 @@ def outcomes(tmp_path_factory):
         for file, text in FILES.items():
             (folder / file).write_text(text)
         (folder / "binary.yaml").write_bytes(BINARY)
+        os.mkfifo(folder / "fifo.csv")  # a reader that opened it would wait forever
         with sqlite3.connect(folder / "foreign.sqlite") as connection:
             connection.execute("CREATE TABLE customers (name TEXT)")
         with sqlite3.connect(folder / "no_meta.sqlite") as connection:  # a store, meta dropped

@@ -217,7 +217,7 @@ def test_the_shipped_urdf_passes():
 
 
 def test_a_directory_is_named_as_such(tmp_path):
-    with pytest.raises(ValueError, match=r"is a directory; a URDF file is required"):
+    with pytest.raises(ValueError, match=r"is a directory; a file is required"):
         check_arm_urdf(tmp_path)
 
 

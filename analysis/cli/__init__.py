@@ -10,6 +10,7 @@ import argparse
 import importlib
 import os
 import re
+import signal
 import sys
 import traceback
 from collections.abc import Sequence
@@ -69,7 +70,9 @@ than the tolerance; 2 bad input; 3 a bug in posfb; 4 a run diverged
 a warning says which); 6 a results store is damaged; 7 the disk refused a write (no
 space left; what finished is kept, run again to resume); 8 a worker process died on a
 sample and its retry (montecarlo run, realism, model-error: recorded as that sample's
-error, the run went on); 130 interrupted.
+error, the run went on); 9 the C compiler is missing, failed or ran past its limit
+(codegen --check, simulate --sil; POSFB_COMPILE_TIMEOUT, default 300 s);
+130 interrupted; 143 terminated (SIGTERM: a line, and what Ctrl-C keeps is kept).
 The same from Python: import posfb (posfb.simulate, posfb.compare, posfb.build).
 Run posfb COMMAND --help for the options of a command."""
 
@@ -150,8 +153,57 @@ def plain_numbers(message: str) -> str:
 _NUMPY_SCALAR = re.compile(r"np\.(?:float|int|uint|complex)\d*\(([^()]*)\)")
 
 
+#: Exit code after SIGTERM (128 + 15, the shell's convention).
+EXIT_TERMINATED = 128 + signal.SIGTERM
+
+
+class TerminatedError(KeyboardInterrupt):
+    """SIGTERM, raised in the command's process as Ctrl-C is (``_on_terminate``): every
+    ``finally`` and cleanup an interrupt runs (a store's finished samples kept, a
+    compiler's process group stopped, temporary folders removed) runs for it too."""
+
+
+def _on_terminate(signum: int, frame: object) -> None:
+    """SIGTERM in the command's process: ``TerminatedError``. In a process forked from it
+    (a worker), the signal's default action, as before the handler."""
+    if os.getpid() != _COMMAND_PID.get("pid"):
+        signal.signal(signal.SIGTERM, signal.SIG_DFL)
+        os.kill(os.getpid(), signal.SIGTERM)
+        return
+    _COMMAND_PID["terminated"] = True
+    raise TerminatedError
+
+
+#: The command's own process id (``main``) and whether SIGTERM arrived.
+_COMMAND_PID: dict[str, object] = {}
+
+
+def _interrupted_import(error: ImportError) -> bool:
+    """Whether ``error`` is a Ctrl-C or SIGTERM that arrived while a compiled module
+    initialised (Python reports it as ``ImportError: initialization failed``)."""
+    seen: BaseException | None = error
+    while seen is not None:
+        if isinstance(seen, KeyboardInterrupt):
+            return True
+        seen = seen.__cause__ or seen.__context__
+    return False
+
+
+def _stopped(command: str | None, what: str = "") -> int:
+    """The line and exit code of a command stopped by Ctrl-C or SIGTERM."""
+    terminated = bool(_COMMAND_PID.get("terminated"))
+    word = "terminated" if terminated else "interrupted"
+    prefix = "posfb" if command is None else f"posfb {command}"
+    sys.stderr.write(f"{prefix}: {word}{': ' + what if what else ''}\n")
+    return EXIT_TERMINATED if terminated else EXIT_INTERRUPTED
+
+
 def main(argv: Sequence[str] | None = None) -> int:
-    """Entry point of ``posfb``; returns the exit code."""
+    """Entry point of ``posfb``; returns the exit code. SIGTERM is answered as Ctrl-C
+    is, with a line and ``EXIT_TERMINATED`` (``TerminatedError``)."""
+    _COMMAND_PID.update(pid=os.getpid(), terminated=False)
+    if signal.getsignal(signal.SIGTERM) in (signal.SIG_DFL, None):
+        signal.signal(signal.SIGTERM, _on_terminate)
     arguments = sys.argv[1:] if argv is None else list(argv)
     missing = _setting_without_value(arguments)
     if missing is not None:
@@ -163,8 +215,11 @@ def main(argv: Sequence[str] | None = None) -> int:
     try:
         parser = build_parser(argv)
     except KeyboardInterrupt:
-        sys.stderr.write("posfb: interrupted\n")
-        return EXIT_INTERRUPTED
+        return _stopped(None)
+    except ImportError as error:
+        if _interrupted_import(error):
+            return _stopped(None)
+        raise
     args = parser.parse_args(argv)
     try:
         return int(args.handler(args) or 0)
@@ -176,11 +231,9 @@ def main(argv: Sequence[str] | None = None) -> int:
         sys.stderr.write(f"posfb {args.command}: error: {fault}\n")
         return fault.exit_code
     except InterruptedRunError as interrupt:
-        sys.stderr.write(f"posfb {args.command}: interrupted: {interrupt}\n")
-        return EXIT_INTERRUPTED
+        return _stopped(args.command, str(interrupt))
     except KeyboardInterrupt:
-        sys.stderr.write(f"posfb {args.command}: interrupted\n")
-        return EXIT_INTERRUPTED
+        return _stopped(args.command)
     except BrokenPipeError:
         # The reader of stdout left early (``posfb design | head``): not an error.
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
@@ -190,6 +243,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         sys.stderr.write(f"posfb {args.command}: error: {error.strerror or error}{where}\n")
         return EXIT_DISK_FULL if error.errno in DISK_FULL_ERRNOS else EXIT_BAD_INPUT
     except Exception as error:  # a bug in posfb, not in the input: show everything
+        if isinstance(error, ImportError) and _interrupted_import(error):
+            return _stopped(args.command)
         frames = _user_frames(error)
         if frames:  # raised in the user's own controller: show the user's code only
             sys.stderr.write("".join(traceback.format_list(frames)))

@@ -20,7 +20,8 @@ from posfb.models.laws.compiled import CompiledController
 
 def shared_library(files: dict[str, str], name: str) -> Path:
     """``files`` written to a new temporary folder and ``NAME.c`` compiled into a shared
-    library there; ``ValueError`` without a C compiler, ``RuntimeError`` if it fails."""
+    library there; ``CompilerError`` without a C compiler, if it fails or runs past its
+    limit (``analysis.codegen.build``)."""
     folder = Path(tempfile.mkdtemp(prefix="posfb-sil-"))
     atexit.register(shutil.rmtree, folder, ignore_errors=True)
     for file, text in files.items():
@@ -33,7 +34,8 @@ def compiled_controller(
     resolved: ResolvedScenario, precision: str = "double"
 ) -> CompiledController:
     """The scenario's controller as compiled C (module docstring); ``ValueError`` (one
-    line) for a controller without generated code or without a C compiler."""
+    line) for a controller without generated code, ``CompilerError`` for a compiler
+    that is missing, fails or runs past its limit."""
     package = generate(resolved, None, precision)
     config = resolved.config
     simulated = make_controller(

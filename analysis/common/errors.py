@@ -64,6 +64,12 @@ DISK_FULL_ERRNOS = frozenset({errno.ENOSPC, errno.EDQUOT, errno.EFBIG})
 EXIT_WORKER_DIED = 8
 
 
+#: Exit code when the C compiler is missing, fails or does not finish within its time
+#: (``posfb codegen --check``, ``simulate --sil``; ``analysis.codegen.build``): one line
+#: naming the compiler and its first line of output, or the limit.
+EXIT_COMPILER = 9
+
+
 class EnvironmentFaultError(Exception):
     """A fault outside posfb (the disk, the store file, a killed process), not in the
     input nor a bug: reported as one line with the subclass's ``exit_code``."""
@@ -81,6 +87,12 @@ class DiskFullError(EnvironmentFaultError):
     """The disk refused a write (``EXIT_DISK_FULL``)."""
 
     exit_code = EXIT_DISK_FULL
+
+
+class CompilerError(EnvironmentFaultError):
+    """The C compiler is missing, failed or ran past its time (``EXIT_COMPILER``)."""
+
+    exit_code = EXIT_COMPILER
 
 
 class WorkerDiedError(EnvironmentFaultError):

@@ -59,6 +59,7 @@ import numpy as np
 import pandas as pd
 
 from posfb.analysis.common.outputs import EXPORT_FORMATS, atomic_file
+from posfb.models.validation import require_regular_file
 
 if TYPE_CHECKING:
     from posfb.diagrams.closed_loop import ClosedLoopResult
@@ -166,7 +167,7 @@ def export_run(result: ClosedLoopResult, path: str | os.PathLike[str]) -> Path:
 
 def read_run(path: str | os.PathLike[str]) -> pd.DataFrame:
     """Read a file written by ``export_run`` back into a DataFrame (same columns, order)."""
-    source = Path(path)
+    source = require_regular_file("log", path)
     suffix = _format(source, "path")
     if suffix == ".csv":
         return pd.read_csv(source, **_CSV_READ_OPTIONS)

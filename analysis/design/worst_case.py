@@ -53,6 +53,25 @@ DEFAULT_PLANTS = 100
 DEFAULT_GENERATIONS = 15
 DEFAULT_SEED = 0
 
+#: The most generations of the search: each evaluates ``POPULATION_PER_AXIS`` plants per
+#: box axis (a six-joint study: about 60, 0.1-1 s), so 1 000 are minutes to hours; the
+#: sampled plants' ceiling is ``tune``'s (``analysis.design.settings.MAX_DESIGN_PLANTS``).
+MAX_GENERATIONS = 1_000
+
+
+def check_search_size(plants: int, generations: int) -> None:
+    """``ValueError`` naming the count and its ceiling unless ``1 <= plants <=
+    MAX_DESIGN_PLANTS`` and ``1 <= generations <= MAX_GENERATIONS`` (before any work)."""
+    from posfb.analysis.design.settings import MAX_DESIGN_PLANTS
+
+    for name, value, ceiling in (("plants", plants, MAX_DESIGN_PLANTS),
+                                 ("generations", generations, MAX_GENERATIONS)):  # fmt: skip
+        if isinstance(value, bool) or not isinstance(value, int) or not 1 <= value <= ceiling:
+            raise ValueError(
+                f"{name} = {value!r}; an integer from 1 to {ceiling:,} is required "
+                f"({'MAX_DESIGN_PLANTS' if name == 'plants' else 'MAX_GENERATIONS'})"
+            )
+
 
 @dataclass(frozen=True)
 class Plant:
@@ -125,7 +144,8 @@ def worst_case(
     """The ``WorstCase`` of the scenario ``loaded``'s ``controller`` over ``study``'s box
     (module docstring). ``ValueError`` (one line): a study of another arm, one with a
     ``posterior:`` (no box), one that varies no arm parameter, or a controller without a
-    linear design."""
+    linear design, sizes beyond their ceilings (``check_search_size``)."""
+    check_search_size(plants, generations)
     if study.posterior is not None:
         raise ValueError("the study draws the arm from a posterior:, which has no parameter "
                          "box; a study with parameters: ranges is required")  # fmt: skip
@@ -252,4 +272,14 @@ def format_worst_case(found: WorstCase, label: str) -> str:
     for k, axis in enumerate(found.axes):
         lines.append(f"| {axis.scalar.column} | " + " | ".join(f"{p.values[k]:.6g}"
                                                               for p in columns) + " |")  # fmt: skip
+    unstable = [name for name, plant in (("the nominal plant", found.nominal),
+                                         ("the worst sampled plant", found.sampled_radius))
+                if plant.radius >= 1.0]  # fmt: skip
+    if unstable:
+        lines.append(
+            f"note: {' and '.join(unstable)} already {'has' if len(unstable) == 1 else 'have'} "
+            "rho >= 1: the loop is unstable there, a disk margin of 0 says only that, and "
+            "the search's worst is no sharper a verdict (a shorter sample time or a new "
+            "design first)"
+        )
     return "\n".join(lines)

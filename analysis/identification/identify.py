@@ -22,6 +22,7 @@ import numpy as np
 from posfb.analysis.identification.log import EncoderLog, read_log
 from posfb.diagrams.closed_loop import ClosedLoopConfig
 from posfb.diagrams.resolve import LoadedScenario, resolve
+from posfb.models.identification.checks import unit_warning
 from posfb.models.identification.consistent import write_urdf
 from posfb.models.identification.estimate import Estimate, FilterSettings
 from posfb.models.identification.model_file import IdentifiedModelFile, save_model
@@ -46,6 +47,8 @@ class Identification:
     theta: ThetaIdentification | None = None
     serial: SerialIdentification | None = None
     validation: Validation | None = None
+    #: What comparing the log with the scenario's own model says (``unit_warning``).
+    checks: tuple[str, ...] = ()
 
     @property
     def estimate(self) -> Estimate:
@@ -61,7 +64,8 @@ class Identification:
 
     @property
     def warnings(self) -> tuple[str, ...]:
-        return self.theta.warnings if self.theta is not None else self.serial.warnings
+        found = self.theta.warnings if self.theta is not None else self.serial.warnings
+        return (*found, *self.checks)
 
     def as_dict(self) -> dict[str, object]:
         """What ``posfb identify --log ... --json`` prints: for the paper's arm
@@ -101,24 +105,33 @@ class Identification:
 
     def save(self, path: str | Path) -> None:
         """Write the model file ``nominal_model: !Identified {file: ...}`` reads (for a
-        URDF arm, with the consistent arm's URDF beside it: ``MODEL.urdf``)."""
+        URDF arm, with the consistent arm's URDF beside it: ``MODEL.urdf``; ``urdf_path``).
+        Both are written whole or not at all (``analysis.common.outputs.atomic_file``)."""
+        from posfb.analysis.common.outputs import atomic_file
+
         path = Path(path)
         if self.theta is not None:
-            save_model(self.theta.model_file(self.log.source), path)
+            with atomic_file(path) as temporary:
+                save_model(self.theta.model_file(self.log.source), temporary)
             return
-        urdf = path.with_suffix(".urdf")
-        write_urdf(
-            self.serial.model.urdf, self.serial.consistent, urdf,
-            motor_constant=self.serial.motor_constant, description=self.serial.model.description,
-            declared=self.serial.declared,
-        )  # fmt: skip
-        save_model(
-            IdentifiedModelFile.of_estimate(
-                "urdf", self.estimate, self.model_values, self.log.source, self.warnings,
-                urdf=urdf.name,
-            ),
-            path,
-        )  # fmt: skip
+        urdf = self.urdf_path(path)
+        with atomic_file(urdf) as urdf_temporary, atomic_file(path) as temporary:
+            write_urdf(
+                self.serial.model.urdf, self.serial.consistent, urdf_temporary,
+                motor_constant=self.serial.motor_constant,
+                description=self.serial.model.description, declared=self.serial.declared,
+            )  # fmt: skip
+            save_model(
+                IdentifiedModelFile.of_estimate(
+                    "urdf", self.estimate, self.model_values, self.log.source, self.warnings,
+                    urdf=urdf.name,
+                ),
+                temporary,
+            )  # fmt: skip
+
+    def urdf_path(self, path: str | Path) -> Path | None:
+        """The URDF ``save(path)`` writes beside the model file (``None`` for theta)."""
+        return None if self.theta is not None else Path(path).with_suffix(".urdf")
 
     def save_study(
         self,
@@ -277,6 +290,11 @@ def identify_log(
         size = model.base.size
         regressor, target = model.columns, serial.torque
         described = (model.base.combine(model.nominal), model.torque)
+    checked_units = unit_warning(
+        record.time, record.q, record.u, regressor, described[0], described[1],
+        replace(settings, cutoff_hz=result.estimate.cutoff_hz),
+    )  # fmt: skip
+    result = replace(result, checks=tuple(checked_units))
     values = result.model_values if result.theta is not None else result.model_values[:size]
     if second is None:
         return result

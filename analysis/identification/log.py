@@ -29,6 +29,7 @@ from pathlib import Path
 import numpy as np
 
 from posfb.models.identification.estimate import Reference
+from posfb.models.validation import require_regular_file
 
 #: Relative spread of the sample intervals a log may have (clock jitter, round-off).
 EVEN_TOLERANCE = 1e-3
@@ -70,8 +71,7 @@ class EncoderLog:
 def _table(path: Path):
     import pandas as pd
 
-    if not path.is_file():
-        raise ValueError(f"log {path} does not exist")
+    require_regular_file("log", path)
     suffix = path.suffix.lower()
     try:
         if suffix == ".csv":

@@ -44,6 +44,10 @@ if TYPE_CHECKING:
 #: Velocity limit (rad/s) where the URDF gives none.
 DEFAULT_VELOCITY_LIMIT = 2.0
 
+#: The fewest encoder counts a plan must move every joint by (peak to peak): a motion of
+#: a few counts is the encoder's quantisation, not an excitation.
+MIN_COUNTS = 20
+
 #: Default largest excursion from the rest position (rad).
 DEFAULT_EXCURSION = np.pi / 2
 
@@ -80,8 +84,13 @@ class PlannedExcitation:
     fit_condition: float
 
     def save(self, path: str | Path) -> Path:
-        """Write the plan as a ``!CsvFile`` trajectory (``time_s, q1_rad, ..``)."""
-        return write_trajectory_csv(self.plan, path)
+        """Write the plan as a ``!CsvFile`` trajectory (``time_s, q1_rad, ..``), whole or
+        not at all (``analysis.common.outputs.atomic_file``)."""
+        from posfb.analysis.common.outputs import atomic_file
+
+        with atomic_file(path) as temporary:
+            write_trajectory_csv(self.plan, temporary)
+        return Path(path)
 
     def as_dict(self) -> dict[str, object]:
         """What ``posfb identify plan --json`` prints."""
@@ -121,6 +130,19 @@ class PlannedExcitation:
         return "\n".join(lines)
 
 
+def _require_counts(moved: np.ndarray, excursion: float, can: str = "") -> None:
+    """``ValueError`` naming the joints a plan moves (``can``: "can move at most") by
+    fewer than ``MIN_COUNTS`` encoder counts (``moved``: counts peak to peak per joint)."""
+    short = np.flatnonzero(moved < MIN_COUNTS)
+    if short.size:
+        listed = ", ".join(f"joint {j + 1} {moved[j]:.3g}" for j in short)
+        raise ValueError(
+            f"the plan {can or 'moves'} {listed} encoder counts (peak to peak) at excursion = "
+            f"{excursion:g} rad; at least {MIN_COUNTS} counts per joint are required to "
+            "excite anything: a larger excursion (or joint limits that allow one)"
+        )
+
+
 def plan_for_scenario(
     loaded: LoadedScenario,
     *,
@@ -149,6 +171,11 @@ def plan_for_scenario(
     lower, upper, urdf_velocity = _urdf_limits(config.plant, joints)
     lower = np.maximum(lower, rest - excursion)
     upper = np.minimum(upper, rest + excursion)
+    counts = np.asarray(config.sensor.encoder_counts, dtype=float)
+    step = 2.0 * np.pi / counts if np.all(counts > 0) else None
+    if step is not None:  # before the search: the limits leave too little room
+        _require_counts((upper - lower) / np.broadcast_to(step, (joints,)), excursion,
+                        "can move at most")  # fmt: skip
     if velocity_limit is None:
         velocity = np.where(np.isfinite(urdf_velocity), urdf_velocity, DEFAULT_VELOCITY_LIMIT)
     else:
@@ -169,8 +196,8 @@ def plan_for_scenario(
     )
     time = plan.sample_times()
     q, qdot, qddot = plan.trajectory.sample(time)
-    counts = np.asarray(config.sensor.encoder_counts, dtype=float)
-    step = 2.0 * np.pi / counts if np.all(counts > 0) else None
+    if step is not None:
+        _require_counts(np.ptp(q, axis=0) / np.broadcast_to(step, (joints,)), excursion)
     settings = FilterSettings().with_rule(time, q, Reference(q, qdot, qddot), step)
     motion = Motion(time, q, qdot, qddot, voltage(q, qdot, qddot),
                     settings.cutoff(float(time[1] - time[0])))  # fmt: skip

@@ -21,6 +21,7 @@ ready for ``posfb montecarlo run`` and ``posfb tune --study``.
 
 from __future__ import annotations
 
+import json
 import os
 from dataclasses import dataclass, replace
 from pathlib import Path
@@ -174,7 +175,11 @@ def write_study(
     seed: int = 0,
 ) -> Path:
     """The study file: the scenario (relative to the study's folder), the identified
-    model as its nominal model where ``model`` was written, the posterior."""
+    model as its nominal model where ``model`` was written, the posterior. Every path
+    and key is a YAML double-quoted scalar (``_quoted``): a file name cannot add keys;
+    the file is written whole or not at all."""
+    from posfb.analysis.common.outputs import atomic_file
+
     path = Path(path)
     source = Path(loaded.source)
     lines = [
@@ -183,21 +188,29 @@ def write_study(
         "# ~ N(mean, covariance) over the keys below, p_0 the scenario's true arm, the Laplace",
         f"# approximation with a log-normal prior of {PRIOR_LOG_STD:g} about p_0.",
         "#",
-        f"#   posfb montecarlo run {path.name} --db {path.stem}.sqlite",
+        f"#   posfb montecarlo run {_quoted(path.name)} --db {_quoted(path.stem + '.sqlite')}",
         f"seed: {seed}",
     ]
     if source.is_file():
-        lines.append(f"scenario: {os.path.relpath(source.resolve(), path.resolve().parent)}")
+        relative = os.path.relpath(source.resolve(), path.resolve().parent)
+        lines.append(f"scenario: {_quoted(relative)}")
     if model is not None:
-        lines.append(f'settings: ["nominal_model=!Identified {{file: {Path(model).resolve()}}}"]')
+        setting = f"nominal_model=!Identified {{file: {_quoted(str(Path(model).resolve()))}}}"
+        lines.append(f"settings: [{_quoted(setting)}]")
     lines += [
         f"samples: {samples}",
         f"controllers: [{', '.join(DEFAULT_CONTROLLERS)}]",
         "posterior:",
-        f"  keys: [{', '.join(repr(k) for k in posterior.keys)}]",
+        f"  keys: [{', '.join(_quoted(k) for k in posterior.keys)}]",
         f"  mean: [{', '.join(_number(m) for m in posterior.mean)}]",
         "  covariance:",
     ]
     lines += [f"  - [{', '.join(_number(c) for c in row)}]" for row in posterior.covariance]
-    path.write_text("\n".join(lines) + "\n")
+    with atomic_file(path) as temporary:
+        temporary.write_text("\n".join(lines) + "\n")
     return path
+
+
+def _quoted(text: str) -> str:
+    """``text`` as a YAML double-quoted scalar (JSON's escapes are YAML's)."""
+    return json.dumps(text)

@@ -8,7 +8,11 @@
   by more than the parameter's standard error (``_coarse_encoder``). Least squares
   only: instrumental variables (a log with the controller's reference) are not biased by
   the encoder, whose noise their stated intervals carry (the check's second dose would
-  measure that scatter, not a bias).
+  measure that scatter, not a bias);
+* a log the scenario's own model cannot have come from (``unit_warning``): the model's
+  voltage along the log's motion more than ``SCALE_FACTOR`` times the log's, or less
+  than its share, in RMS on a joint, is a log in other units (mV, degrees) or of
+  another arm far more often than an arm that far from its description.
 """
 
 from __future__ import annotations
@@ -17,13 +21,54 @@ from collections.abc import Callable
 
 import numpy as np
 
-from posfb.models.identification.estimate import Estimate
+from posfb.models.identification.estimate import (
+    Estimate,
+    FilterSettings,
+    filtered_motion,
+    kept_samples,
+)
 
 #: Relative standard error above which a parameter counts as not identifiable.
 IDENTIFIABLE_RELATIVE_STD = 0.10
 
 #: Condition number of the scaled regressor above which the excitation is poor.
 POOR_CONDITION = 100.0
+
+#: How far (a factor, either way) the scenario's model's voltage along a log's motion may
+#: be from the log's own, in RMS on a joint, before ``unit_warning`` names the likely
+#: cause: a description 10 x off is rare, a log in mV (1000 x) or degrees (20-60 x on
+#: the paper's arm) is not.
+SCALE_FACTOR = 10.0
+
+
+def unit_warning(
+    time: np.ndarray,
+    q_measured: np.ndarray,
+    voltage: np.ndarray,
+    regressor: Callable[[np.ndarray, np.ndarray, np.ndarray], np.ndarray],
+    nominal: np.ndarray,
+    target: Callable[[np.ndarray], np.ndarray] | None,
+    settings: FilterSettings,
+) -> list[str]:
+    """A warning when the scenario's model (``regressor(...) @ nominal``, the log's
+    motion filtered as the fit's) asks for a voltage whose RMS on some joint is more than
+    ``SCALE_FACTOR`` times larger or smaller than the log's (``target`` maps voltages to
+    the regressor's units, as in ``fit_log``; module docstring)."""
+    motion = filtered_motion(time, q_measured, voltage, settings)
+    kept = kept_samples(motion)
+    predicted = regressor(motion.q[kept], motion.qdot[kept], motion.qddot[kept]) @ nominal
+    applied = (motion.voltage if target is None else target(motion.voltage))[kept]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        ratio = np.sqrt(np.mean(predicted**2, axis=0) / np.mean(applied**2, axis=0))
+    off = np.flatnonzero(~((ratio >= 1.0 / SCALE_FACTOR) & (ratio <= SCALE_FACTOR)))
+    if off.size == 0:
+        return []
+    listed = ", ".join(f"joint {j + 1} {ratio[j]:.3g} x" for j in off)
+    return [
+        f"the scenario's model asks along this log's motion for voltages far from the log's "
+        f"(RMS: {listed}): a log whose voltages are in mV rather than V, whose positions "
+        "are in degrees rather than rad, or of another arm is the usual cause"
+    ]
 
 
 def _coarse_encoder(

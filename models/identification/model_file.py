@@ -21,6 +21,8 @@ from typing import TYPE_CHECKING
 
 from pydrake.common.yaml import yaml_dump_typed, yaml_load_typed
 
+from posfb.models.validation import require_regular_file
+
 if TYPE_CHECKING:
     from posfb.models.identification.estimate import Estimate
 
@@ -100,8 +102,7 @@ def save_model(model: IdentifiedModelFile, path: Path) -> None:
 
 def load_model(path: Path) -> IdentifiedModelFile:
     """The model in ``path`` (checked; a missing or malformed file is one line)."""
-    if not path.is_file():
-        raise ValueError(f"identified model file {path} does not exist")
+    require_regular_file("identified model file", path)
     try:
         model = yaml_load_typed(schema=IdentifiedModelFile, data=path.read_text())
     except RuntimeError as error:

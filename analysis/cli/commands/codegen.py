@@ -50,11 +50,12 @@ def run(args: argparse.Namespace) -> int:
         raise UsageError(f"--tolerance {args.tolerance:g} applies to --check LOG")
     table = None
     if args.check is not None:
-        from posfb.analysis.codegen.build import compiler
+        from posfb.analysis.codegen.build import compile_timeout, compiler
         from posfb.analysis.common.export import read_run
 
+        compiler()
+        compile_timeout()
         try:
-            compiler()
             table = read_run(args.check)
         except (ValueError, OSError) as error:
             raise UsageError(f"--check {args.check}: {error}") from None

@@ -239,6 +239,7 @@ def run_worst_case(args: argparse.Namespace) -> int:
     from posfb.analysis.design.worst_case import (
         DEFAULT_PLANTS,
         DEFAULT_SEED,
+        check_search_size,
         format_worst_case,
         worst_case,
         worst_case_to_dict,
@@ -252,8 +253,11 @@ def run_worst_case(args: argparse.Namespace) -> int:
     if args.study is None:
         raise UsageError("--worst-case needs --study STUDY.yaml (the parameter box to search)")
     plants = DEFAULT_PLANTS if args.plants is None else args.plants
-    if plants < 1:
-        raise UsageError(f"--plants {plants}; at least 1 sampled plant is required")
+    generations = DEFAULT_GENERATIONS if args.generations is None else args.generations
+    try:
+        check_search_size(plants, generations)
+    except ValueError as error:
+        raise UsageError(f"--worst-case --{error}") from None
     loaded = scenario_from_args(args)
     study = load_study(args.study, arm=arm_identity(loaded.scenario, loaded.base_dir))
     config = resolve(loaded).config
@@ -261,7 +265,7 @@ def run_worst_case(args: argparse.Namespace) -> int:
     try:
         found = worst_case(
             loaded, study, config.controller, plants=plants,
-            generations=DEFAULT_GENERATIONS if args.generations is None else args.generations,
+            generations=generations,
             seed=DEFAULT_SEED if args.seed is None else args.seed,
         )  # fmt: skip
     except ValueError as error:

@@ -87,6 +87,10 @@ def configure(parser: argparse.ArgumentParser) -> None:
         metavar="S",
         help="output-error window of --validate in s (default 1)",
     )
+    parser.add_argument(
+        "--force", action="store_true", help="replace existing --out, --figure and --study-out "
+        "files (never the command's own inputs without it)",
+    )  # fmt: skip
     parser.add_argument("--json", action="store_true", help="print one JSON object")
     parser.set_defaults(handler=run)
     actions = parser.add_subparsers(dest="action", parser_class=type(parser))
@@ -117,6 +121,7 @@ def configure(parser: argparse.ArgumentParser) -> None:
         metavar="RAD_PER_S",
         help="default: the URDF's joint velocity limits, else 2 rad/s",
     )
+    plan.add_argument("--force", action="store_true", help="replace an existing --out file")
     plan.add_argument("--json", action="store_true", help="print one JSON object")
     plan.set_defaults(handler=run_plan)  # fmt: skip
 
@@ -154,9 +159,11 @@ def run(args: argparse.Namespace) -> int:
         raise UsageError("--figure needs --validate (it draws the validation)")
     from posfb.analysis.api import identify
 
+    scenario = scenario_from_args(args)
+    _check_outputs(args, scenario)
     result = identify(
         args.log,
-        scenario_from_args(args),
+        scenario,
         validate=args.validate,
         cutoff_hz=args.cutoff,
         stiction_velocity=args.stiction_velocity,
@@ -183,9 +190,49 @@ def run(args: argparse.Namespace) -> int:
     return 0
 
 
+def _inputs(args: argparse.Namespace, *names: str) -> list[Path]:
+    """The command's input files among ``names`` (options holding a path) and its
+    scenario's file."""
+    found = [Path(getattr(args, name)) for name in names if getattr(args, name) is not None]
+    scenario = getattr(args, "scenario", None)
+    if scenario is not None and Path(str(scenario)).is_file():
+        found.append(Path(str(scenario)))
+    return found
+
+
+def _check_outputs(args: argparse.Namespace, scenario) -> None:
+    """Every file ``identify`` writes, checked before the work: none is an input, none
+    exists without ``--force`` (``output_file``), no two are the same file."""
+    from posfb.analysis.common.outputs import output_file
+    from posfb.diagrams.resolve import resolve
+    from posfb.models.lumped import LumpedParameters
+
+    inputs = _inputs(args, "log", "validate", "study_scenario")
+    outputs = {}
+    if args.out is not None:
+        outputs["--out"] = output_file("--out", args.out, (".yaml", ".yml"), args.force, inputs)
+        if not isinstance(resolve(scenario).config.design.nominal, LumpedParameters):
+            urdf = str(Path(args.out).with_suffix(".urdf"))  # a URDF arm's, beside the model
+            outputs["--out's URDF"] = output_file("--out's URDF", urdf, None, args.force, inputs)
+    if args.figure is not None:
+        outputs["--figure"] = output_file("--figure", args.figure, (".svg", ".png"), args.force,
+                                          inputs)  # fmt: skip
+    if args.study_out is not None:
+        outputs["--study-out"] = output_file("--study-out", args.study_out, (".yaml", ".yml"),
+                                             args.force, inputs)  # fmt: skip
+    seen: dict[Path, str] = {}
+    for option, path in outputs.items():
+        same = seen.get(path.resolve())
+        if same is not None:
+            raise UsageError(f"{option} {path} is also {same}; a file of its own is required")
+        seen[path.resolve()] = option
+
+
 def run_plan(args: argparse.Namespace) -> int:
     from posfb.analysis.api import plan_excitation
+    from posfb.analysis.common.outputs import output_file
 
+    output_file("--out", args.out, (".csv",), args.force, _inputs(args))
     plan = plan_excitation(
         scenario_from_args(args),
         duration=args.duration,
