@@ -16,9 +16,9 @@ from pathlib import Path
 
 import pytest
 
-from posfb.analysis.cli import EXIT_TERMINATED
 from posfb.analysis.codegen.build import TIMEOUT_ENV
 from posfb.analysis.common.errors import EXIT_COMPILER
+from posfb.analysis.common.termination import EXIT_TERMINATED
 
 pytestmark = pytest.mark.slow
 
@@ -100,7 +100,10 @@ def test_a_bad_limit_names_the_variable(tmp_path, limit):
 
 
 def test_sigterm_during_a_compile_is_one_line_and_leaves_nothing(tmp_path):
+    """... and a folder a run killed outright (SIGKILL) left is removed by this one."""
     command, environment = sil_command(tmp_path, "hangs", "600")
+    killed = tmp_path / "tmp" / "posfb-sil-2147483647-left"  # no process has this id
+    killed.mkdir()
     process = subprocess.Popen(command, stderr=subprocess.PIPE, stdout=subprocess.PIPE,
                                text=True, env=environment, cwd=tmp_path)  # fmt: skip
     began = time.monotonic()
@@ -113,3 +116,21 @@ def test_sigterm_during_a_compile_is_one_line_and_leaves_nothing(tmp_path):
     assert len(lines) == 1 and lines[0] == "posfb simulate: terminated", stderr
     assert fake_compilers() == ""
     assert list((tmp_path / "tmp").glob("posfb-sil-*")) == []
+
+
+def test_a_compiler_dies_with_a_posfb_killed_outright(tmp_path):
+    """SIGKILL runs no cleanup in posfb; the compiler (here: the fake's ``sleep``, after
+    its ``exec``) is killed with it all the same (Linux: ``PR_SET_PDEATHSIG``)."""
+    command, environment = sil_command(tmp_path, "hangs", "600")
+    process = subprocess.Popen(command, stderr=subprocess.DEVNULL, stdout=subprocess.DEVNULL,
+                               env=environment, cwd=tmp_path)  # fmt: skip
+    began = time.monotonic()
+    while fake_compilers() == "" and time.monotonic() - began < 120:
+        time.sleep(0.2)
+    assert fake_compilers() != ""
+    process.kill()
+    process.wait(timeout=30)
+    deadline = time.monotonic() + 10
+    while fake_compilers() != "" and time.monotonic() < deadline:
+        time.sleep(0.2)
+    assert fake_compilers() == ""

@@ -128,10 +128,11 @@ BINARY = bytes(range(256)) * 4
 
 
 def _log(rows: int = 400, *, time=None, header="time_s,q1_measured_rad,q2_measured_rad,"
-         "u1_applied_V,u2_applied_V", joints: int = 2, missing: int | None = None) -> str:
+         "u1_applied_V,u2_applied_V", joints: int = 2, missing: int | None = None,
+         huge: int | None = None) -> str:  # fmt: skip
     """A log of ``rows`` samples at 10 ms (``time`` replaces the instants), each joint
     swinging 0.5 rad at 0.5 Hz with a voltage to match, joint 1's position NaN at row
-    ``missing``: the columns are the only fault."""
+    ``missing`` and its voltage 1e300 at row ``huge``: the columns are the only fault."""
     import math
 
     lines = [header]
@@ -141,6 +142,8 @@ def _log(rows: int = 400, *, time=None, header="time_s,q1_measured_rad,q2_measur
         if k == missing:
             q[0] = math.nan
         u = [2.0 * math.cos(math.pi * instant + j) for j in range(joints)]
+        if k == huge:
+            u[0] = 1e300
         lines.append(",".join(f"{x:.6g}" for x in (instant, *q, *u)))
     return "\n".join(lines) + "\n"
 
@@ -159,6 +162,8 @@ LOGS = {
     "log_uneven.csv": _log(time=lambda k: 0.01 * k + (0.004 if k % 7 == 0 else 0.0)),
     "log_nan.csv": _log(missing=50),
     "log_short.csv": _log(rows=150),
+    "log_ms.csv": _log(time=lambda k: 10.0 * k),  # time_s in ms
+    "log_huge.csv": _log(huge=50),
     "log_bad_reference.csv": _with_reference(_log(), nan_row=1),
     "log_three.csv": _log(
         header="time_s,q1_measured_rad,q2_measured_rad,q3_measured_rad,u1_applied_V,"
@@ -386,6 +391,14 @@ CASES = {
     "C of a plug-in controller": Case(
         ("codegen", "--scenario", "{tmp}/plugin_broadcast.yaml", "--out", "{tmp}/c"),
         "controller 'Mine' has no generated code yet",
+    ),
+    "C over a folder of its file's name": Case(
+        ("codegen", "--controller", "lin_lc", "--out", "{tmp}/c2"),
+        "a folder is in the way of the output", ("c2/Makefile",),
+    ),
+    "C named as its example": Case(
+        ("codegen", "--controller", "lin_lc", "--out", "{tmp}/c", "--name", "main"),
+        "name = 'main' writes main.c, which the example's files are named",
     ),
     "C into a file": Case(
         ("codegen", "--controller", "lin_lc", "--out", "{tmp}/a_file"),
@@ -649,6 +662,13 @@ CASES = {
         ("identify", "--log", "{tmp}/log_backwards.csv"), "does not increase"
     ),
     "log time uneven": Case(("identify", "--log", "{tmp}/log_uneven.csv"), "unevenly spaced"),
+    "log of absurd values": Case(
+        ("identify", "--log", "{tmp}/log_huge.csv"),
+        "u1_applied_V is 1e+300 V at row 51; at most 10000 V in magnitude is required",
+    ),
+    "log time in ms": Case(
+        ("identify", "--log", "{tmp}/log_ms.csv"), "time_s is spaced 10 s; samples at most 1 s"
+    ),
     "log with NaN": Case(("identify", "--log", "{tmp}/log_nan.csv"), "is not finite at row"),
     "log too short": Case(("identify", "--log", "{tmp}/log_short.csv"), "too short"),
     "log with a reference that is not finite": Case(
@@ -693,6 +713,10 @@ CASES = {
         ("identify", "--log", "{tmp}/log.csv", "--scenario",
          str(SCENARIOS / "three_link_nominal.yaml"), "--out", "{tmp}/three_link.yaml"),
         "three_link.urdf exists; another file name is required", ("three_link.urdf",),
+    ),
+    "plan of a negative seed": Case(
+        ("identify", "plan", "--out", "{tmp}/p.csv", "--seed", "-1"),
+        "argument --seed: -1 is not >= 0",
     ),
     "plan of a motion below the encoder": Case(
         ("identify", "plan", "--out", "{tmp}/p.csv", "--excursion", "1e-9"),
@@ -993,6 +1017,8 @@ def outcomes(tmp_path_factory):
             (folder / file).write_text(text)
         (folder / "binary.yaml").write_bytes(BINARY)
         os.mkfifo(folder / "fifo.csv")  # a reader that opened it would wait forever
+        (folder / "c2" / "lin_lc.c").mkdir(parents=True)  # where codegen writes a file
+        (folder / "c2" / "Makefile").write_text("# the user's, kept\n")
         with sqlite3.connect(folder / "foreign.sqlite") as connection:
             connection.execute("CREATE TABLE customers (name TEXT)")
         with sqlite3.connect(folder / "no_meta.sqlite") as connection:  # a store, meta dropped

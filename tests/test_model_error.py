@@ -92,3 +92,17 @@ def test_model_error_runs_resumes_and_reports(tmp_path):
     assert all(e > 0.01 for e in e_size)
     report = (out / "report.md").read_text()
     assert "## (c) Model-error size" in report and "identified_20000" in report
+    # Issue 43: damaged intermediate files (a kill or a full disk during an older write)
+    # are named by --report-only and made again, with a line each, by the next run.
+    plan = out / "identification" / "plan_0.csv"
+    plan.write_text(plan.read_text()[:500])
+    record.write_text('{"encoder_counts": 20000, "plan"')
+    refused = subprocess.run([*command, "--report-only"], capture_output=True, text=True)
+    assert refused.returncode == 2
+    (line,) = refused.stderr.strip().splitlines()
+    assert line.startswith(f"posfb model-error: error: {record} is damaged (Expecting ")
+    assert line.endswith("; run posfb model-error without --report-only to make it again")
+    third = subprocess.run(command, capture_output=True, text=True)
+    assert third.returncode == 0, third.stderr
+    assert f"{record} is damaged" in third.stderr and f"{plan} is damaged (" in third.stderr
+    assert json.loads(record.read_text())["encoder_counts"] == 20000

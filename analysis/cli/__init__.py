@@ -10,7 +10,6 @@ import argparse
 import importlib
 import os
 import re
-import signal
 import sys
 import traceback
 from collections.abc import Sequence
@@ -153,31 +152,6 @@ def plain_numbers(message: str) -> str:
 _NUMPY_SCALAR = re.compile(r"np\.(?:float|int|uint|complex)\d*\(([^()]*)\)")
 
 
-#: Exit code after SIGTERM (128 + 15, the shell's convention).
-EXIT_TERMINATED = 128 + signal.SIGTERM
-
-
-class TerminatedError(KeyboardInterrupt):
-    """SIGTERM, raised in the command's process as Ctrl-C is (``_on_terminate``): every
-    ``finally`` and cleanup an interrupt runs (a store's finished samples kept, a
-    compiler's process group stopped, temporary folders removed) runs for it too."""
-
-
-def _on_terminate(signum: int, frame: object) -> None:
-    """SIGTERM in the command's process: ``TerminatedError``. In a process forked from it
-    (a worker), the signal's default action, as before the handler."""
-    if os.getpid() != _COMMAND_PID.get("pid"):
-        signal.signal(signal.SIGTERM, signal.SIG_DFL)
-        os.kill(os.getpid(), signal.SIGTERM)
-        return
-    _COMMAND_PID["terminated"] = True
-    raise TerminatedError
-
-
-#: The command's own process id (``main``) and whether SIGTERM arrived.
-_COMMAND_PID: dict[str, object] = {}
-
-
 def _interrupted_import(error: ImportError) -> bool:
     """Whether ``error`` is a Ctrl-C or SIGTERM that arrived while a compiled module
     initialised (Python reports it as ``ImportError: initialization failed``)."""
@@ -191,19 +165,21 @@ def _interrupted_import(error: ImportError) -> bool:
 
 def _stopped(command: str | None, what: str = "") -> int:
     """The line and exit code of a command stopped by Ctrl-C or SIGTERM."""
-    terminated = bool(_COMMAND_PID.get("terminated"))
+    from posfb.analysis.common import termination
+
+    terminated = termination.terminated()
     word = "terminated" if terminated else "interrupted"
     prefix = "posfb" if command is None else f"posfb {command}"
     sys.stderr.write(f"{prefix}: {word}{': ' + what if what else ''}\n")
-    return EXIT_TERMINATED if terminated else EXIT_INTERRUPTED
+    return termination.EXIT_TERMINATED if terminated else EXIT_INTERRUPTED
 
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Entry point of ``posfb``; returns the exit code. SIGTERM is answered as Ctrl-C
-    is, with a line and ``EXIT_TERMINATED`` (``TerminatedError``)."""
-    _COMMAND_PID.update(pid=os.getpid(), terminated=False)
-    if signal.getsignal(signal.SIGTERM) in (signal.SIG_DFL, None):
-        signal.signal(signal.SIGTERM, _on_terminate)
+    is, with a line and ``EXIT_TERMINATED`` (``analysis.common.termination``)."""
+    from posfb.analysis.common import termination
+
+    termination.install()
     arguments = sys.argv[1:] if argv is None else list(argv)
     missing = _setting_without_value(arguments)
     if missing is not None:

@@ -14,13 +14,15 @@ alike.
 
 Every compiler call is bounded: it runs in a process group of its own, stopped (the
 whole group: no compiler is left behind) after ``COMPILE_TIMEOUT_S`` seconds
-(``$POSFB_COMPILE_TIMEOUT`` sets another limit) or when posfb is interrupted. A missing
+(``$POSFB_COMPILE_TIMEOUT`` sets another limit) or when posfb is interrupted; on Linux
+the compiler is also killed when posfb itself is killed outright (SIGKILL). A missing
 compiler, a failure and a timeout are ``CompilerError`` (one line, ``EXIT_COMPILER``).
 """
 
 from __future__ import annotations
 
 import contextlib
+import ctypes
 import functools
 import hashlib
 import math
@@ -28,6 +30,7 @@ import os
 import shutil
 import signal
 import subprocess
+import sys
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 
@@ -71,6 +74,13 @@ def compile_timeout() -> float:
     return value
 
 
+def _die_with_parent() -> None:
+    """In the compiler's process before it runs (Linux): SIGKILL it when posfb dies, even
+    killed outright (``prctl(PR_SET_PDEATHSIG)``, kept across its ``exec``)."""
+    with contextlib.suppress(OSError, AttributeError):
+        ctypes.CDLL(None, use_errno=True).prctl(1, signal.SIGKILL)  # 1: PR_SET_PDEATHSIG
+
+
 def run_compiler(command: Sequence[str], folder: Path | None = None) -> tuple[int, str, str]:
     """``command`` (a compiler call) run in ``folder`` in a process group of its own:
     ``(exit code, stdout, stderr)``. Past the limit (``compile_timeout``) or on an
@@ -79,6 +89,7 @@ def run_compiler(command: Sequence[str], folder: Path | None = None) -> tuple[in
     process = subprocess.Popen(
         list(command), cwd=folder, stdin=subprocess.DEVNULL, stdout=subprocess.PIPE,
         stderr=subprocess.PIPE, text=True, start_new_session=True,
+        preexec_fn=_die_with_parent if sys.platform == "linux" else None,
     )  # fmt: skip
     try:
         out, err = process.communicate(timeout=limit)

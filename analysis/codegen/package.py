@@ -135,7 +135,13 @@ def generate(resolved: ResolvedScenario, name: str | None, precision: str) -> Pa
     config = resolved.config
     package = Package(name, precision, law, config.sample_time, tuple(config.voltage_limit),
                       nominal_words(config.design.nominal), files)  # fmt: skip
-    files["main.c"] = _main(name, real, law.joints)
-    files["Makefile"] = _makefile(name)
+    example = {"main.c": _main(name, real, law.joints), "Makefile": _makefile(name)}
+    taken = sorted(set(files) & set(example))
+    if taken:
+        raise ValueError(
+            f"name = {name!r} writes {', '.join(taken)}, which the example's files are "
+            "named; another name is required"
+        )
+    files.update(example)
     files["README.md"] = _readme(package)
     return package

@@ -7,6 +7,7 @@ in the loop is unchanged. The library lives in a temporary folder removed at exi
 from __future__ import annotations
 
 import atexit
+import os
 import shutil
 import tempfile
 from pathlib import Path
@@ -17,12 +18,32 @@ from posfb.diagrams.resolve import ResolvedScenario
 from posfb.models.controllers import make_controller
 from posfb.models.laws.compiled import CompiledController
 
+#: The temporary folders' prefix; the creating process's id follows it.
+FOLDER_PREFIX = "posfb-sil-"
+
+
+def _remove_stale_folders() -> None:
+    """Remove the temporary folders of software-in-the-loop runs that were killed outright
+    (SIGKILL: nothing of theirs ran at exit): the user's own, whose process is gone."""
+    for folder in Path(tempfile.gettempdir()).glob(f"{FOLDER_PREFIX}*-*"):
+        pid = folder.name.removeprefix(FOLDER_PREFIX).split("-", 1)[0]
+        try:
+            if not pid.isdigit() or folder.stat().st_uid != os.geteuid():
+                continue
+            os.kill(int(pid), 0)
+        except ProcessLookupError:
+            shutil.rmtree(folder, ignore_errors=True)
+        except (OSError, OverflowError):
+            continue
+
 
 def shared_library(files: dict[str, str], name: str) -> Path:
     """``files`` written to a new temporary folder and ``NAME.c`` compiled into a shared
     library there; ``CompilerError`` without a C compiler, if it fails or runs past its
-    limit (``analysis.codegen.build``)."""
-    folder = Path(tempfile.mkdtemp(prefix="posfb-sil-"))
+    limit (``analysis.codegen.build``). The folder is removed at exit; one a killed run
+    left is removed by the next run (``_remove_stale_folders``)."""
+    _remove_stale_folders()
+    folder = Path(tempfile.mkdtemp(prefix=f"{FOLDER_PREFIX}{os.getpid()}-"))
     atexit.register(shutil.rmtree, folder, ignore_errors=True)
     for file, text in files.items():
         (folder / file).write_text(text)

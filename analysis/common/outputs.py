@@ -17,6 +17,7 @@ target is as it was."""
 
 from __future__ import annotations
 
+import errno
 import os
 import secrets
 import shutil
@@ -155,15 +156,33 @@ def staged_folder(path: str | os.PathLike[str]) -> Iterator[StagedFolder]:
     (on the same file system, so that a move is a rename). Once the block is done, every
     file under it is moved into ``path`` (created if missing) by ``os.replace``, in the
     same relative place: a file of the same name is replaced, the folder's other files are
-    kept. On any failure, ``KeyboardInterrupt`` included, the temporary folder is removed
-    and nothing of the run reaches ``path``."""
+    kept; a folder where a file goes (or the reverse) is refused (``OSError`` naming it)
+    before anything moves. On any failure, ``KeyboardInterrupt`` included, the temporary
+    folder is removed and nothing of the run reaches ``path``; an ``OSError`` of a write
+    into the temporary folder names ``path`` instead."""
     target = Path(path)
     anchor = _first_existing(target.parent)  # no folder is created before the work is done
-    staging = Path(tempfile.mkdtemp(prefix=f".{target.name}.", suffix=".staging", dir=anchor))
     try:
-        yield StagedFolder(staging, target)
+        staging = Path(tempfile.mkdtemp(prefix=f".{target.name}.", suffix=".staging", dir=anchor))
+    except OSError as error:
+        raise OSError(error.errno, error.strerror, str(target)) from error
+    try:
+        try:
+            yield StagedFolder(staging, target)
+        except OSError as error:  # a write into the staging folder: name the target
+            if error.errno is None or (
+                error.filename is not None and not str(error.filename).startswith(str(staging))
+            ):
+                raise
+            raise OSError(error.errno, error.strerror, str(target)) from error
+        sources = sorted(staging.rglob("*"))
+        for source in sources:  # every move checked before the first: nothing half-moved
+            destination = target / source.relative_to(staging)
+            if destination.is_dir() != source.is_dir() and destination.exists():
+                kind = "a folder" if destination.is_dir() else "a file"
+                raise OSError(errno.EEXIST, f"{kind} is in the way of the output", str(destination))
         target.mkdir(parents=True, exist_ok=True)
-        for source in sorted(staging.rglob("*")):
+        for source in sources:
             destination = target / source.relative_to(staging)
             if source.is_dir():
                 destination.mkdir(exist_ok=True)

@@ -37,6 +37,15 @@ EVEN_TOLERANCE = 1e-3
 #: The fewest samples a log must hold.
 MIN_SAMPLES = 100
 
+#: The largest magnitude a log's position (rad, after counts are converted) or voltage
+#: (V) may have: far beyond any arm's (1 600 turns, 10 kV), far below where the fit's
+#: arithmetic overflows.
+MAX_VALUE = 1e4
+
+#: The widest sample spacing (s) a log may have: a control loop's log is sampled far
+#: faster (the paper's: 10 ms); a wider one is a log in other time units (ms).
+MAX_SAMPLE_TIME = 1.0
+
 TEMPLATE = """\
 time_s,q1_measured_rad,q2_measured_rad,u1_applied_V,u2_applied_V
 0.00,0.000000,0.000000,0.512,-0.210
@@ -163,6 +172,12 @@ def read_log(
             f"{time[row + 1]!r}); increasing sample instants are required"
         )
     median = float(np.median(steps))
+    if median > MAX_SAMPLE_TIME:
+        raise ValueError(
+            f"log {path}: time_s is spaced {median:g} s; samples at most "
+            f"{MAX_SAMPLE_TIME:g} s apart (a control loop's) are required: time in ms rather "
+            "than s?"
+        )
     spread = float(np.max(np.abs(steps - median)) / median)
     if spread > EVEN_TOLERANCE:
         raise ValueError(
@@ -173,6 +188,15 @@ def read_log(
     q = data[:, 1 : n + 1]
     if step is not None:
         q = q * step
+    for names, values, unit in ((position_columns, q, "rad"), (voltages, data[:, n + 1 :], "V")):
+        beyond = np.abs(values) > MAX_VALUE
+        if beyond.any():
+            row, column = np.argwhere(beyond)[0]
+            raise ValueError(
+                f"log {path}: {names[column]} is {values[row, column]:g} {unit} at row "
+                f"{row + 1}; at most {MAX_VALUE:g} {unit} in magnitude is required (another "
+                "unit, or a corrupted file?)"
+            )
     even_time = time[0] + median * np.arange(time.size)
     reference = _reference(table, columns, n, median, str(path))
     return EncoderLog(even_time, q, data[:, n + 1 :], str(path), step, reference)

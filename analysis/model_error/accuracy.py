@@ -12,8 +12,11 @@ stopped; the logs are kept only for plan 0, whose model file and plant posterior
 from __future__ import annotations
 
 import json
+import sys
+from collections.abc import Callable
 from dataclasses import asdict, dataclass
 from pathlib import Path
+from typing import TypeVar
 
 import numpy as np
 
@@ -30,6 +33,8 @@ from posfb.models.plant import apply_parameters
 
 #: The plan whose identification part (b) draws from (and whose logs are kept).
 POSTERIOR_PLAN = 0
+
+T = TypeVar("T")
 
 
 @dataclass(frozen=True)
@@ -100,10 +105,71 @@ def require_recorded(path: Path) -> Path:
     return path
 
 
+def _read_plan(path: Path, duration: float) -> None:
+    """``ValueError`` unless ``path`` is a whole plan of ``duration`` s (``plan.save``'s
+    columns, finite, to its end)."""
+    import pandas as pd
+
+    try:
+        table = pd.read_csv(path)
+    except Exception as error:  # pandas raises many kinds; the file may be anything
+        first = str(error).splitlines()[0] if str(error) else type(error).__name__
+        raise ValueError(first) from None
+    values = table.to_numpy(dtype=float, na_value=np.nan) if "time_s" in table else None
+    if values is None or table.shape[1] < 2 or not np.all(np.isfinite(values)):
+        raise ValueError("not a whole plan (time_s and finite positions)")
+    if values[-1, 0] < duration * (1.0 - 1e-9):
+        raise ValueError(f"it ends at {values[-1, 0]:g} s of {duration:g} s")
+
+
+def _read_record(path: Path) -> AccuracyRecord:
+    return AccuracyRecord(**json.loads(path.read_text()))
+
+
+def read_posterior(path: Path) -> dict[str, object]:
+    found = json.loads(path.read_text())
+    if not (isinstance(found, dict) and set(found) == {"keys", "mean", "covariance"}):
+        raise ValueError("not a posterior (keys, mean, covariance)")
+    return found
+
+
+def damage(path: Path, read: Callable[[Path], object]) -> str | None:
+    """Why the file an earlier run wrote at ``path`` cannot be read back by ``read``
+    (``None``: it can; a missing file is not damaged, only not written)."""
+    if not path.is_file():
+        return None
+    try:
+        read(path)
+    except (OSError, ValueError, TypeError) as error:
+        return str(error).splitlines()[0] if str(error) else type(error).__name__
+    return None
+
+
+def _redo(path: Path, why: str) -> None:
+    """Say, in one line, that a damaged file is made again."""
+    sys.stderr.write(f"posfb model-error: {path} is damaged ({why}); making it again\n")
+    path.unlink(missing_ok=True)
+
+
+def read_recorded(path: Path, read: Callable[[Path], T]) -> T:
+    """``read(path)`` of a file an earlier run wrote; a damaged one is one line naming it
+    (the study without ``--report-only`` makes it again)."""
+    why = damage(require_recorded(path), read)
+    if why is not None:
+        raise ValueError(
+            f"{path} is damaged ({why}); run posfb model-error without --report-only to make "
+            "it again"
+        )
+    return read(path)
+
+
 def _plan(spec: ModelErrorSpec, folder: Path, seed: int) -> Path:
     path = folder / f"plan_{seed}.csv"
+    runs = spec.identification
+    why = damage(path, lambda p: _read_plan(p, runs.duration))
+    if why is not None:
+        _redo(path, why)
     if not path.is_file():
-        runs = spec.identification
         planned = plan_for_scenario(_scenario(spec, []), duration=runs.duration, seed=seed)
         planned.save(path)
     return path
@@ -161,7 +227,14 @@ def run_identifications(spec: ModelErrorSpec, folder: Path, logs: Path) -> None:
     runs = spec.identification
     for counts in runs.encoder_counts:
         for plan in range(runs.plans):
-            if not record_path(folder, counts, plan).is_file():
+            written = [(record_path(folder, counts, plan), _read_record)]
+            if plan == POSTERIOR_PLAN:
+                written.append((posterior_path(folder, counts), read_posterior))
+            for path, read in written:
+                why = damage(path, read)
+                if why is not None:
+                    _redo(path, why)
+            if not all(path.is_file() for path, _ in written):
                 _identify(spec, folder, logs, counts, plan)
 
 
@@ -171,7 +244,6 @@ def load_records(spec: ModelErrorSpec, folder: Path) -> dict[int, list[AccuracyR
     for counts in spec.identification.encoder_counts:
         found = []
         for plan in range(spec.identification.plans):
-            path = require_recorded(record_path(folder, counts, plan))
-            found.append(AccuracyRecord(**json.loads(path.read_text())))
+            found.append(read_recorded(record_path(folder, counts, plan), _read_record))
         records[counts] = found
     return records

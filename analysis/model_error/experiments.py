@@ -16,11 +16,15 @@ the ideal arm, then one study per "effect", each a resumable store).
 
 from __future__ import annotations
 
-import json
 from dataclasses import replace
 from pathlib import Path
 
-from posfb.analysis.model_error.accuracy import model_path, posterior_path, require_recorded
+from posfb.analysis.model_error.accuracy import (
+    model_path,
+    posterior_path,
+    read_posterior,
+    read_recorded,
+)
 from posfb.analysis.model_error.spec import ModelErrorSpec
 from posfb.analysis.realism.spec import Effect, RealismSpec, RealismStudies, realism_studies
 from posfb.analysis.uncertainty.study import ParameterDistributions, Posterior, Study, Uniform
@@ -43,7 +47,7 @@ def size_name(size: float) -> str:
 def _identified_effects(spec: ModelErrorSpec, folder: Path) -> list[Effect]:
     effects = []
     for counts in spec.identification.encoder_counts:
-        path = require_recorded(posterior_path(folder, counts))
+        posterior = read_recorded(posterior_path(folder, counts), read_posterior)
         effects.append(
             Effect(
                 name=identified_name(counts),
@@ -51,7 +55,7 @@ def _identified_effects(spec: ModelErrorSpec, folder: Path) -> list[Effect]:
                 source=f"posfb identify of plan 0 at {counts} counts (part a)",
                 samples=spec.posterior_samples,
                 settings=[f"nominal_model=!Identified {{file: {model_path(folder, counts)}}}"],
-                posterior=Posterior(**json.loads(path.read_text())),
+                posterior=Posterior(**posterior),
             )
         )
     return effects

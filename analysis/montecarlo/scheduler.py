@@ -41,6 +41,7 @@ from dataclasses import dataclass
 
 from tqdm import tqdm
 
+from posfb.analysis.common import termination
 from posfb.analysis.common.errors import InterruptedRunError, UsageError, WorkerDiedError
 from posfb.analysis.montecarlo import worker
 from posfb.analysis.montecarlo.records import SampleResult
@@ -122,6 +123,8 @@ def _local_results(
                     if len(in_flight) >= IN_FLIGHT_PER_WORKER * workers:
                         break
             if not in_flight:
+                if ctrl_c.pending:  # it came while the last sample was stored: never dropped
+                    raise KeyboardInterrupt
                 return
             done: set[Future] = set()
             try:
@@ -214,8 +217,14 @@ class _DeferredCtrlC:
         self.pending = False
 
     def __call__(self, signum: int, frame: object) -> None:
+        if signum == signal.SIGTERM:
+            if not termination.in_command_process():  # a forked worker: die as by default
+                signal.signal(signal.SIGTERM, signal.SIG_DFL)
+                os.kill(os.getpid(), signal.SIGTERM)
+                return
+            termination.mark_terminated()
         if self.allowed:
-            raise KeyboardInterrupt
+            raise termination.TerminatedError if signum == signal.SIGTERM else KeyboardInterrupt
         self.pending = True
 
     def allow(self) -> None:
@@ -226,15 +235,20 @@ class _DeferredCtrlC:
             raise KeyboardInterrupt
 
     def install(self) -> object:
-        """Install (from the main thread only; elsewhere Ctrl-C is not ours to handle)."""
+        """Install for Ctrl-C, and for SIGTERM in a command's process
+        (``analysis.common.termination``), from the main thread only (elsewhere the
+        signals are not ours to handle); the previous handlers."""
         if threading.current_thread() is not threading.main_thread():
             return None
-        return signal.signal(signal.SIGINT, self)
+        previous = {signal.SIGINT: signal.signal(signal.SIGINT, self)}
+        if termination.in_command_process():
+            previous[signal.SIGTERM] = signal.signal(signal.SIGTERM, self)
+        return previous
 
     @staticmethod
     def uninstall(previous: object) -> None:
-        if previous is not None:
-            signal.signal(signal.SIGINT, previous)
+        for signum, handler in (previous or {}).items():
+            signal.signal(signum, handler)
 
 
 def _drain(in_flight: set[Future]) -> Generator[SampleResult, None, None]:

@@ -30,7 +30,7 @@ import json
 import sys
 from typing import TYPE_CHECKING
 
-from posfb.analysis.cli.commands.montecarlo import _positive_int
+from posfb.analysis.cli.commands.montecarlo import _positive_int, _seed
 from posfb.analysis.cli.commands.scenario_args import add_scenario_arguments, scenario_from_args
 from posfb.analysis.common.errors import UsageError
 from posfb.analysis.common.shipped import study_argument
@@ -126,7 +126,7 @@ def add_map_arguments(parser: argparse.ArgumentParser) -> None:
         "--plants", type=int, metavar="N", help=f"sampled plants (default {defaults.plants})"
     )
     group.add_argument(
-        "--seed", type=int, metavar="S", help=f"seed of the plants (default {defaults.seed})"
+        "--seed", type=_seed, metavar="S", help=f"seed of the plants (default {defaults.seed})"
     )
     group.add_argument(
         "--margin", type=float, metavar="M", help=f"robust: rho <= 1 - M (default {DEFAULT_MARGIN})"

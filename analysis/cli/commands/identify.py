@@ -9,7 +9,7 @@ import argparse
 import json
 from pathlib import Path
 
-from posfb.analysis.cli.commands.montecarlo import _positive_int
+from posfb.analysis.cli.commands.montecarlo import _positive_int, _seed
 from posfb.analysis.cli.commands.number_args import nonnegative, positive
 from posfb.analysis.cli.commands.scenario_args import add_scenario_arguments, scenario_from_args
 from posfb.analysis.common.errors import UsageError
@@ -108,7 +108,7 @@ def configure(parser: argparse.ArgumentParser) -> None:
         default=10.0,
         help="period of the series in s, dividing --duration (default 10)",
     )
-    plan.add_argument("--seed", type=int, default=0, help="the optimiser's random start")
+    plan.add_argument("--seed", type=_seed, default=0, help="the optimiser's random start")
     plan.add_argument(
         "--excursion",
         type=positive,
