@@ -151,13 +151,12 @@ def read_log(
         data = table[["time_s", *position_columns, *voltages]].to_numpy(dtype=float)
     except ValueError:
         raise ValueError(f"log {path}: every column read must hold numbers") from None
-    bad = ~np.isfinite(data)
-    if bad.any():
-        row, column = np.argwhere(bad)[0]
-        name = ["time_s", *position_columns, *voltages][column]
+    found = _first_cell(~np.isfinite(data), ["time_s", *position_columns, *voltages], data)
+    if found is not None:
+        name, row, value = found
         raise ValueError(
-            f"log {path}: {name} is not finite at row {row + 1} ({data[row, column]!r}); "
-            "finite numbers are required"
+            f"log {path}: {name} is not finite at row {row} ({value!r}); finite numbers are "
+            "required"
         )
     if data.shape[0] < MIN_SAMPLES:
         raise ValueError(
@@ -189,17 +188,28 @@ def read_log(
     if step is not None:
         q = q * step
     for names, values, unit in ((position_columns, q, "rad"), (voltages, data[:, n + 1 :], "V")):
-        beyond = np.abs(values) > MAX_VALUE
-        if beyond.any():
-            row, column = np.argwhere(beyond)[0]
+        found = _first_cell(np.abs(values) > MAX_VALUE, names, values)
+        if found is not None:
+            name, row, value = found
             raise ValueError(
-                f"log {path}: {names[column]} is {values[row, column]:g} {unit} at row "
-                f"{row + 1}; at most {MAX_VALUE:g} {unit} in magnitude is required (another "
-                "unit, or a corrupted file?)"
+                f"log {path}: {name} is {value:g} {unit} at row {row}; at most "
+                f"{MAX_VALUE:g} {unit} in magnitude is required (another unit, or a corrupted "
+                "file?)"
             )
     even_time = time[0] + median * np.arange(time.size)
     reference = _reference(table, columns, n, median, str(path))
     return EncoderLog(even_time, q, data[:, n + 1 :], str(path), step, reference)
+
+
+def _first_cell(
+    bad: np.ndarray, names: list[str], values: np.ndarray
+) -> tuple[str, int, float] | None:
+    """The first cell (row by row) where ``bad`` holds: its column's name, its data row
+    (1-based) and its value; ``None`` if none."""
+    if not bad.any():
+        return None
+    row, column = np.argwhere(bad)[0]
+    return names[column], int(row) + 1, float(values[row, column])
 
 
 def _reference(
@@ -222,13 +232,12 @@ def _reference(
             values = table[wanted].to_numpy(dtype=float)
         except ValueError:
             raise ValueError(f"log {source}: every column read must hold numbers") from None
-        bad = ~np.isfinite(values)
-        if bad.any():
-            row, column = np.argwhere(bad)[0]
+        found = _first_cell(~np.isfinite(values), wanted, values)
+        if found is not None:
+            name, row, value = found
             raise ValueError(
-                f"log {source}: {wanted[column]} is not finite at row {row + 1} "
-                f"({values[row, column]!r}); finite numbers are required (or no reference "
-                "columns: the fit is then least squares)"
+                f"log {source}: {name} is not finite at row {row} ({value!r}); finite numbers "
+                "are required (or no reference columns: the fit is then least squares)"
             )
         derived.append(values)
     return Reference(*derived)
