@@ -164,6 +164,7 @@ LOGS = {
     "log_short.csv": _log(rows=150),
     "log_ms.csv": _log(time=lambda k: 10.0 * k),  # time_s in ms
     "log_huge.csv": _log(huge=50),
+    "log_nan_time.csv": _log(time=lambda k: math.nan if k == 5 else 0.01 * k),
     "log_bad_reference.csv": _with_reference(_log(), nan_row=1),
     "log_three.csv": _log(
         header="time_s,q1_measured_rad,q2_measured_rad,q3_measured_rad,u1_applied_V,"
@@ -662,6 +663,9 @@ CASES = {
         ("identify", "--log", "{tmp}/log_backwards.csv"), "does not increase"
     ),
     "log time uneven": Case(("identify", "--log", "{tmp}/log_uneven.csv"), "unevenly spaced"),
+    "log with a time that is not a number": Case(
+        ("identify", "--log", "{tmp}/log_nan_time.csv"), "time_s is not finite at row 6 (nan)"
+    ),
     "log of absurd values": Case(
         ("identify", "--log", "{tmp}/log_huge.csv"),
         "u1_applied_V is 1e+300 V at row 51; at most 10000 V in magnitude is required",

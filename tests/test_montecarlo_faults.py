@@ -5,6 +5,8 @@ sample count no design can hold."""
 
 from __future__ import annotations
 
+import os
+import signal
 import sqlite3
 
 import pytest
@@ -253,3 +255,15 @@ def test_a_sample_that_kills_its_dask_workers_is_an_error_and_the_run_goes_on(tm
     assert len(died) == 1
     assert all(row["status"] == "ok" for row in runs if row["sample"] not in died)
     assert len(stored) == len({row["sample"] for row in runs})
+
+
+def test_a_ctrl_c_while_the_last_sample_is_stored_is_not_dropped():
+    """Issue 43: Ctrl-C while the caller stores the last sample (deferred: a store write
+    is never cut) is raised when the scheduler resumes, not dropped with an exit 0."""
+    from posfb.analysis.montecarlo import scheduler
+
+    results = scheduler._local_results("unused", iter([(0, None)]), 1, made_up_evaluate)
+    assert next(results).index == 0
+    os.kill(os.getpid(), signal.SIGINT)  # the caller is storing it: Ctrl-C is deferred
+    with pytest.raises(KeyboardInterrupt):
+        next(results)
