@@ -6,32 +6,18 @@ import os
 
 import pytest
 
+from helpers.slow import HEAVY
 from posfb.models.disk_cache import CACHE_ENV
 from posfb.models.plant import build_arm_diagram
 
-#: Module fixtures that take seconds to build (``pytest --durations``; the misuse table
-#: about 2 minutes, the tuned four-link arm about 1): every test that uses one is marked
-#: ``slow``, so that ``pytest -m "not slow"`` never builds them. Tests slow on their own
-#: carry ``@pytest.mark.slow`` themselves.
-HEAVY_FIXTURES = {
-    "test_misuse.py": ("outcomes",),
-    "test_tuning.py": ("four_link", "low_voltage"),
-    "test_reproduce.py": ("reproduction",),
-    "test_realism.py": ("small_study",),
-    "test_scenario_init.py": ("written",),
-    "test_arm_defaults.py": ("initialised",),
-    "test_montecarlo_serial.py": ("db",),
-    "test_montecarlo_run.py": ("reference",),
-    "test_controllers_convergence.py": ("proposed_errors",),
-    "test_identification.py": ("plan_csv",),
-}
-
 
 def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:
-    """Mark the users of ``HEAVY_FIXTURES`` ``slow``."""
+    """Mark ``slow`` every test that uses a fixture defined ``heavy`` (``helpers.slow``),
+    directly or through another fixture."""
     for item in items:
-        heavy = HEAVY_FIXTURES.get(item.path.name, ())
-        if set(heavy) & set(getattr(item, "fixturenames", ())):
+        info = getattr(item, "_fixtureinfo", None)
+        definitions = info.name2fixturedefs.values() if info is not None else ()
+        if any(getattr(d.func, HEAVY, False) for defs in definitions for d in defs):
             item.add_marker(pytest.mark.slow)
 
 

@@ -15,6 +15,7 @@ import numpy as np
 import pytest
 
 import posfb
+from helpers.slow import heavy
 from posfb.diagrams.resolve import resolve
 from posfb.diagrams.scenario import with_controller
 from posfb.models.design import ControllerConfig
@@ -27,6 +28,7 @@ THREE_LINK = "package://posfb/three_link_arm.urdf"
 
 
 @pytest.fixture(scope="module")
+@heavy
 def initialised(tmp_path_factory) -> Path:
     """The shipped three-link arm's scenario as ``scenario init`` writes it."""
     folder = tmp_path_factory.mktemp("arm_defaults")

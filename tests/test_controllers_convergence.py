@@ -15,6 +15,7 @@ import numpy as np
 import pytest
 
 from helpers.lumped_plant import exact_model_config, simulate
+from helpers.slow import heavy
 
 SAMPLE_TIMES = (0.004, 0.002, 0.001)
 INITIAL_ERROR = (0.05, -0.05)
@@ -28,6 +29,7 @@ def final_error(kind: str, sample_time: float) -> float:
 
 
 @pytest.fixture(scope="module")
+@heavy
 def proposed_errors() -> list[float]:
     return [final_error("proposed", T) for T in SAMPLE_TIMES]
 

@@ -15,6 +15,7 @@ from scipy.interpolate import CubicSpline
 
 import posfb
 from helpers.identification_logs import perturbed_parameters, simulated_log, true_theta
+from helpers.slow import heavy
 from posfb.analysis.identification.log import read_log
 from posfb.models.identification.checks import IDENTIFIABLE_RELATIVE_STD, unit_warning
 from posfb.models.identification.estimate import Estimate, FilterSettings
@@ -27,6 +28,7 @@ CLI = [sys.executable, "-m", "posfb.analysis.cli"]
 
 
 @pytest.fixture(scope="module")
+@heavy
 def plan_csv(tmp_path_factory):
     """A planned 60 s excitation of the paper's arm (six 10 s periods, the defaults)."""
     path = tmp_path_factory.mktemp("plan") / "plan.csv"

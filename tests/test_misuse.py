@@ -20,6 +20,7 @@ import pytest
 
 from helpers.cli_batch import Command, run_commands
 from helpers.planar_arm import planar_arm_text
+from helpers.slow import heavy
 from posfb.analysis.montecarlo.store import APPLICATION_ID
 from posfb.models.plant import DEFAULT_URDF
 
@@ -1014,6 +1015,7 @@ def _run(tmp: Path, case: Case) -> subprocess.CompletedProcess:
 
 
 @pytest.fixture(scope="module")
+@heavy
 def outcomes(tmp_path_factory):
     def prepare(name: str) -> Path:
         folder = tmp_path_factory.mktemp(name.replace(" ", "_").replace("*", ""))

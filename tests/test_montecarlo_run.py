@@ -21,6 +21,7 @@ from helpers.montecarlo_helpers import (
     fake_evaluate,
     write_study,
 )
+from helpers.slow import heavy
 from posfb.analysis.cli import main
 from posfb.analysis.montecarlo import scheduler
 from posfb.analysis.montecarlo.scheduler import run_study
@@ -41,6 +42,7 @@ def _run(study_text: str, db: Path, workers: int) -> None:
 
 
 @pytest.fixture(scope="module")
+@heavy
 def reference(tmp_path_factory) -> Path:
     """The tiny study run on one local worker."""
     db = tmp_path_factory.mktemp("reference") / "w1.sqlite"

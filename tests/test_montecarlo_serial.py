@@ -11,6 +11,7 @@ import numpy as np
 import pytest
 
 from helpers.montecarlo_helpers import run_into_store
+from helpers.slow import heavy
 from posfb.analysis.cli import main
 from posfb.analysis.montecarlo.table import study_table
 from posfb.analysis.uncertainty.coverage import BOUND_NAMES, serial_coverage
@@ -39,6 +40,7 @@ parameters:
 
 
 @pytest.fixture(scope="module")
+@heavy
 def db(tmp_path_factory) -> Path:
     return run_into_store(tmp_path_factory.mktemp("serial") / "study.sqlite", STUDY)
 

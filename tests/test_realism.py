@@ -13,6 +13,7 @@ import pytest
 import yaml
 
 import posfb
+from helpers.slow import heavy
 from posfb.analysis.cli import main
 from posfb.analysis.cli.commands.realism import DEFAULT_STUDY
 from posfb.analysis.common.tables import PAPER_TABLE3
@@ -137,6 +138,7 @@ combined_samples: 1
 
 
 @pytest.fixture(scope="module")
+@heavy
 def small_study(tmp_path_factory):
     folder = tmp_path_factory.mktemp("realism")
     scenario = posfb.shipped_scenarios()["paper_nominal"]

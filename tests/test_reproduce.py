@@ -16,6 +16,7 @@ from pathlib import Path
 import pytest
 from matplotlib.image import imread
 
+from helpers.slow import heavy
 from posfb.analysis.cli import main
 from posfb.analysis.paper.experiment import ResultsFile
 from posfb.models.controllers import PAPER_CONTROLLERS
@@ -24,6 +25,7 @@ FIGURES = [f"fig{n}{suffix}" for n in (4, 5, 6, 7) for suffix in ("", "_alpha_st
 
 
 @pytest.fixture(scope="module")
+@heavy
 def reproduction(tmp_path_factory):
     out = tmp_path_factory.mktemp("reproduce")
     printed = io.StringIO()

@@ -18,6 +18,7 @@ import scipy.linalg
 
 import posfb
 from helpers.planar_arm import planar_arm_urdf
+from helpers.slow import heavy
 from posfb.models.design import initial
 from posfb.models.design.config import LqrWeights
 from posfb.models.lumped import TABLE1, LumpedModel
@@ -35,6 +36,7 @@ def _cli(*args: str, cwd: Path) -> subprocess.CompletedProcess:
 
 
 @pytest.fixture(scope="module")
+@heavy
 def written(tmp_path_factory) -> tuple[Path, Path, subprocess.CompletedProcess]:
     """The 4-link arm, its scenario (written by the CLI at 2 ms) and ``scenario check``."""
     folder = tmp_path_factory.mktemp("init")

@@ -23,6 +23,7 @@ import scipy.stats
 
 import posfb
 from helpers.planar_arm import planar_arm_urdf
+from helpers.slow import heavy
 from posfb.analysis.cli import main
 from posfb.analysis.common.cases import SCENARIO_DIR
 from posfb.analysis.design.budget import BudgetError, Deadline
@@ -154,6 +155,7 @@ def test_knobs_scale_the_weights_and_keep_them_valid():
 
 
 @pytest.fixture(scope="module")
+@heavy
 def four_link(tmp_path_factory):
     """A generated 4-link arm: ``scenario init``, then ``tune --budget 600`` (shortened)."""
     folder = tmp_path_factory.mktemp("four_link")
@@ -254,6 +256,7 @@ def _multipliers(entry: dict, controller: str) -> dict[str, float]:
 
 
 @pytest.fixture(scope="module")
+@heavy
 def low_voltage(tmp_path_factory):
     """A generated 3-link arm (``scenario init`` at 24 V) tuned at 10 V: the start
     exceeds the lower limit, so the best design within it tracks worse."""

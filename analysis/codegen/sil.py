@@ -1,6 +1,6 @@
 """Software in the loop (``posfb simulate --sil``): the scenario's controller generated as
 C (``analysis.codegen.package``), compiled into a shared library by the ``cc`` on the
-PATH and loaded as the diagram's controller (``models.laws.compiled``); everything else
+PATH and loaded as the diagram's controller (``models.controllers.compiled``); everything else
 in the loop is unchanged. The library lives in a temporary folder removed at exit.
 """
 
@@ -16,7 +16,7 @@ from posfb.analysis.codegen.build import compile_c, compiled_object
 from posfb.analysis.codegen.package import generate
 from posfb.diagrams.resolve import ResolvedScenario
 from posfb.models.controllers import make_controller
-from posfb.models.laws.compiled import CompiledController
+from posfb.models.controllers.compiled import CompiledController
 
 #: The temporary folders' prefix; the creating process's id follows it.
 FOLDER_PREFIX = "posfb-sil-"

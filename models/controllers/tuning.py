@@ -13,9 +13,7 @@ from __future__ import annotations
 import math
 
 from posfb.models.controllers.plugin import PluginError
-
-#: Samples per period of the closed-loop bandwidth in the default tuning rule.
-SAMPLES_PER_BANDWIDTH = 20.0
+from posfb.models.design.initial import SAMPLES_PER_BANDWIDTH
 
 
 def positive_setting(owner: str, name: str, value: object) -> float:

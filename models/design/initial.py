@@ -71,8 +71,8 @@ the sampled loop takes. Where a lowered bandwidth leaves Lin+LC's own worst radi
 Kv q~' + Kp q~ + KI int q~ = 0``; the rule places its characteristic polynomial at
 ``(s + omega)^2 (s + omega / 10)``: a critically damped pair and the integrator's pole a
 decade below it, so ``Kp = 1.2 omega^2`` (1/s^2), ``Kv = 2.1 omega`` (1/s), ``KI = 0.1
-omega^3`` (1/s^3). ``omega`` is the baseline bandwidth ``2 pi / (20 T_s)`` of
-``models.controllers.tuning`` (20 samples per period), lowered for joint ``j`` where one
+omega^3`` (1/s^3). ``omega`` is the baseline bandwidth ``2 pi / (20 T_s)`` of the sampling rule
+(``SAMPLES_PER_BANDWIDTH``: 20 samples per period), lowered for joint ``j`` where one
 encoder count ``2 pi / N`` would move its voltage ``M0*_jj (Kv count / T_s + Kp count)``
 (the backward-difference velocity jumps by ``count / T_s``) by more than 5 % of the limit
 (``quantisation_bandwidth``): at fast sampling the sampling rule alone makes PID chatter
@@ -100,7 +100,6 @@ from functools import lru_cache
 import numpy as np
 import scipy.optimize
 
-from posfb.models.controllers.tuning import SAMPLES_PER_BANDWIDTH
 from posfb.models.design.config import (
     ControllerConfig,
     LqrWeights,
@@ -139,6 +138,13 @@ QUANTISATION_FRACTION = 0.05
 
 #: Significant digits of the numbers written into a scenario.
 DIGITS = 6
+
+
+#: The sampling rule every default bandwidth starts from (the plug-in baselines' too,
+#: ``models.controllers.tuning``): 20 samples per period of the closed-loop bandwidth,
+#: the fast end of the 20-40 of Franklin, Powell and Workman ("Digital Control of
+#: Dynamic Systems", 3rd ed., Sec. 11.2).
+SAMPLES_PER_BANDWIDTH = 20.0
 
 
 #: Points of the grid ``largest_alpha_star`` searches when no ``alpha*`` reaches its target.
