@@ -25,6 +25,7 @@ software in the loop loads into the process, and numbers a design trusts:
 
 from __future__ import annotations
 
+import contextlib
 import hashlib
 import json
 import logging
@@ -113,7 +114,8 @@ def load_entry(path: Path) -> bytes | None:
         return None
     if header == HASH_PREFIX + hashlib.sha256(payload).hexdigest().encode():
         return payload
-    path.unlink(missing_ok=True)
+    with contextlib.suppress(OSError):  # recomputed and replaced either way
+        path.unlink(missing_ok=True)
     return None
 
 

@@ -89,7 +89,7 @@ def configure(parser: argparse.ArgumentParser) -> None:
     )
     parser.add_argument(
         "--force", action="store_true", help="replace existing --out, --figure and --study-out "
-        "files (never the command's own inputs without it)",
+        "files, the command's own inputs included",
     )  # fmt: skip
     parser.add_argument("--json", action="store_true", help="print one JSON object")
     parser.set_defaults(handler=run)
@@ -201,17 +201,21 @@ def _inputs(args: argparse.Namespace, *names: str) -> list[Path]:
 
 
 def _check_outputs(args: argparse.Namespace, scenario) -> None:
-    """Every file ``identify`` writes, checked before the work: none is an input, none
-    exists without ``--force`` (``output_file``), no two are the same file."""
+    """Every file ``identify`` writes, checked before the work: none is an input (the
+    logs, the scenario and its URDFs among them), none exists without ``--force``
+    (``output_file``), no two are the same file."""
     from posfb.analysis.common.outputs import output_file
     from posfb.diagrams.resolve import resolve
     from posfb.models.lumped import LumpedParameters
 
-    inputs = _inputs(args, "log", "validate", "study_scenario")
+    config = resolve(scenario).config
+    urdfs = [Path(u) for u in (config.plant.urdf, getattr(config.design.nominal, "urdf", None))
+             if u is not None]  # fmt: skip
+    inputs = [*_inputs(args, "log", "validate", "study_scenario"), *urdfs]
     outputs = {}
     if args.out is not None:
         outputs["--out"] = output_file("--out", args.out, (".yaml", ".yml"), args.force, inputs)
-        if not isinstance(resolve(scenario).config.design.nominal, LumpedParameters):
+        if not isinstance(config.design.nominal, LumpedParameters):
             urdf = str(Path(args.out).with_suffix(".urdf"))  # a URDF arm's, beside the model
             outputs["--out's URDF"] = output_file("--out's URDF", urdf, None, args.force, inputs)
     if args.figure is not None:
