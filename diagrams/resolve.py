@@ -78,7 +78,7 @@ from posfb.models.trajectory import (
     Trajectory,
     WaveTrajectory,
 )
-from posfb.models.validation import per_joint, require_positive
+from posfb.models.validation import per_joint, require_positive, require_regular_file
 
 
 @dataclass
@@ -281,10 +281,7 @@ def read_csv_trajectory(path: Path, joints: int) -> SplineTrajectory:
     names in its header row: time ``time`` or ``time_s`` (s), joint ``j``'s position
     ``qj`` or ``qj_rad`` (rad), in any order; a not-a-knot cubic through the samples."""
     source = f"trajectory.path {path}"
-    if path.is_dir():
-        raise ValueError(f"{source} is a directory; a CSV file is required")
-    if not path.is_file():
-        raise ValueError(f"{source} does not exist")
+    require_regular_file("trajectory.path", path)  # a FIFO would block the read
     import pandas as pd  # on use: the CLI's start-up does not pay for it
 
     try:

@@ -76,6 +76,7 @@ FILES = {
     "csv2.yaml": "trajectory: !CsvFile {path: two_columns.csv}\n",
     "csv3.yaml": "trajectory: !CsvFile {path: backwards.csv}\n",
     "csv4.yaml": "trajectory: !CsvFile {path: nowhere.csv}\n",
+    "csv_fifo.yaml": "trajectory: !CsvFile {path: fifo.csv}\n",
     "short.csv": "time,q1,q2\n0,0,0\n1,0.1,0\n2,0.2,0\n3,0.3,0\n",
     "short_csv.yaml": "trajectory: !CsvFile {path: short.csv}\n",
     "flat_adrc.yaml": "controller: {kind: adrc}\n",
@@ -551,6 +552,10 @@ CASES = {
     ),
     "CSV times backwards": Case(("simulate", "--scenario", "{tmp}/csv3.yaml"), "strictly incr"),
     "CSV missing": Case(("simulate", "--scenario", "{tmp}/csv4.yaml"), "does not exist"),
+    "CSV that is a FIFO": Case(
+        ("simulate", "--scenario", "{tmp}/csv_fifo.yaml"),
+        "fifo.csv is not a regular file (a FIFO, a device or a socket)",
+    ),
     "one waypoint": Case(("simulate", "--scenario", "{tmp}/one_waypoint.yaml"), "at least 2"),
     "check missing file": Case(("scenario", "check", "{tmp}/nope.yaml"), "does not exist"),
     # scenario init: options checked where they enter

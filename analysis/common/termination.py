@@ -46,10 +46,18 @@ def in_command_process() -> bool:
     return os.getpid() == _STATE["pid"]
 
 
-def _on_terminate(signum: int, frame: object) -> None:
+def received() -> bool:
+    """In a SIGTERM handler: outside the command's process (a forked worker), end this
+    process as the signal's default action would and return ``False``; in it, record the
+    signal (``mark_terminated``) and return ``True``: the handler then answers it."""
     if not in_command_process():
         signal.signal(signal.SIGTERM, signal.SIG_DFL)
         os.kill(os.getpid(), signal.SIGTERM)
-        return
+        return False
     mark_terminated()
-    raise TerminatedError
+    return True
+
+
+def _on_terminate(signum: int, frame: object) -> None:
+    if received():
+        raise TerminatedError

@@ -217,12 +217,8 @@ class _DeferredCtrlC:
         self.pending = False
 
     def __call__(self, signum: int, frame: object) -> None:
-        if signum == signal.SIGTERM:
-            if not termination.in_command_process():  # a forked worker: die as by default
-                signal.signal(signal.SIGTERM, signal.SIG_DFL)
-                os.kill(os.getpid(), signal.SIGTERM)
-                return
-            termination.mark_terminated()
+        if signum == signal.SIGTERM and not termination.received():
+            return  # a forked worker, ended as by default
         if self.allowed:
             raise termination.TerminatedError if signum == signal.SIGTERM else KeyboardInterrupt
         self.pending = True
