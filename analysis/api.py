@@ -604,8 +604,8 @@ def design(scenario: ScenarioSource = None, controller: str | None = None) -> Li
     Parameters
     ----------
     scenario, controller
-        As for ``simulate``; the controller must have a linear design (every built-in
-        one does; a ``!Python`` plug-in does not).
+        As for ``simulate``; the controller must be written as a law (every built-in
+        one is; a ``!Python`` plug-in that sets ``self.law`` is too).
 
     Returns
     -------
@@ -619,7 +619,7 @@ def design(scenario: ScenarioSource = None, controller: str | None = None) -> Li
     Raises
     ------
     ValueError
-        A bad setting, or a controller without a linear design (one line).
+        A bad setting, or a controller written as a step (one line).
 
     Examples
     --------

@@ -53,7 +53,7 @@ from posfb.diagrams.scenario import (
 )
 from posfb.diagrams.sections import require_dac_resolution, require_encoder_resolution
 from posfb.diagrams.yaml_schema import load_typed, read_text
-from posfb.models.controllers import PluginError, UserPlugin, make_controller
+from posfb.models.controllers import PluginError, UserPlugin, entry_build, make_controller
 from posfb.models.controllers.plugin import load_plugin, module_plugin
 from posfb.models.description import Description
 from posfb.models.design import ControllerConfig
@@ -404,14 +404,15 @@ def controller_inputs(
     three give their ``ControllerConfig`` (``models.design.settings``) and no settings; a
     plug-in gives its settings with ``ControllerConfig.without_design``. A plug-in is
     built once here, so a bad setting is refused now."""
-    if hasattr(section, "config"):
-        return controller_kind(section), section.config(nominal, sample_time), None
-    design = ControllerConfig.without_design(nominal, sample_time)
     if isinstance(section, Python):
+        design = ControllerConfig.without_design(nominal, sample_time)
         settings: object = load_python_controller(section, base_dir)
         kind = settings.kind
     else:
-        settings, kind = copy.deepcopy(section), controller_kind(section)
+        build = entry_build(copy.deepcopy(section), nominal, sample_time)
+        design, settings, kind = build.design, build.settings, controller_kind(section)
+        if settings is None:
+            return kind, design, None
     make_controller(kind, design, settings=settings)
     return kind, design, settings
 

@@ -79,6 +79,44 @@ def nominal_model(nominal: NominalModel) -> LumpedModel | SerialArmModel:
     return models[key]
 
 
+class LinearPart:
+    """The nominal linear part of ``model`` (Eq. 2 with ``h = 0``): ``M*(q) = M0*`` and
+    ``B*`` kept, ``C*``, ``G*`` and ``F*`` zero; the model a controller's law is
+    linearised on (``models.controllers.linearise``)."""
+
+    def __init__(self, model: LumpedModel | SerialArmModel) -> None:
+        self._M0, self._B = model.M0(), model.B()
+        self.size = len(self._M0)
+
+    def M0(self) -> np.ndarray:
+        """``M0*``."""
+        return self._M0.copy()
+
+    def M(self, q: np.ndarray) -> np.ndarray:
+        """``M0*`` at every ``q``."""
+        return self._M0.copy()
+
+    def coriolis(self, q: np.ndarray, qdot: np.ndarray) -> np.ndarray:
+        """0: ``C*`` belongs to ``h``."""
+        return np.zeros(self.size)
+
+    def G(self, q: np.ndarray) -> np.ndarray:
+        """0: ``G*`` belongs to ``h``."""
+        return np.zeros(self.size)
+
+    def B(self) -> np.ndarray:
+        """``B*``."""
+        return self._B.copy()
+
+    def coulomb_levels(self) -> np.ndarray:
+        """0: ``F*`` belongs to ``h``."""
+        return np.zeros(self.size)
+
+    def inverse_dynamics(self, q: np.ndarray, qdot: np.ndarray, qddot: np.ndarray) -> np.ndarray:
+        """``M0* qddot + B* qdot``."""
+        return self._M0 @ np.asarray(qddot, dtype=float) + self._B @ np.asarray(qdot, dtype=float)
+
+
 def trajectory_voltages(
     model: LumpedModel | SerialArmModel, trajectory: Trajectory, times: Iterable[float]
 ) -> np.ndarray:

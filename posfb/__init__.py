@@ -58,6 +58,8 @@ _EXPORTS = {
     "ControllerSetup": "posfb.models.controllers.plugin",
     "NominalDynamics": "posfb.models.controllers.plugin",
     "PluginError": "posfb.models.controllers.plugin",
+    "Law": "posfb.models.laws.law",
+    "law": "posfb.models.laws.law",
 }
 
 __all__ = [
@@ -66,6 +68,7 @@ __all__ = [
     "Controller",
     "ControllerSetup",
     "Identification",
+    "Law",
     "LinearDesign",
     "LoadedScenario",
     "NominalDynamics",
@@ -81,6 +84,7 @@ __all__ = [
     "compare",
     "design",
     "identify",
+    "law",
     "load_scenario",
     "plan_excitation",
     "shipped_scenarios",
@@ -117,6 +121,7 @@ if TYPE_CHECKING:
         NominalDynamics,
         PluginError,
     )
+    from posfb.models.laws.law import Law, law
 
 
 def __getattr__(name: str) -> object:

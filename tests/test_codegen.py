@@ -28,6 +28,7 @@ from posfb.models.design import compute_design
 from posfb.models.design.config import PidGains
 from posfb.models.disk_cache import CACHE_ENV
 from posfb.models.laws.law import Stepper
+from posfb.models.laws.nominal import symbolic_model
 from posfb.models.lumped import TABLE1, LumpedModel
 
 CLI = [sys.executable, "-m", "posfb.analysis.cli"]
@@ -44,7 +45,7 @@ def test_lin_lc_law_is_eq_4_and_13():
     and the design's filter: ``u = (M(q) - M0) qdd_d + C(q, qd_d) qd_d + G(q) + F(qd_d) +
     M0 qdd_d + B qd_d + C_f w + D_f q~`` and ``w' = A_f w + B_f q~``."""
     design = compute_design()
-    stepper = Stepper(lin_lc_law(design))
+    stepper = Stepper(lin_lc_law(design, symbolic_model(TABLE1)))
     model, f = LumpedModel(TABLE1), design.lin_lc_filter
     rng = np.random.default_rng(1)
     for _ in range(20):
@@ -67,7 +68,7 @@ def test_pid_law_is_eq_26():
     ``u = M(q) a + C(q, qdot) qdot + G(q) + B qdot + F(qdot)`` with ``qdot = (q -
     q_(k-1)) / T``, ``a = qdd_d - K_v (qdot - qd_d) - K_p q~ - K_I I``."""
     gains, T = PidGains(), 0.01
-    stepper, model = Stepper(pid_law(TABLE1, gains, T)), LumpedModel(TABLE1)
+    stepper, model = Stepper(pid_law(symbolic_model(TABLE1), gains, T)), LumpedModel(TABLE1)
     Kp, Kv, KI = (np.asarray(g, dtype=float) for g in (gains.Kp, gains.Kv, gains.KI))
     rng = np.random.default_rng(2)
     for _ in range(50):
@@ -90,7 +91,7 @@ def test_proposed_law_is_eq_19_to_25():
 
     design = compute_design()
     f, n, S = design.proposed_filter, 2, len(design.proposed_filter.A)
-    stepper, model = Stepper(proposed_law(design)), LumpedModel(TABLE1)
+    stepper, model = Stepper(proposed_law(design, symbolic_model(TABLE1))), LumpedModel(TABLE1)
     nonlinear, c = design.config.nonlinear, design.bound_filter.c
     decay = np.exp(-design.config.sample_time / nonlinear.K_alpha)
     rate = 2.0 * design.coupling_norm * (1.0 - decay)

@@ -16,17 +16,8 @@ from posfb.analysis.common.export import (
 from posfb.analysis.common.metrics import rms
 from posfb.diagrams.closed_loop import ClosedLoopConfig, ClosedLoopRunner
 from posfb.diagrams.sections import Timing
-from posfb.models.controllers import (
-    PAPER_CONTROLLERS,
-    LinLcController,
-    PidController,
-    ProposedController,
-)
+from posfb.models.controllers import PAPER_CONTROLLERS, spec
 from posfb.models.controllers.base import unit_of
-
-#: The class of each of the paper's controllers (their units are class attributes).
-CLASSES = dict(zip(PAPER_CONTROLLERS, (PidController, LinLcController, ProposedController),
-                   strict=True))  # fmt: skip
 
 #: Short runs keep the module fast.
 DURATION = 0.5
@@ -122,7 +113,7 @@ def test_internals_have_unit_suffixes(runs, kind):
     internals = list(table.columns[len(leading_columns(2)) :])
     assert len(internals) == len(result.internals_names) > 0
     for name, column in zip(result.internals_names, internals, strict=True):
-        units = CLASSES[kind].INTERNAL_UNITS
+        units = spec(kind).internal_units
         assert column == f"{name}_{unit_of(name, units)}"
         np.testing.assert_array_equal(
             table[column].to_numpy(), result.internals[:, result.internals_names.index(name)]
@@ -142,8 +133,8 @@ def test_proposed_internals_names(runs):
 
 
 def test_an_internal_without_a_unit_is_refused():
-    with pytest.raises(KeyError, match="'mystery'.*INTERNAL_UNITS"):
-        unit_of("mystery", LinLcController.INTERNAL_UNITS)
+    with pytest.raises(KeyError, match="'mystery'.*internal_units"):
+        unit_of("mystery", spec("lin_lc").internal_units)
 
 
 @pytest.mark.parametrize("name", ["run.txt", "run", "run.csv.gz", "run.json"])

@@ -393,7 +393,7 @@ CASES = {
     ),
     "C of a plug-in controller": Case(
         ("codegen", "--scenario", "{tmp}/plugin_broadcast.yaml", "--out", "{tmp}/c"),
-        "controller 'Mine' has no generated code yet",
+        "controller 'Mine' is written as a step (no law): posfb cannot linearise it or print",
     ),
     "C over a folder of its file's name": Case(
         ("codegen", "--controller", "lin_lc", "--out", "{tmp}/c2"),
@@ -478,7 +478,7 @@ CASES = {
     ),
     "margins of a plug-in controller": Case(
         ("design", "--margins", "--scenario", "{tmp}/plugin_broadcast.yaml"),
-        "--margins: controller 'Mine' has no linear design",
+        "--margins: controller 'Mine' is written as a step (no law)",
     ),
     "margins into a file": Case(
         ("design", "--margins", "--out", "{tmp}/a_file"), "a_file: is a file; a folder is required",
@@ -494,7 +494,7 @@ CASES = {
     "worst case of a plug-in controller": Case(
         ("design", "--worst-case", "--study", "paper_uncertainty", "--scenario",
          "{tmp}/plugin_broadcast.yaml"),
-        "--worst-case: controller 'Mine' has no linear design",
+        "--worst-case: controller 'Mine' is written as a step (no law)",
     ),
     **{
         f"worst case over {count} {option}": Case(

@@ -33,7 +33,7 @@ from posfb.analysis.design.guarantee import (
     verify,
     violation_bound,
 )
-from posfb.analysis.design.problem import TuningProblem, apply_knobs, knobs, torque_bandwidth
+from posfb.analysis.design.problem import TuningProblem, knobs, torque_bandwidth, tuning
 from posfb.analysis.design.search import search
 from posfb.analysis.design.settings import MAX_DESIGN_PLANTS, MAX_VERIFICATION_PLANTS
 from posfb.analysis.design.tune import (
@@ -144,8 +144,9 @@ def test_torque_bandwidth_of_a_sinusoid_is_its_frequency():
 
 def test_knobs_scale_the_weights_and_keep_them_valid():
     entry = Proposed().with_arm_defaults(ArmInputs(TABLE1, 0.01))  # the paper's entry
-    assert [k.key for k in knobs(entry)][0] == "alpha_star" and len(knobs(LinLc())) == 4
-    tuned = apply_knobs(entry, np.array([2.0, 4.0, 9.0, 0.5, 3.0]), 0.005)
+    assert [k.key for k in knobs("proposed", entry)][0] == "alpha_star"
+    assert len(knobs("lin_lc", LinLc())) == 4
+    tuned = tuning("proposed").apply(entry, np.array([2.0, 4.0, 9.0, 0.5, 3.0]), 0.005)
     Q1 = np.asarray(tuned.Q1)
     np.testing.assert_allclose(np.diag(Q1), [4 * 32000, 4 * 12000, 90, 90])
     assert tuned.alpha_star == 2.0 and tuned.lambdas == [30.0, 30.0]
@@ -296,7 +297,8 @@ def test_a_design_worse_than_the_start_is_refused_and_written_only_when_accepted
     # every tuned value within 2 % of its box's edge is flagged, and only those
     report = json.loads(accepted.stdout)
     for controller, entry in report["controllers"].items():
-        boxes = {k.key: k for k in knobs(Proposed() if controller == "proposed" else LinLc())}
+        own = Proposed() if controller == "proposed" else LinLc()
+        boxes = {k.key: k for k in knobs(controller, own)}
         near = {
             key for key, value in _multipliers(entry["settings"], controller).items()
             for edge in (boxes[key].low, boxes[key].high)
@@ -306,7 +308,7 @@ def test_a_design_worse_than_the_start_is_refused_and_written_only_when_accepted
 
 
 def test_a_value_at_its_search_box_edge_is_flagged_with_the_edge():
-    box = knobs(Proposed())  # alpha* 0.05 .. 10, then the weight multipliers
+    box = knobs("proposed", Proposed())  # alpha* 0.05 .. 10, then the weight multipliers
     values = np.array([k.start for k in box])
     values[0] = 0.05 * 1.015  # 1.5 % above the lower edge
     values[3] = 100.0 * 0.97  # R x: 3 % below the upper edge, not flagged
@@ -420,7 +422,7 @@ def test_the_search_stops_inside_a_generation_when_the_budget_runs_out():
     with pytest.raises(BudgetError, match="ran 0 of its 30 generations"):
         search(problem, 0, 30, passed)
     with pytest.raises(BudgetError, match="judging a lin_lc design on plant 1 of 3"):
-        problem.radii(problem.design(problem.entry), plants)
+        problem.radii(problem.feedback(problem.entry), plants)
 
 
 def test_a_check_run_with_a_worse_verdict_is_worse_whatever_its_error():

@@ -20,8 +20,8 @@ The paper's RMS (``analysis.common.metrics.rms``) recomputed from the file over 
 ``1..N`` of ``q - q_desired`` and ``u_applied`` equals the run's metrics.
 
 Then come the controller's internals, each name with its unit appended
-(``ClosedLoopResult.internals_columns``: each built-in controller class's
-``INTERNAL_UNITS``, a trailing ``_j`` in a name being the joint; a plug-in
+(``ClosedLoopResult.internals_columns``: each built-in controller spec's
+``internal_units``, a trailing ``_j`` in a name being the joint; a plug-in
 controller names its columns with their units). For the paper's controllers: the
 lumped model of Sec. 4.1 (``models.lumped``) is each joint's equation of motion
 divided by its motor constant, so every "torque" of the controllers is an

@@ -1,8 +1,8 @@
 """A scenario's controller as a linear sampled loop (``posfb.design``): the nominal linear
 part held over ``T_s`` with the scenario's linear effects (``analysis.common.loop_effects``)
-and the controller's linear feedback (``ControllerSpec.linear``), its margins
-(``models.design.margins``) and the two halves as python-control ``StateSpace`` and Drake
-``LinearSystem`` objects.
+and the controller's linear feedback (derived from its law,
+``models.controllers.linearise``), its margins (``models.design.margins``) and the two
+halves as python-control ``StateSpace`` and Drake ``LinearSystem`` objects.
 
 The configurations the arm visits (``models.design.configurations``) come with it:
 ``frozen_radii`` is the loop's spectral radius with ``M*(q)`` frozen at each of them, and

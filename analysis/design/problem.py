@@ -1,19 +1,12 @@
-"""The robust tuning problem: which settings of a Sec. 3 controller entry are searched,
-what is minimised, and what is required.
+"""The robust tuning problem: which settings of a controller entry are searched, what is
+minimised, and what is required.
 
-**Decision variables** (``knobs``), searched on a log scale:
-
-* ``alpha_star`` (the proposed controller only): the steady-state gain of ``tau_NC``
-  (Eq. 19-21), ``0.05 .. max(10, 2 alpha*)``;
-* ``Q1`` position and velocity blocks, ``R`` and ``lambdas``: multipliers
-  ``10^-2 .. 10^2`` (``lambdas``: ``10^-1 .. 10^1``) of the entry's own weights (Sec. 3.2),
-  so that the search keeps their per-joint proportions and off-diagonal structure.
-
-``K_alpha`` (how fast Eq. 21 raises ``alpha`` to ``alpha*``), ``H`` and ``Q2`` do not
-enter the linear loop at ``alpha = alpha*`` and are kept; ``filter_a`` (Sec. 3.4) does
-not either: the entry's value is kept when it is above ``ln 2 / T_s``, and replaced by
-the rule of ``posfb scenario init`` otherwise (``models.design.initial.filter_pole``), so
-a tuned scenario never holds an invalid pair.
+**Decision variables**: the controller's own (``ControllerSpec.tuning``,
+``models.controllers.tunable``: for Lin+LC and the paper's controller the Sec. 3.2
+weights' multipliers, the paper's adding ``alpha_star``), searched on a log scale. The
+loop a candidate is judged by is the controller's linear feedback
+(``models.controllers.linear_feedback``: derived from its law, or the Sec. 3 design's
+filter) closed around the held plant.
 
 **Objective** (``predicted_rms``): the predicted RMS tracking error of the nominal
 sampled-data loop, ``sqrt(sum_j var(q~_j))`` in its stationary state
@@ -49,7 +42,7 @@ from __future__ import annotations
 import math
 import time
 from collections.abc import Callable
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -57,14 +50,19 @@ from posfb.analysis.common.loop_effects import nominal_effects
 from posfb.analysis.design.budget import Deadline
 from posfb.analysis.uncertainty.plants import LinearPlant, error_instants
 from posfb.diagrams.resolve import ResolvedScenario
-from posfb.models.controllers import require_design
-from posfb.models.design import Design, cached_design, held_design_loop, held_design_radius
-from posfb.models.design.bounds import bound_filter_constants
-from posfb.models.design.closed_loop import HeldPlant, held_plant, stationary_deviations
+from posfb.models.controllers import entry_build, linear_feedback, spec
+from posfb.models.controllers.tunable import Knob, Tuning
+from posfb.models.design.closed_loop import (
+    HeldPlant,
+    held_loop,
+    held_plant,
+    held_transition,
+    spectral_radius,
+    stationary_deviations,
+)
 from posfb.models.design.configurations import ConfigurationSet
-from posfb.models.design.initial import filter_pole
-from posfb.models.design.settings import LinearTorqueInputs, Proposed
-from posfb.models.nominal import nominal_model, trajectory_voltages
+from posfb.models.design.realisation import DiscreteFilter
+from posfb.models.nominal import NominalModel, nominal_model, trajectory_voltages
 
 #: The plant index of the nominal model in an active pair (``TuningProblem.active``).
 NOMINAL = -1
@@ -73,53 +71,33 @@ NOMINAL = -1
 VOLTAGE_SIGMAS = 3.0
 
 
-@dataclass(frozen=True)
-class Knob:
-    """One decision variable: ``key`` as the report names it, searched in
-    ``[log10(low), log10(high)]``; ``start`` is the entry's value (1 for a multiplier)."""
-
-    key: str
-    low: float
-    high: float
-    start: float
-
-
-def knobs(entry: LinearTorqueInputs) -> tuple[Knob, ...]:
-    """The decision variables of ``entry`` (``Proposed`` adds ``alpha_star``)."""
-    weights = (
-        Knob("Q1 position block x", 1e-2, 1e2, 1.0),
-        Knob("Q1 velocity block x", 1e-2, 1e2, 1.0),
-        Knob("R x", 1e-2, 1e2, 1.0),
-        Knob("lambdas x", 1e-1, 1e1, 1.0),
-    )
-    if isinstance(entry, Proposed):
-        top = max(10.0, 2.0 * entry.alpha_star)
-        return (Knob("alpha_star", 0.05, top, entry.alpha_star), *weights)
-    return weights
+def tuning(controller: str) -> Tuning:
+    """What tune may vary of registered ``controller``; ``ValueError`` (one line) for one
+    that says nothing (``ControllerSpec.tuning``)."""
+    entry = spec(controller)
+    if entry.tuning is None:
+        raise ValueError(f"controller {controller!r} says nothing tune may vary (its spec has "
+                         "no tuning)")  # fmt: skip
+    return entry.tuning
 
 
-def _scaled_blocks(matrix: list[list[float]], scales: np.ndarray) -> list[list[float]]:
-    """``S M S`` with ``S = diag(sqrt(scales))``: each diagonal block scaled by its factor,
-    the matrix stays symmetric and keeps its definiteness."""
-    root = np.sqrt(scales)
-    return (np.asarray(matrix, dtype=float) * np.outer(root, root)).tolist()
+def knobs(controller: str, entry: object) -> tuple[Knob, ...]:
+    """The decision variables of ``controller``'s settings ``entry``."""
+    return tuning(controller).knobs(entry)
 
 
-def apply_knobs(entry: LinearTorqueInputs, values: np.ndarray, sample_time: float) -> object:
-    """``entry`` with the decision variables ``values`` (in ``knobs(entry)`` order, actual
-    values, not logarithms) and ``filter_a`` by its rule."""
-    values = list(values)
-    changes: dict[str, object] = {}
-    if isinstance(entry, Proposed):
-        changes["alpha_star"] = float(values.pop(0))
-        valid = bound_filter_constants(entry.filter_a, sample_time).valid
-        changes["filter_a"] = float(entry.filter_a) if valid else filter_pole(sample_time)
-    position, velocity, r_scale, lambda_scale = values
-    n = len(entry.R)
-    changes["Q1"] = _scaled_blocks(entry.Q1, np.repeat([position, velocity], n))
-    changes["R"] = (np.asarray(entry.R, dtype=float) * r_scale).tolist()
-    changes["lambdas"] = [float(v) * lambda_scale for v in entry.lambdas]
-    return replace(entry, **changes)
+def entry_feedback(
+    controller: str, entry: object, nominal: NominalModel, sample_time: float
+) -> DiscreteFilter:
+    """The linear feedback of ``controller`` with the settings ``entry`` on ``nominal``;
+    ``ValueError`` (one line) for settings the controller refuses."""
+    build = entry_build(entry, nominal, sample_time)
+    return linear_feedback(controller, build.design, settings=build.settings)
+
+
+def feedback_radius(feedback: DiscreteFilter, plant: HeldPlant) -> float:
+    """The spectral radius of ``feedback`` closed around the held ``plant``."""
+    return spectral_radius(held_transition(plant, feedback, np.eye(plant.Gamma.shape[1])))
 
 
 def torque_bandwidth(series: list[np.ndarray], step: float) -> float:
@@ -154,30 +132,28 @@ class Evaluation:
 def judging_seconds(
     resolved: ResolvedScenario,
     controller: str,
-    entry: LinearTorqueInputs,
+    entry: object,
     plants: list[LinearPlant],
 ) -> float:
     """Seconds to judge ``entry``'s loop (``controller``) around one plant: the fastest
-    over ``plants`` (the price of each further plant); 0 when the entry's design is
-    refused (its cost is then not known)."""
+    over ``plants`` (the price of each further plant); 0 when the entry is refused (its
+    cost is then not known)."""
     config = resolved.config
     try:
-        design_config = entry.config(config.design.nominal, config.sample_time)
-        require_design(controller, design_config)
+        feedback = entry_feedback(controller, entry, config.design.nominal, config.sample_time)
     except ValueError:
         return 0.0
-    design = cached_design(design_config)
     times = []
     for plant in plants:
         began = time.perf_counter()
-        held_design_radius(design, controller, plant.held)
+        feedback_radius(feedback, plant.held)
         times.append(time.perf_counter() - began)
     return min(times, default=0.0)
 
 
 @dataclass
 class TuningProblem:
-    """The tuning of ``controller`` (``proposed`` or ``lin_lc``) starting from the
+    """The tuning of ``controller`` (a registered kind with a ``tuning``) starting from the
     scenario's ``entry``, checked on ``plants`` with ``margin``; ``deadline`` (``None``:
     none) is checked before each plant a design is judged on (``radii``);
     ``configurations``: the path's (each plant's ``held_at`` holds its loop at them),
@@ -185,7 +161,7 @@ class TuningProblem:
 
     resolved: ResolvedScenario
     controller: str
-    entry: LinearTorqueInputs
+    entry: object
     plants: list[LinearPlant]
     margin: float
     deadline: Deadline | None = None
@@ -196,7 +172,8 @@ class TuningProblem:
         config = self.resolved.config
         self.sample_time = config.sample_time
         self.nominal = config.design.nominal
-        self.knobs = knobs(self.entry)
+        self.tuning = tuning(self.controller)
+        self.knobs = self.tuning.knobs(self.entry)
         model = nominal_model(self.nominal)
         self.effects = nominal_effects(self.resolved)
         self.nominal_held = held_plant(model.M0(), model.B(), self.sample_time, self.effects)
@@ -221,9 +198,9 @@ class TuningProblem:
         noise = np.asarray(config.noise_std, dtype=float)
         self.noise_std = np.sqrt(step**2 / 12.0 + noise**2)
 
-    def settings(self, x: np.ndarray) -> LinearTorqueInputs:
+    def settings(self, x: np.ndarray) -> object:
         """The entry at the point ``x`` (log10 of each knob's value)."""
-        return apply_knobs(self.entry, np.power(10.0, x), self.sample_time)
+        return self.tuning.apply(self.entry, np.power(10.0, x), self.sample_time)
 
     def bounds(self) -> list[tuple[float, float]]:
         """The search box in log10."""
@@ -234,39 +211,29 @@ class TuningProblem:
         low, high = np.array(self.bounds()).T
         return np.clip([math.log10(k.start) for k in self.knobs], low, high)
 
-    def design(self, entry: LinearTorqueInputs) -> Design:
-        """The Sec. 3 design of ``entry`` on the scenario's nominal model."""
-        return cached_design(entry.config(self.nominal, self.sample_time))
+    def feedback(self, entry: object) -> DiscreteFilter:
+        """The linear feedback of ``entry`` on the scenario's nominal model; ``ValueError``
+        (one line) for settings the controller refuses."""
+        return entry_feedback(self.controller, entry, self.nominal, self.sample_time)
 
-    def evaluate(self, entry: LinearTorqueInputs) -> Evaluation:
+    def evaluate(self, entry: object) -> Evaluation:
         """``entry`` judged on the nominal loop and the design plants."""
         try:
-            config = entry.config(self.nominal, self.sample_time)
-            require_design(self.controller, config)  # the controller's own refusals
+            feedback = self.feedback(entry)  # the controller's own refusals
         except ValueError as error:
             return Evaluation(math.inf, math.inf, math.inf, (), math.inf, False, str(error))
-        design = cached_design(config)
-        at_M0 = (
-            (
-                design.sampled_data_spectral_radius
-                if self.controller == "proposed"
-                else design.sampled_data_spectral_radius_lin_lc
-            )
-            if self.effects.ideal
-            else held_design_radius(design, self.controller, self.nominal_held)
-        )
         nominal_radius = max(
-            [at_M0]
+            [feedback_radius(feedback, self.nominal_held)]
             + [
-                self._radius(design, self.nominal_held_at[c])
+                feedback_radius(feedback, self.nominal_held_at[c])
                 for owner, c in self.active
                 if owner == NOMINAL
             ]  # fmt: skip
         )
-        worst = max(self.radii(design, self.plants), default=math.nan)
+        worst = max(self.radii(feedback, self.plants), default=math.nan)
         if nominal_radius >= 1.0:
             return Evaluation(math.inf, nominal_radius, worst, (), math.inf, False)
-        loop = held_design_loop(design, self.controller, self.nominal_held)
+        loop = held_loop(self.nominal_held, feedback, np.eye(len(self.voltage_limit)))
         q_std, u_std = stationary_deviations(
             loop, self.disturbance_std, self.noise_std, self.disturbance_pole
         )
@@ -282,11 +249,8 @@ class TuningProblem:
             feasible=bool(stable and ratio <= 1.0),
         )
 
-    def _radius(self, design: Design, plant: HeldPlant) -> float:
-        return held_design_radius(design, self.controller, plant)
-
     def radii(
-        self, design: Design, plants: list[LinearPlant], everywhere: bool = False
+        self, feedback: DiscreteFilter, plants: list[LinearPlant], everywhere: bool = False
     ) -> list[float]:
         """The spectral radius of the controller's loop around each of ``plants``, the
         worst of its ``M0*`` and its ``active`` configurations (``everywhere``: all of
@@ -299,23 +263,23 @@ class TuningProblem:
                 )
             frozen = plant.held_at if everywhere else [
                 plant.held_at[c] for owner, c in self.active if owner == index]  # fmt: skip
-            found.append(max(self._radius(design, h) for h in (plant.held, *frozen)))
+            found.append(max(feedback_radius(feedback, h) for h in (plant.held, *frozen)))
         return found
 
-    def violated(self, entry: LinearTorqueInputs) -> tuple[tuple[int, int], ...]:
+    def violated(self, entry: object) -> tuple[tuple[int, int], ...]:
         """The pairs (plant, configuration) where ``entry``'s loop breaks ``rho <= 1 -
         margin``, judged at every configuration of the nominal model and every design
         plant: for each, its worst configuration when that one breaks it and is not
         active yet."""
         if self.configurations is None:
             return ()
-        design = self.design(entry)
+        feedback = self.feedback(entry)
         limit = 1.0 - self.margin
         owners = [(NOMINAL, self.nominal_held_at)] + [
             (index, plant.held_at) for index, plant in enumerate(self.plants)]  # fmt: skip
         found = []
         for owner, held_at in owners:
-            radii = [self._radius(design, held) for held in held_at]
+            radii = [feedback_radius(feedback, held) for held in held_at]
             pair = (owner, int(np.argmax(radii)))
             if radii[pair[1]] > limit and pair not in self.active:
                 found.append(pair)
@@ -329,8 +293,8 @@ class TuningProblem:
         extremes = [i for i, c in enumerate(self.configurations.configurations)
                     if c.role in ("lightest", "heaviest")]  # fmt: skip
         try:
-            design = self.design(self.entry)
-            radii = [self._radius(design, held) for held in self.nominal_held_at]
+            feedback = self.feedback(self.entry)
+            radii = [feedback_radius(feedback, held) for held in self.nominal_held_at]
             extremes.append(int(np.argmax(radii)))
         except ValueError:
             pass  # an entry the design refuses: its search starts from the extremes

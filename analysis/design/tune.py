@@ -1,7 +1,8 @@
-"""``tune``: a robust design of the paper's controller and Lin+LC for a scenario's arm,
-with a stated probabilistic guarantee (issue 20).
+"""``tune``: a robust design of the tunable controllers (those whose spec says what tune
+may vary, ``models.controllers.tunable``: the paper's controller and Lin+LC) for a
+scenario's arm, with a stated probabilistic guarantee (issue 20).
 
-For each of ``TUNED_CONTROLLERS`` in turn:
+For each of ``tuned_kinds`` in turn:
 
 1. draw ``plants`` design plants from the family (``analysis.uncertainty.plants``, seed
    ``seed``) and search the entry's settings (``analysis.design.problem``,
@@ -28,8 +29,8 @@ A tuned entry is *certified* (its guarantee stated) only when its check run is `
 (``TunedController.not_certified``): the guarantee is about the sampled linear loop, and
 a run that saturates, loses its path or diverges is not that loop.
 
-The tuned scenario holds the tuned paper's controller as its ``controller`` and the tuned
-Lin+LC as the named entry ``lin_lc``; every other setting is the scenario's. The result
+The tuned scenario holds the first tuned controller as its ``controller`` and the others
+as named entries; every other setting is the scenario's. The result
 is a pure function of the scenario, the family, the settings and the seed; the budget
 only stops a tuning that would overrun it (``BudgetError``). It is a wall-clock bound on
 all of the above, checked inside the work (``analysis.design.budget``): before each
@@ -79,12 +80,15 @@ from posfb.diagrams.resolve import (
     resolve,
     with_absolute_paths,
 )
-from posfb.diagrams.scenario import Scenario, controller_kind, dump_scenario, with_controller
+from posfb.diagrams.scenario import (
+    DEFAULT_KIND,
+    Scenario,
+    controller_kind,
+    dump_scenario,
+    with_controller,
+)
+from posfb.models.controllers import REGISTRY, spec
 from posfb.models.design.margins import LoopMargins
-from posfb.models.design.settings import LinearTorqueInputs
-
-#: The controllers ``tune`` designs, in order (each has a Sec. 3 loop).
-TUNED_CONTROLLERS = ("proposed", "lin_lc")
 
 #: Seconds of the cross-check simulations (at most the scenario's duration).
 CHECK_DURATION = 5.0
@@ -100,11 +104,20 @@ REFINEMENT_SHARE = 1.0 / 6.0
 #: A tuned value within this share of an edge of its search box is flagged.
 EDGE_SHARE = 0.02
 
-#: The settings each report shows beside their former value, per controller.
-SHOWN_SETTINGS = {
-    "proposed": ("alpha_star", "K_alpha", "filter_a", "Q1", "R", "lambdas"),
-    "lin_lc": ("Q1", "R", "lambdas"),
-}
+def tuned_kinds(scenario: Scenario) -> tuple[str, ...]:
+    """The controllers ``tune`` designs, in order: the registered kinds whose spec says
+    what tune may vary (``ControllerSpec.tuning``), the scenario's own kind first (the
+    scenario's default kind when its own is not tunable), then the others in registration
+    order."""
+    tunable = [kind for kind, entry in REGISTRY.items() if entry.tuning is not None]
+    own = controller_kind(scenario.controller)
+    lead = own if own in tunable else DEFAULT_KIND
+    return tuple(dict.fromkeys([lead, *tunable] if lead in tunable else tunable))
+
+
+def shown_settings(controller: str) -> tuple[str, ...]:
+    """The settings a report shows beside their former value (``Tuning.shown``)."""
+    return spec(controller).tuning.shown
 
 
 @dataclass(frozen=True)
@@ -210,8 +223,8 @@ class TunedController:
     ``at_edge``: the tuned values at their search box's edge."""
 
     controller: str
-    before: LinearTorqueInputs
-    after: LinearTorqueInputs
+    before: object
+    after: object
     start: Evaluation
     best: Evaluation
     guarantee: Guarantee
@@ -328,7 +341,7 @@ class WorseError(TuneError):
         self.result = result
 
 
-def _entry(scenario: Scenario, controller: str) -> LinearTorqueInputs:
+def _entry(scenario: Scenario, controller: str) -> object:
     return copy.deepcopy(with_controller(scenario, controller).controller)
 
 
@@ -430,18 +443,18 @@ def _drawn(
 def _tuned_scenario(
     loaded: LoadedScenario, entries: dict[str, object], out: Path | None
 ) -> Scenario:
-    """The scenario with the tuned entries: the paper's controller as ``controller``, the
-    others named; the scenario's own entry of another kind kept under its kind. Paths are
-    made absolute unless the file is written beside the scenario."""
+    """The scenario with the tuned entries: the first as ``controller``, the others named;
+    the scenario's own entry of another kind kept under its kind. Paths are made absolute
+    unless the file is written beside the scenario."""
     same_folder = out is not None and out.resolve().parent == loaded.base_dir.resolve()
     scenario = copy.deepcopy(loaded.scenario) if same_folder else with_absolute_paths(loaded)
     own = controller_kind(scenario.controller)
     if own not in entries and own not in scenario.controllers:
         scenario.controllers[own] = scenario.controller
-    scenario.controller = entries["proposed"]
-    for name, entry in entries.items():
-        if name != "proposed":
-            scenario.controllers[name] = entry
+    lead, *others = entries
+    scenario.controller = entries[lead]
+    for name in others:
+        scenario.controllers[name] = entries[name]
     return scenario
 
 
@@ -490,7 +503,7 @@ def _tune_controller(
     checks = verification_plants(settings.epsilon, settings.beta / settings.rounds)
     configurations = scenario_configurations(resolved.config)
     angles = tuple(c.q for c in configurations.configurations)
-    members = population(len(knobs(before)))
+    members = population(len(knobs(controller, before)))
     for round_ in range(settings.rounds):
         count = settings.plants * 2**round_
         design_set = _drawn(
@@ -528,7 +541,7 @@ def _tune_controller(
             f"fresh {controller} verification plants (round {round_ + 1})",
             "raise --budget, or --epsilon or --beta (fewer fresh plants)",
         )
-        radii = tuple(problem.radii(problem.design(after), fresh_set, everywhere=True))
+        radii = tuple(problem.radii(problem.feedback(after), fresh_set, everywhere=True))
         guarantee = verify([r < 1.0 for r in radii], settings.epsilon, settings.beta,
                            settings.rounds)  # fmt: skip
         if guarantee.holds:
@@ -576,7 +589,7 @@ def tune(
     study_name: str | None = None,
     accept_worse: bool = False,
 ) -> TuneResult:
-    """Tune ``TUNED_CONTROLLERS`` for the scenario ``loaded`` on plants of ``study``
+    """Tune ``tuned_kinds`` for the scenario ``loaded`` on plants of ``study``
     (``None``: the default spread; ``study_name`` names it in the report). Raises
     ``ValueError`` for a study of another arm (before any other work), ``InfeasibleError``
     when no design meets the constraints, ``BudgetError`` when the tuning runs out of
@@ -602,7 +615,7 @@ def tune(
     )
     tuned: dict[str, object] = {}
     with threadpool_limits(1):
-        for controller in TUNED_CONTROLLERS:
+        for controller in tuned_kinds(loaded.scenario):
             entry = _tune_controller(loaded, resolved, family, controller, settings, deadline)
             result.controllers[controller] = entry
             tuned[controller] = entry.after

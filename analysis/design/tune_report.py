@@ -11,7 +11,12 @@ import math
 import numpy as np
 
 from posfb.analysis.design.problem import VOLTAGE_SIGMAS, Evaluation
-from posfb.analysis.design.tune import SHOWN_SETTINGS, SimulatedCheck, TunedController, TuneResult
+from posfb.analysis.design.tune import (
+    SimulatedCheck,
+    TunedController,
+    TuneResult,
+    shown_settings,
+)
 from posfb.models.design.margins import LoopMargins
 
 #: The violation the guarantee bounds.
@@ -71,7 +76,7 @@ def _controller_lines(entry: TunedController, result: TuneResult) -> list[str]:
         f"model error of the {entry.design_plants} design plants RMS ({error}) V, bandwidth "
         f"{entry.disturbance_bandwidth:.3g} rad/s"
     ]
-    for name in SHOWN_SETTINGS[entry.controller]:
+    for name in shown_settings(entry.controller):
         shown = "diagonal of " if name in ("Q1", "R") else ""
         lines.append(
             f"  {shown}controller.{name}: {_text(_value(entry.before, name))} -> "
@@ -174,7 +179,7 @@ def result_dict(result: TuneResult) -> dict[str, object]:
         controllers[name] = {
             "settings": {
                 key: {"before": _value(entry.before, key), "after": _value(entry.after, key)}
-                for key in SHOWN_SETTINGS[name]
+                for key in shown_settings(name)
             },
             "before": _evaluation_dict(entry.start),
             "after": _evaluation_dict(entry.best),

@@ -1,8 +1,9 @@
 """The sampled loops of a study's plants: one controller's linear feedback, as designed on
-the nominal model (``ControllerSpec.linear``), closed around each plant's linear part
-``M0, B`` with the plant's linear effects (``analysis.common.loop_effects``). The loop a
-study's per-sample ``rho`` judges (``models.design.plant_spectral_radii``, for the Sec. 3
-designs), for any controller with a linear design; its margins
+the nominal model (derived from its law, ``models.controllers.linearise``), closed around
+each plant's linear part ``M0, B`` with the plant's linear effects
+(``analysis.common.loop_effects``). The loop a study's per-sample ``rho`` judges
+(``models.design.plant_spectral_radii``, for the Sec. 3 designs), for any controller with
+a linear design; its margins
 (``models.design.margins``) are what ``posfb montecarlo report`` and ``posfb design
 --worst-case`` report.
 
@@ -67,13 +68,11 @@ class BoxAxis:
 
 
 def nominal_loop(config: ClosedLoopConfig, effects: LoopEffects) -> SampledFeedback:
-    """``config``'s controller's linear feedback (``ControllerSpec.linear``) around its
-    nominal model's linear part with ``effects``; ``ValueError`` (one line) for a
-    controller without one."""
-    feedback = linear_feedback(
-        config.controller, config.design, voltage_limit=config.voltage_limit,
-        settings=config.controller_settings,
-    )  # fmt: skip
+    """``config``'s controller's linear feedback (derived from its law,
+    ``models.controllers.linearise``) around its nominal model's linear part with
+    ``effects``; ``ValueError`` (one line) for a controller written as a step."""
+    feedback = linear_feedback(config.controller, config.design,
+                               settings=config.controller_settings)  # fmt: skip
     model = nominal_model(config.design.nominal)
     return SampledFeedback(model.M0(), model.B(), config.sample_time, effects, feedback)
 

@@ -16,11 +16,9 @@ from __future__ import annotations
 from dataclasses import fields
 
 from posfb.models.controllers import adrc, lin_lc, pd_gravity, pid, proposed
-from posfb.models.controllers.base import SampledController
-from posfb.models.controllers.lin_lc import LinLcController
-from posfb.models.controllers.pid import PidController
+from posfb.models.controllers.base import LawController, SampledController
+from posfb.models.controllers.linearise import law_feedback
 from posfb.models.controllers.plugin import Controller, ControllerSetup, PluginError, UserPlugin
-from posfb.models.controllers.proposed import ProposedController
 from posfb.models.controllers.registry import (
     REGISTRY,
     ControllerBuild,
@@ -32,6 +30,7 @@ from posfb.models.controllers.registry import (
 from posfb.models.design import ControllerConfig, Design, cached_design
 from posfb.models.design.realisation import DiscreteFilter
 from posfb.models.laws.law import Law
+from posfb.models.nominal import NominalModel
 
 for _module in (pid, lin_lc, proposed, pd_gravity, adrc):
     register(_module.SPEC)
@@ -53,7 +52,10 @@ def internals_names(kind: str, joints: int) -> tuple[str, ...]:
 def design_checks(kind: str) -> tuple[str, ...]:
     """Every design check that the entry of controller ``kind`` determines: its own, and
     those of each kind whose settings it holds all of (the paper's controller's entry
-    holds Lin+LC's inputs, so it also answers for Lin+LC's sampled loop)."""
+    holds Lin+LC's inputs, so it also answers for Lin+LC's sampled loop); none for a
+    user's plug-in."""
+    if kind not in REGISTRY or REGISTRY[kind].settings is None:
+        return ()
     own = {f.name for f in fields(spec(kind).settings)}
     found: list[str] = []
     for entry in REGISTRY.values():
@@ -84,43 +86,8 @@ def controller_spec(kind: str, settings: object | None = None) -> ControllerSpec
 
 
 def linear_kinds() -> tuple[str, ...]:
-    """The registered kinds with a linear feedback (``ControllerSpec.linear``)."""
-    return tuple(kind for kind, entry in REGISTRY.items() if entry.linear is not None)
-
-
-def _built(
-    part: str,
-    missing: str,
-    kind: str,
-    config: ControllerConfig,
-    voltage_limit: tuple[float, ...],
-    settings: object | None,
-) -> object:
-    """``ControllerSpec.<part>`` of controller ``kind`` applied to ``make_controller``'s
-    inputs; ``ValueError`` with ``missing`` (one line) for a controller without one, or
-    the design's own refusal."""
-    entry = controller_spec(kind, settings)
-    build = getattr(entry, part)
-    if build is None:
-        raise ValueError(f"controller {kind!r} {missing}")
-    entry.refuse(config)
-    return build(ControllerBuild(config, tuple(voltage_limit), settings))
-
-
-def linear_feedback(
-    kind: str,
-    config: ControllerConfig,
-    *,
-    voltage_limit: tuple[float, ...] = (),
-    settings: object | None = None,
-) -> DiscreteFilter:
-    """Controller ``kind``'s feedback linearised on the nominal linear part
-    (``ControllerSpec.linear``: a filter from ``q~`` to the feedback voltage) for the same
-    inputs as ``make_controller``; ``ValueError`` (one line) for a controller without one
-    (a plug-in of the user's) or a design it refuses."""
-    missing = ("has no linear design (posfb cannot linearise a plug-in's step); the margins "
-               f"are computed for {', '.join(linear_kinds())}")  # fmt: skip
-    return _built("linear", missing, kind, config, voltage_limit, settings)
+    """The registered kinds with a linear feedback: those written as a law."""
+    return tuple(kind for kind, entry in REGISTRY.items() if entry.law is not None)
 
 
 def controller_law(
@@ -129,13 +96,46 @@ def controller_law(
     *,
     voltage_limit: tuple[float, ...] = (),
     settings: object | None = None,
+    linear_part: bool = False,
 ) -> Law:
     """Controller ``kind``'s update as a ``models.laws`` law (``ControllerSpec.law``), for
-    the same inputs as ``make_controller``; ``ValueError`` (one line) for a controller
-    without one."""
-    having = ", ".join(k for k, e in REGISTRY.items() if e.law is not None)
-    missing = f"has no generated code yet (posfb codegen covers {having})"
-    return _built("law", missing, kind, config, voltage_limit, settings)
+    the same inputs as ``make_controller`` (on the nominal model's linear part with
+    ``linear_part``); ``ValueError`` (one line) for a controller written as a step or a
+    design it refuses."""
+    entry = controller_spec(kind, settings)
+    if entry.law is None:
+        raise ValueError(f"controller {kind!r} is written as a step (no law): posfb cannot "
+                         "linearise it or print it as C")  # fmt: skip
+    entry.refuse(config)
+    return entry.law(ControllerBuild(config, tuple(voltage_limit), settings, linear_part))
+
+
+def linear_feedback(
+    kind: str,
+    config: ControllerConfig,
+    *,
+    settings: object | None = None,
+) -> DiscreteFilter:
+    """Controller ``kind``'s feedback linearised on the nominal linear part: the filter from
+    ``q~`` to the feedback voltage derived from its law (``linearise.law_feedback``), with
+    no voltage limit (a linear loop does not saturate), or the design's closed form of it
+    (``ControllerSpec.linear``); ``ValueError`` (one line) for a controller written as a
+    step or a design it refuses."""
+    entry = controller_spec(kind, settings)
+    if entry.linear is not None:
+        entry.refuse(config)
+        return entry.linear(ControllerBuild(config, (), settings, linear_part=True))
+    return law_feedback(controller_law(kind, config, settings=settings, linear_part=True))
+
+
+def entry_build(entry: object, nominal: NominalModel, sample_time: float) -> ControllerBuild:
+    """What a scenario's settings ``entry`` builds its controller from on ``nominal`` at
+    ``sample_time``: an entry that gives design inputs (``config``: the paper's three,
+    ``models.design.settings``) gives them and no settings; any other entry is the
+    settings of a controller without a Sec. 3 design (``ControllerConfig.without_design``)."""
+    if hasattr(entry, "config"):
+        return ControllerBuild(entry.config(nominal, sample_time), ())
+    return ControllerBuild(ControllerConfig.without_design(nominal, sample_time), (), entry)
 
 
 def make_controller(
@@ -151,7 +151,7 @@ def make_controller(
     ``models.controllers.plugin.UserPlugin``)."""
     config = ControllerConfig() if config is None else config
     build = ControllerBuild(config, tuple(voltage_limit), settings)
-    return controller_spec(kind, settings).factory(build)
+    return controller_spec(kind, settings).build(build)
 
 
 __all__ = [
@@ -163,14 +163,13 @@ __all__ = [
     "ControllerSetup",
     "ControllerSpec",
     "Design",
-    "LinLcController",
-    "PidController",
+    "LawController",
     "PluginError",
-    "ProposedController",
     "SampledController",
     "UserPlugin",
     "cached_design",
     "design_checks",
+    "entry_build",
     "controller_spec",
     "failed_checks",
     "internals_names",

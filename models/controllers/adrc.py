@@ -30,9 +30,9 @@ Gao's 3-10) times faster, ``w_o = observer_ratio w_c``. With ``bandwidth`` 0, ``
 (20 T_s)``, the sampling rule of ``models.controllers.tuning``; ``w_o`` must stay below the
 Nyquist frequency.
 
-Its linear feedback (``adrc_feedback``, for the margins): the same ESO and law with the
-clip left out (a linear loop does not saturate) and the reference terms as exogenous
-inputs, a filter from the reading to the voltage.
+Its linear feedback (derived from the law, ``models.controllers.linearise``): the same
+ESO and law with the clip left out (the linear feedback is built without a voltage
+limit: a linear loop does not saturate), a filter from the reading to the voltage.
 """
 
 # No "from __future__ import annotations": Drake's YAML reads the settings field types.
@@ -50,13 +50,12 @@ from posfb.models.controllers.plugin import (
     plugin_factory,
     plugin_instance,
 )
-from posfb.models.controllers.registry import ControllerBuild, ControllerSpec
+from posfb.models.controllers.registry import ControllerSpec
 from posfb.models.controllers.tuning import (
     loop_bandwidth,
     positive_setting,
     require_below_nyquist,
 )
-from posfb.models.design.realisation import DiscreteFilter
 
 if TYPE_CHECKING:
     from posfb.models.laws.law import Law
@@ -113,14 +112,10 @@ class AdrcController(Controller):
         self.Kp, self.Kd = w_c**2, 2.0 * w_c
         self.Phi, self.Gamma, self.L = eso_matrices(w_o, T_s)
         self.limit = np.asarray(setup.voltage_limit, dtype=float)
-        self.memory_size = 3 * n
         self.internals = tuple(f"disturbance_{j + 1}_V" for j in range(n)) + tuple(
             f"v_est_{j + 1}_rad_per_s" for j in range(n)
         )
-        from posfb.models.laws.law import Stepper
-
         self.law = self._law()
-        self._stepper = Stepper(self.law)
 
     def _law(self) -> "Law":  # noqa: UP037 (no future annotations here: Drake's YAML)
         """The step as a ``models.laws`` law, the one description the simulation evaluates
@@ -150,35 +145,6 @@ class AdrcController(Controller):
 
         return law("adrc", n, 3 * n, lambda q, q_d: ca.vertcat(q, ca.DM.zeros(2 * n)), step)
 
-    def start(self, q: np.ndarray, desired: np.ndarray) -> np.ndarray:
-        return self._stepper.start(q, desired)
-
-    def step(
-        self, q: np.ndarray, desired: np.ndarray, memory: np.ndarray
-    ) -> tuple[np.ndarray, np.ndarray]:
-        return self._stepper.step(q, desired, memory)
-
-
-def adrc_feedback(build: ControllerBuild) -> DiscreteFilter:
-    """The ESO and law without the clip (module docstring), state the predicted ``zbar``
-    in the controller's memory order (``[q^ (n), qdot^ (n), f^ (n)]``), started at
-    ``[q~_0, 0, 0]`` as the controller is. Per joint ``z = (I - L h) zbar + L y`` (``h =
-    [1, 0, 0]``), ``b0 u = -k z`` (``k = [K_p, K_d, 1]``) and ``zbar' = (Phi - Gamma k) z``."""
-    law = plugin_instance(AdrcController, build)
-    n = law.setup.joints
-    k = np.array([law.Kp, law.Kd, 1.0])
-    correct = np.eye(3) - np.outer(law.L, [1.0, 0.0, 0.0])  # zbar -> z, without y
-    closed = law.Phi - np.outer(law.Gamma, k)  # z -> next zbar
-    per_volt = np.diag(1.0 / law.b0)
-    eye = np.eye(n)
-    return DiscreteFilter(
-        A=np.kron(closed @ correct, eye),
-        B=np.kron((closed @ law.L)[:, None], eye),
-        C=-per_volt @ np.kron((k @ correct)[None, :], eye),
-        D=-(k @ law.L) * per_volt,
-        initial=np.kron(np.array([[1.0], [0.0], [0.0]]), eye),
-    )
-
 
 #: Linear ADRC (Gao 2003): a registered plug-in baseline.
 SPEC = ControllerSpec(
@@ -187,6 +153,5 @@ SPEC = ControllerSpec(
     factory=plugin_factory(AdrcController),
     style={"linestyle": (0, (3, 1, 1, 1, 1, 1)), "color": "tab:purple"},
     settings=Adrc,
-    linear=adrc_feedback,
     law=lambda build: plugin_instance(AdrcController, build).law,
 )

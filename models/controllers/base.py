@@ -28,6 +28,7 @@ update at ``t_1`` steps from there and sets it to 2.
 from __future__ import annotations
 
 import typing
+from collections.abc import Mapping
 
 import numpy as np
 from pydrake.common.value import AbstractValue
@@ -41,8 +42,11 @@ from pydrake.systems.framework import (
 
 from posfb.models.validation import require_positive
 
+if typing.TYPE_CHECKING:
+    from posfb.models.laws.law import Law
 
-def unit_of(name: str, units: dict[str, str]) -> str:
+
+def unit_of(name: str, units: Mapping[str, str]) -> str:
     """The unit of internal ``name`` in ``units`` (``name``, or for ``stem_j`` the
     stem's); ``KeyError`` for a name without one."""
     stem, _, joint = name.rpartition("_")
@@ -50,7 +54,12 @@ def unit_of(name: str, units: dict[str, str]) -> str:
         return units[name]
     if joint.isdigit() and stem in units:
         return units[stem]
-    raise KeyError(f"controller internal {name!r} has no unit in INTERNAL_UNITS")
+    raise KeyError(f"controller internal {name!r} has no unit in internal_units")
+
+
+def unit_columns(names: tuple[str, ...], units: Mapping[str, str]) -> tuple[str, ...]:
+    """``names`` with their unit suffixes (``unit_of``): ``tau_lin_1`` -> ``tau_lin_1_V``."""
+    return tuple(f"{name}_{unit_of(name, units)}" for name in names)
 
 
 def joint_names(prefix: str, joints: int) -> tuple[str, ...]:
@@ -60,13 +69,8 @@ def joint_names(prefix: str, joints: int) -> tuple[str, ...]:
 
 class SampledController(LeafSystem):
     """Ports, state, the cached step and the periodic update; subclasses implement
-    ``_start`` and ``_step``; ``joints`` is ``n``. ``INTERNAL_UNITS`` gives the unit of
-    each internal (a per-joint ``name_j`` takes the unit of ``name``; torques of the
-    lumped model are volts), from which ``internals_columns`` names the exported
-    columns (``tau_lin_1`` -> ``tau_lin_1_V``)."""
-
-    #: Unit suffix of each internal, by name or per-joint stem.
-    INTERNAL_UNITS: typing.ClassVar[dict[str, str]] = {}
+    ``_start`` and ``_step`` and name their export columns (``internals_columns``);
+    ``joints`` is ``n``."""
 
     def __init__(
         self, sample_time: float, joints: int, internals: tuple[str, ...], memory_size: int
@@ -123,9 +127,8 @@ class SampledController(LeafSystem):
 
     @property
     def internals_columns(self) -> tuple[str, ...]:
-        """The internals' names with their unit suffixes (``INTERNAL_UNITS``)."""
-        units = self.INTERNAL_UNITS
-        return tuple(f"{name}_{unit_of(name, units)}" for name in self.internals_names)
+        """The internals' export names, each with its unit suffix."""
+        raise NotImplementedError
 
     def split_desired(self, desired: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """``(q_d, qdot_d, qddot_d)`` of the stacked desired input."""
@@ -141,3 +144,42 @@ class SampledController(LeafSystem):
     ) -> tuple[np.ndarray, np.ndarray]:
         """``(voltage, internals)`` at this sample; advances ``memory`` in place."""
         raise NotImplementedError
+
+
+class LawController(SampledController):
+    """The discrete system of every controller written as a ``models.laws`` law: its
+    ``_start`` and ``_step`` evaluate ``law.start`` and ``law.step`` (``Stepper``), the
+    one description that ``posfb codegen`` also prints and that the linear feedback is
+    derived from. ``internals_columns`` are ``internals``' export names (with their units);
+    by default the names themselves."""
+
+    def __init__(
+        self,
+        law: Law,
+        sample_time: float,
+        internals: tuple[str, ...],
+        internals_columns: tuple[str, ...] | None = None,
+    ) -> None:
+        from posfb.models.laws.law import Stepper
+
+        if len(internals) != law.internals:
+            given = ", ".join(internals)
+            raise ValueError(f"law {law.name!r} has {law.internals} internals; "
+                             f"{len(internals)} names were given ({given})")  # fmt: skip
+        super().__init__(sample_time, law.joints, internals, law.memory)
+        self.law = law
+        self._columns = internals if internals_columns is None else internals_columns
+        self.set_name(f"{law.name}_controller")
+        self._stepper = Stepper(law)
+
+    @property
+    def internals_columns(self) -> tuple[str, ...]:
+        return self._columns
+
+    def _start(self, q: np.ndarray, desired: np.ndarray) -> np.ndarray:
+        return self._stepper.start(q, desired)
+
+    def _step(
+        self, q: np.ndarray, desired: np.ndarray, memory: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray]:
+        return self._stepper.step(q, desired, memory)

@@ -24,9 +24,9 @@ factor 5 above the loop) and, when ``bandwidth`` is 0, ``omega = 2 pi / (20 T_s)
 at 100 Hz; ``models.controllers.tuning``). The derivative filter's pole must stay below
 the Nyquist frequency ``pi / T_s``.
 
-Its linear feedback (``pd_gravity_feedback``, for the margins): on the nominal linear
-part (``G`` belongs to ``h`` of Eq. 2) ``u_k = -K_p q~_k - K_d v_k`` with ``v`` the dirty
-derivative of ``q~``.
+Its linear feedback (derived from the law, ``models.controllers.linearise``): on the
+nominal linear part (``G`` belongs to ``h`` of Eq. 2) ``u_k = -K_p q~_k - K_d v_k`` with
+``v`` the dirty derivative of ``q~``.
 """
 
 # No "from __future__ import annotations": Drake's YAML reads the settings field types.
@@ -42,13 +42,12 @@ from posfb.models.controllers.plugin import (
     plugin_factory,
     plugin_instance,
 )
-from posfb.models.controllers.registry import ControllerBuild, ControllerSpec
+from posfb.models.controllers.registry import ControllerSpec
 from posfb.models.controllers.tuning import (
     loop_bandwidth,
     positive_setting,
     require_below_nyquist,
 )
-from posfb.models.design.realisation import DiscreteFilter
 
 if TYPE_CHECKING:
     from posfb.models.laws.law import Law
@@ -86,14 +85,10 @@ class PdGravityController(Controller):
         self.Kp = inertia * omega**2
         self.Kd = 2.0 * zeta * inertia * omega
         self.tau_f = 1.0 / (ratio * omega)
-        self.memory_size = 2 * n
         self.internals = tuple(f"v_est_{j + 1}_rad_per_s" for j in range(n)) + tuple(
             f"gravity_{j + 1}_V" for j in range(n)
         )
-        from posfb.models.laws.law import Stepper
-
         self.law = self._law()
-        self._stepper = Stepper(self.law)
 
     def _law(self) -> "Law":  # noqa: UP037 (no future annotations here: Drake's YAML)
         """The step (class docstring) as a ``models.laws`` law, the one description the
@@ -116,31 +111,6 @@ class PdGravityController(Controller):
 
         return law("pd_gravity", n, 2 * n, lambda q, q_d: ca.vertcat(q, ca.DM.zeros(n)), step)
 
-    def start(self, q: np.ndarray, desired: np.ndarray) -> np.ndarray:
-        return self._stepper.start(q, desired)
-
-    def step(
-        self, q: np.ndarray, desired: np.ndarray, memory: np.ndarray
-    ) -> tuple[np.ndarray, np.ndarray]:
-        return self._stepper.step(q, desired, memory)
-
-
-def pd_gravity_feedback(build: ControllerBuild) -> DiscreteFilter:
-    """The law linearised on the nominal linear part (module docstring), state
-    ``[q~_(k-1), v_(k-1)]``, started at ``[q~_0, 0]`` as the controller is."""
-    law = plugin_instance(PdGravityController, build)
-    T = law.setup.sample_time
-    keep, gain = law.tau_f / (law.tau_f + T), 1.0 / (law.tau_f + T)  # v_k = keep v + gain dq
-    Kp, Kd = np.diag(law.Kp), np.diag(law.Kd)
-    eye, zero = np.eye(len(Kp)), np.zeros_like(Kp)
-    return DiscreteFilter(
-        A=np.block([[zero, zero], [-gain * eye, keep * eye]]),
-        B=np.vstack([eye, gain * eye]),
-        C=np.hstack([gain * Kd, -keep * Kd]),
-        D=-Kp - gain * Kd,
-        initial=np.vstack([eye, zero]),
-    )
-
 
 #: PD + gravity with a dirty derivative (Kelly 1993): a registered plug-in baseline.
 SPEC = ControllerSpec(
@@ -149,6 +119,5 @@ SPEC = ControllerSpec(
     factory=plugin_factory(PdGravityController),
     style={"linestyle": (0, (5, 1, 1, 1)), "color": "tab:red"},
     settings=PdGravity,
-    linear=pd_gravity_feedback,
     law=lambda build: plugin_instance(PdGravityController, build).law,
 )

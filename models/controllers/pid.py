@@ -9,10 +9,10 @@ count does not change). At the first sample ``q_{-1} = q_0`` (zero velocity
 estimate) and the integral is 0; the integral is the left-rectangle sum
 ``I_k = T_s (q~_0 + ... + q~_{k-1})``.
 
-Its linear feedback (``pid_feedback``, for the margins): on the nominal linear part
-(``M* = M0*``; ``C* q'``, ``G*`` and ``F*`` belong to ``h`` of Eq. 2 and the reference
-terms cancel) ``u_k = M0* (-K_p q~_k - K_v d_k - K_I I_k) + B* d_k`` with ``d_k = (q~_k -
-q~_(k-1)) / T_s``.
+Its linear feedback (derived from the law, ``models.controllers.linearise``): on the
+nominal linear part (``M* = M0*``; ``C* q'``, ``G*`` and ``F*`` belong to ``h`` of Eq. 2
+and the reference terms cancel) ``u_k = M0* (-K_p q~_k - K_v d_k - K_I I_k) + B* d_k``
+with ``d_k = (q~_k - q~_(k-1)) / T_s``.
 """
 
 from __future__ import annotations
@@ -21,15 +21,14 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from posfb.models.controllers.base import SampledController, joint_names
-from posfb.models.controllers.registry import ControllerBuild, ControllerSpec
+from posfb.models.controllers.base import joint_names
+from posfb.models.controllers.registry import ControllerSpec
 from posfb.models.design.config import PidGains
-from posfb.models.design.realisation import DiscreteFilter
 from posfb.models.design.settings import Pid
-from posfb.models.nominal import NominalModel, joint_count, nominal_model
 
 if TYPE_CHECKING:
     from posfb.models.laws.law import Law
+    from posfb.models.laws.nominal import SymbolicModel
 
 
 def pid_internals(joints: int) -> tuple[str, ...]:
@@ -37,19 +36,17 @@ def pid_internals(joints: int) -> tuple[str, ...]:
     return joint_names("qdot_est", joints) + joint_names("error_integral", joints)
 
 
-def pid_law(nominal: NominalModel, gains: PidGains, sample_time: float) -> Law:
-    """Eq. 26 as a ``models.laws`` law (the one description the simulation evaluates and
-    ``posfb codegen`` prints), memory ``[q_(k-1), I_k]``: ``qdot = (q - q_(k-1)) / T_s``,
-    ``u = M*(q) (qdd_d - K_v (qdot - qd_d) - K_p q~ - K_I I) + C*(q, qdot) qdot + G*(q) +
-    B* qdot + F*(qdot)`` (the nominal model's inverse dynamics, ``models.laws.nominal``),
-    ``I' = I + T_s q~``."""
+def pid_law(model: SymbolicModel, gains: PidGains, sample_time: float) -> Law:
+    """Eq. 26 as a ``models.laws`` law on ``model`` (the one description the simulation
+    evaluates and ``posfb codegen`` prints), memory ``[q_(k-1), I_k]``: ``qdot = (q -
+    q_(k-1)) / T_s``, ``u = M*(q) (qdd_d - K_v (qdot - qd_d) - K_p q~ - K_I I) + C*(q,
+    qdot) qdot + G*(q) + B* qdot + F*(qdot)`` (the nominal model's inverse dynamics,
+    ``models.laws.nominal``), ``I' = I + T_s q~``."""
     import casadi as ca
 
     from posfb.models.laws.law import law
-    from posfb.models.laws.nominal import symbolic_model
 
-    model = symbolic_model(nominal)
-    n, T = joint_count(nominal), sample_time
+    n, T = model.joints, sample_time
     Kp, Kv, KI = (ca.DM(np.asarray(g, dtype=float)) for g in (gains.Kp, gains.Kv, gains.KI))
 
     def step(memory: ca.SX, q: ca.SX, q_d: ca.SX, qd_dot: ca.SX,
@@ -64,64 +61,14 @@ def pid_law(nominal: NominalModel, gains: PidGains, sample_time: float) -> Law:
     return law("pid", n, 2 * n, lambda q, q_d: ca.vertcat(q, ca.DM.zeros(n)), step)
 
 
-class PidController(SampledController):
-    """``u = tau_PID`` of Eq. 26 from measured positions only; its step evaluates
-    ``pid_law``."""
-
-    #: ``qdot_est``: the backward-difference velocity; ``error_integral = T_s sum q~``.
-    INTERNAL_UNITS = {"qdot_est": "rad_per_s", "error_integral": "rad_s"}
-
-    def __init__(self, nominal: NominalModel, gains: PidGains, sample_time: float) -> None:
-        from posfb.models.laws.law import Stepper
-
-        n = joint_count(nominal)
-        self.law = pid_law(nominal, gains, sample_time)
-        # memory: [q_{k-1}, I_k]
-        super().__init__(sample_time, n, pid_internals(n), 2 * n)
-        self.set_name("pid_controller")
-        self._stepper = Stepper(self.law)
-
-    def _start(self, q: np.ndarray, desired: np.ndarray) -> np.ndarray:
-        return self._stepper.start(q, desired)
-
-    def _step(
-        self, q: np.ndarray, desired: np.ndarray, memory: np.ndarray
-    ) -> tuple[np.ndarray, np.ndarray]:
-        return self._stepper.step(q, desired, memory)
-
-
-def pid_feedback(build: ControllerBuild) -> DiscreteFilter:
-    """Eq. 26 linearised on the nominal linear part (module docstring), state ``[q~_(k-1),
-    I_k]``, started at ``[q~_0, 0]`` as the controller is."""
-    design = build.design
-    model = nominal_model(design.nominal)
-    M0, B, T = model.M0(), model.B(), design.sample_time
-    Kp, Kv, KI = (np.diag(np.asarray(g, dtype=float)) for g in (design.pid.Kp, design.pid.Kv,
-                                                                 design.pid.KI))  # fmt: skip
-    n, zero, eye = len(M0), np.zeros_like(M0), np.eye(len(M0))
-    rate = (M0 @ Kv - B) / T  # the gain of q~_(k-1) through d_k
-    return DiscreteFilter(
-        A=np.block([[zero, zero], [zero, eye]]),
-        B=np.vstack([eye, T * eye]),
-        C=np.hstack([rate, -M0 @ KI]),
-        D=-M0 @ Kp - rate,
-        initial=np.vstack([eye, np.zeros((n, n))]),
-    )
-
-
-def _build(build: ControllerBuild) -> PidController:
-    design = build.design
-    return PidController(design.nominal, design.pid, design.sample_time)
-
-
 #: Computed torque + PID (Eq. 26): the paper's baseline; no Sec. 3 design.
 SPEC = ControllerSpec(
     kind="pid",
     label="computed torque + PID",
-    factory=_build,
+    law=lambda build: pid_law(build.symbolic_model(), build.design.pid, build.design.sample_time),
     style={"linestyle": "-", "color": "tab:blue"},
     internals=pid_internals,
+    # qdot_est: the backward-difference velocity; error_integral = T_s sum q~.
+    internal_units={"qdot_est": "rad_per_s", "error_integral": "rad_s"},
     settings=Pid,
-    linear=pid_feedback,
-    law=lambda build: pid_law(build.design.nominal, build.design.pid, build.design.sample_time),
 )

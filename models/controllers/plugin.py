@@ -25,6 +25,13 @@ The contract, in the order posfb calls it:
    to update **in place** (``memory[:] = ...``): what it holds after ``step`` is the
    memory of the next sample.
 
+**Or a law.** A plug-in that sets ``self.law`` in ``__init__`` (a ``models.laws`` law,
+``posfb.law(...)``, written on ``setup.nominal.symbolic()``) instead of writing ``start``
+and ``step`` runs as the built-in controllers do (``base.LawController``), and gets what
+they get: its linear feedback for ``design --margins``, the map and ``tune``
+(``models.controllers.linearise``), ``posfb codegen`` and ``--sil``. ``memory_size`` is
+then the law's; ``internals`` still names its internals.
+
 Wrong sizes or non-finite output are refused in one line naming the class and its file
 (``PluginError``). A ``ValueError`` raised inside the plug-in's own code (numpy's
 "operands could not be broadcast", say) is one line too, naming the class and the file
@@ -49,11 +56,12 @@ import numpy as np
 from posfb.models.controllers.base import SampledController
 from posfb.models.controllers.registry import ControllerBuild, ControllerSpec
 from posfb.models.lumped import LumpedModel
-from posfb.models.nominal import nominal_model
+from posfb.models.nominal import LinearPart, nominal_model
 from posfb.models.serial_model import SerialArmModel
 
 if TYPE_CHECKING:
-    from posfb.models.laws.nominal import ThetaModel, UrdfModel
+    from posfb.models.laws.law import Law, Stepper
+    from posfb.models.laws.nominal import SymbolicModel
 
 _T = TypeVar("_T")
 
@@ -104,7 +112,7 @@ class NominalDynamics:
     friction included. A plug-in that models friction its own way composes the pieces
     it wants instead (``rigid_body(q, v, a) + viscous_friction(v)``, say)."""
 
-    def __init__(self, model: LumpedModel | SerialArmModel) -> None:
+    def __init__(self, model: LumpedModel | SerialArmModel | LinearPart) -> None:
         self._model = model
 
     def inverse_dynamics(self, q: np.ndarray, qdot: np.ndarray, qddot: np.ndarray) -> np.ndarray:
@@ -147,11 +155,11 @@ class NominalDynamics:
         """The Coulomb friction levels (n, V)."""
         return np.asarray(self._model.coulomb_levels(), dtype=float)
 
-    def symbolic(self) -> ThetaModel | UrdfModel:
+    def symbolic(self) -> SymbolicModel:
         """The model as CasADi expressions (``models.laws.nominal``: ``ThetaModel`` for
-        Table 1's form, ``UrdfModel`` for a URDF arm), to write a step once as a
-        law that the simulation evaluates and ``posfb codegen`` prints (the baselines PD +
-        gravity and ADRC do)."""
+        Table 1's form, ``UrdfModel`` for a URDF arm, ``LinearModel`` for the linear part
+        a law's feedback is derived on), to write a step once as a law that the simulation
+        evaluates and ``posfb codegen`` prints (the baselines PD + gravity and ADRC do)."""
         from posfb.models.laws.nominal import symbolic_of
 
         return symbolic_of(self._model)
@@ -212,14 +220,28 @@ class Controller:
         self.setup = setup
 
     def start(self, q: np.ndarray, desired: np.ndarray) -> np.ndarray:
-        """The memory before the first sample (default: zeros)."""
+        """The memory before the first sample (default: the law's start, else zeros)."""
+        if getattr(self, "law", None) is not None:
+            return self._law_stepper().start(q, desired)
         return np.zeros(self.memory_size)
 
     def step(
         self, q: np.ndarray, desired: np.ndarray, memory: np.ndarray
     ) -> tuple[np.ndarray, np.ndarray]:
-        """``(voltage, internals)`` at this sample; updates ``memory`` in place."""
+        """``(voltage, internals)`` at this sample; updates ``memory`` in place (default:
+        the law's step)."""
+        if getattr(self, "law", None) is not None:
+            return self._law_stepper().step(q, desired, memory)
         raise NotImplementedError(f"{type(self).__name__}.step is not written")
+
+    def _law_stepper(self) -> Stepper:
+        """The numeric evaluation of ``self.law``, made on first use."""
+        from posfb.models.laws.law import Stepper
+
+        stepper = self.__dict__.get("_stepper")
+        if stepper is None or stepper.law is not self.law:
+            stepper = self.__dict__["_stepper"] = Stepper(self.law)
+        return stepper
 
 
 def plugin_where(controller: Controller) -> str:
@@ -307,19 +329,66 @@ class PluginSystem(SampledController):
 
 
 def controller_setup(build: ControllerBuild) -> ControllerSetup:
-    """The ``ControllerSetup`` of a factory's inputs (no voltage limit given: none)."""
+    """The ``ControllerSetup`` of a factory's inputs (no voltage limit given: none; the
+    nominal model's linear part where the build asks for it)."""
     design = build.design
     limit = build.voltage_limit or (math.inf,) * design.joints
-    nominal = NominalDynamics(nominal_model(design.nominal))
+    model = nominal_model(design.nominal)
+    nominal = NominalDynamics(LinearPart(model) if build.linear_part else model)
     return ControllerSetup(design.sample_time, design.joints, tuple(limit), nominal)
 
 
-def plugin_factory(cls: type[Controller]) -> Callable[[ControllerBuild], PluginSystem]:
+def plugin_law(controller: Controller) -> Law | None:
+    """The law a plug-in instance is written as (``self.law``), checked; ``None`` for one
+    written as ``start`` and ``step``."""
+    from posfb.models.laws.law import Law
+
+    law = getattr(controller, "law", None)
+    if law is None:
+        return None
+    where = plugin_where(controller)
+    if not isinstance(law, Law):
+        raise PluginError(f"{where}: law = {law!r}; a posfb.law(...) is required")
+    if law.joints != controller.setup.joints:
+        raise PluginError(f"{where}: its law has {law.joints} joints; the arm has "
+                          f"{controller.setup.joints}")  # fmt: skip
+    return law
+
+
+def plugin_system(controller: Controller) -> SampledController:
+    """A plug-in instance's Drake system: the ``LawController`` of its law, or the
+    ``PluginSystem`` that calls its ``start`` and ``step``."""
+    from posfb.models.controllers.base import LawController
+
+    law = plugin_law(controller)
+    if law is None:
+        return PluginSystem(controller)
+    where = plugin_where(controller)
+    names = _names(controller.internals, where)
+    if len(names) != law.internals:
+        raise PluginError(f"{where}: internals names {len(names)} columns; its law has "
+                          f"{law.internals}")  # fmt: skip
+    return LawController(law, controller.setup.sample_time, names)
+
+
+def written_law(controller: Controller, kind: str) -> Law:
+    """``plugin_law``, or ``PluginError`` for a plug-in written as a step."""
+    law = plugin_law(controller)
+    if law is None:
+        raise PluginError(
+            f"controller {kind!r} is written as a step (no law): posfb cannot linearise it or "
+            "print it as C; set self.law = posfb.law(...) in its __init__ for the margins, "
+            "tuning and posfb codegen"
+        )
+    return law
+
+
+def plugin_factory(cls: type[Controller]) -> Callable[[ControllerBuild], SampledController]:
     """The factory of a registered plug-in kind: ``cls(setup, **settings)`` with the
     fields of the scenario entry's settings dataclass as keyword arguments."""
 
-    def build(inputs: ControllerBuild) -> PluginSystem:
-        return PluginSystem(plugin_instance(cls, inputs))
+    def build(inputs: ControllerBuild) -> SampledController:
+        return plugin_system(plugin_instance(cls, inputs))
 
     return build
 
@@ -348,18 +417,23 @@ class UserPlugin:
         """The controller's name in tables, stores and ``--controller``: its class name."""
         return self.cls.__name__
 
+    def instance(self, inputs: ControllerBuild) -> Controller:
+        """The class made for ``inputs`` with the scenario's settings."""
+        where = f"{self.kind} ({self.source})"
+        setup = controller_setup(inputs)
+        try:
+            return in_plugin(self.kind, lambda: self.cls(setup, **dict(self.settings)))
+        except TypeError as error:
+            raise PluginError(f"{where}: {error}") from None
+
     @property
     def spec(self) -> ControllerSpec:
-        def build(inputs: ControllerBuild) -> PluginSystem:
-            where = f"{self.kind} ({self.source})"
-            setup = controller_setup(inputs)
-            try:
-                controller = in_plugin(self.kind, lambda: self.cls(setup, **dict(self.settings)))
-            except TypeError as error:
-                raise PluginError(f"{where}: {error}") from None
-            return PluginSystem(controller)
-
-        return ControllerSpec(kind=self.kind, label=self.label, factory=build)
+        return ControllerSpec(
+            kind=self.kind,
+            label=self.label,
+            factory=lambda inputs: plugin_system(self.instance(inputs)),
+            law=lambda inputs: written_law(self.instance(inputs), self.kind),
+        )
 
 
 def load_plugin(

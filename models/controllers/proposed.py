@@ -20,17 +20,22 @@ chatter. ``alpha(0) = alpha0`` (default 0: ``alpha~1(0) = -alpha*^2``).
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 from typing import TYPE_CHECKING
 
 import numpy as np
 
-from posfb.models.controllers.base import SampledController, joint_names
+from posfb.models.controllers.base import joint_names
 from posfb.models.controllers.registry import ControllerSpec
+from posfb.models.controllers.tunable import Knob, Tuning, lqr_knobs, with_lqr_knobs
 from posfb.models.design import ControllerConfig, Design, cached_design, designed_feedback
+from posfb.models.design.bounds import bound_filter_constants
+from posfb.models.design.initial import filter_pole
 from posfb.models.design.settings import Proposed
 
 if TYPE_CHECKING:
     from posfb.models.laws.law import Law
+    from posfb.models.laws.nominal import SymbolicModel
 
 
 def proposed_internals(joints: int) -> tuple[str, ...]:
@@ -40,20 +45,20 @@ def proposed_internals(joints: int) -> tuple[str, ...]:
     return (*per_joint, "alpha", *joint_names("phi", joints), "U1", "U2", "delta_bar")
 
 
-def proposed_law(design: Design) -> Law:
-    """The controller's update (module docstring) as a ``models.laws`` law, the one
-    description the simulation evaluates and ``posfb codegen`` prints; memory ``[s,
-    max |p|, max |pbar|, y]`` (the filter's state, the running maxima of Eq. 24-25, ``y =
-    |alpha~1|``)."""
+def proposed_law(design: Design, model: SymbolicModel) -> Law:
+    """The controller's update (module docstring) as a ``models.laws`` law on ``model``,
+    the one description the simulation evaluates and ``posfb codegen`` prints; memory
+    ``[s, max |p|, max |pbar|, y]`` (the filter's state, the running maxima of Eq. 24-25,
+    ``y = |alpha~1|``). The linear feedback holds the maxima at 0 and ``y`` at 0, i.e.
+    ``alpha = alpha*``, as the design's sampled-data check closes the loop."""
     import casadi as ca
 
     from posfb.models.laws.law import law
-    from posfb.models.laws.nominal import desired_torque, symbolic_model
+    from posfb.models.laws.nominal import desired_torque
 
     design.require_nonlinear_torque()
     f, n = design.proposed_filter, design.config.joints
     states = len(f.A)
-    model = symbolic_model(design.config.nominal)
     nonlinear = design.config.nonlinear
     c = design.bound_filter.c
     decay = math.exp(-design.config.sample_time / nonlinear.K_alpha)
@@ -89,36 +94,28 @@ def proposed_law(design: Design) -> Law:
         return ca.vertcat(ca.mtimes(ca.DM(f.initial), q - q_d), ca.DM.zeros(2 * n),
                           (nonlinear.alpha_star - nonlinear.alpha0) ** 2)  # fmt: skip
 
-    return law("proposed", n, states + 2 * n + 1, start, step)
+    memory = states + 2 * n + 1
+    return law("proposed", n, memory, start, step, dict.fromkeys(range(states, memory), 0.0))
 
 
-class ProposedController(SampledController):
-    """``u = tau_Lin + tau_LC + tau_NC``; refuses a failed LQR design, a non-SPR ``H`` or
-    ``a <= ln 2 / T_s``. Its step evaluates ``proposed_law``."""
+def _knobs(entry: Proposed) -> tuple[Knob, ...]:
+    """``alpha_star`` (the steady-state gain of ``tau_NC``, Eq. 19-21) in ``0.05 .. max(10,
+    2 alpha*)``, then the Sec. 3.2 weights (``tunable.lqr_knobs``). ``K_alpha``, ``H`` and
+    ``Q2`` do not enter the linear loop at ``alpha = alpha*`` and are kept."""
+    top = max(10.0, 2.0 * entry.alpha_star)
+    return (Knob("alpha_star", 0.05, top, entry.alpha_star), *lqr_knobs())
 
-    #: Torques, ``phi`` and ``delta_bar`` are armature voltages (``tau_NC = -alpha phi``
-    #: with a dimensionless ``alpha``); ``U1``, ``U2`` bound ``||q~'||``, ``||q~''||``.
-    INTERNAL_UNITS = {
-        "tau_lin": "V", "tau_lc": "V", "tau_nc": "V", "alpha": "dimensionless", "phi": "V",
-        "U1": "rad_per_s", "U2": "rad_per_s2", "delta_bar": "V",
-    }  # fmt: skip
 
-    def __init__(self, design: Design) -> None:
-        from posfb.models.laws.law import Stepper
-
-        self.law = proposed_law(design)
-        n = design.config.joints
-        super().__init__(design.config.sample_time, n, proposed_internals(n), self.law.memory)
-        self.set_name("proposed_controller")
-        self._stepper = Stepper(self.law)
-
-    def _start(self, q: np.ndarray, desired: np.ndarray) -> np.ndarray:
-        return self._stepper.start(q, desired)
-
-    def _step(
-        self, q: np.ndarray, desired: np.ndarray, memory: np.ndarray
-    ) -> tuple[np.ndarray, np.ndarray]:
-        return self._stepper.step(q, desired, memory)
+def _tuned(entry: Proposed, values: np.ndarray, sample_time: float) -> Proposed:
+    """``entry`` with ``alpha_star`` and the weights of ``values`` (``_knobs`` order);
+    ``filter_a`` (Sec. 3.4) kept when above ``ln 2 / T_s``, else replaced by ``posfb
+    scenario init``'s rule (``models.design.initial.filter_pole``), so that a tuned entry
+    never holds an invalid pair."""
+    values = list(values)
+    alpha_star = float(values.pop(0))
+    valid = bound_filter_constants(entry.filter_a, sample_time).valid
+    filter_a = float(entry.filter_a) if valid else filter_pole(sample_time)
+    return replace(with_lqr_knobs(entry, values), alpha_star=alpha_star, filter_a=filter_a)
 
 
 #: The label of the paper's controller with the paper's Sec. 4.2 settings.
@@ -145,17 +142,27 @@ def proposed_label(design: ControllerConfig) -> str:
     return PAPER_LABEL if has_paper_settings(design) else OWN_SETTINGS_LABEL
 
 
-#: The paper's controller (Eq. 3): Lin + LC + NC.
+#: The paper's controller (Eq. 3): Lin + LC + NC; refuses a failed LQR design, a non-SPR
+#: ``H`` or ``a <= ln 2 / T_s``.
 SPEC = ControllerSpec(
     kind="proposed",
     label=PAPER_LABEL,
     design_label=proposed_label,
-    factory=lambda build: ProposedController(cached_design(build.design)),
+    law=lambda build: proposed_law(cached_design(build.design), build.symbolic_model()),
     style={"linestyle": ":", "color": "tab:green", "linewidth": 1.6},
     checks=("riccati", "lc_filter", "spr", "bound_filter", "continuous_with_nc", "sampled_data"),
     require=lambda design: cached_design(design).require_nonlinear_torque(),
     internals=proposed_internals,
+    # Torques, phi and delta_bar are armature voltages (tau_NC = -alpha phi with a
+    # dimensionless alpha); U1, U2 bound ||q~'||, ||q~''||.
+    internal_units={
+        "tau_lin": "V", "tau_lc": "V", "tau_nc": "V", "alpha": "dimensionless", "phi": "V",
+        "U1": "rad_per_s", "U2": "rad_per_s2", "delta_bar": "V",
+    },  # fmt: skip
     settings=Proposed,
     linear=lambda build: designed_feedback(cached_design(build.design), "proposed"),
-    law=lambda build: proposed_law(cached_design(build.design)),
+    tuning=Tuning(
+        knobs=_knobs, apply=_tuned,
+        shown=("alpha_star", "K_alpha", "filter_a", "Q1", "R", "lambdas"),
+    ),  # fmt: skip
 )

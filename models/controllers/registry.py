@@ -5,12 +5,16 @@ scenario's name for it), its ``label`` and plot ``style`` (legends, tables; a
 ``design_label`` where the label depends on the settings, ``label_for``), its
 settings class (a member of the scenario's ``controller:`` union: ``!Proposed``,
 ``!LinLc``, ``!Pid``, ...), the design checks that concern it, what it refuses, and its
-factory, and where it has one its ``linear`` feedback: the controller linearised on the
-nominal linear part (Eq. 2 with ``h = 0``, the feed-forward terms cancelled by the
-reference), a discrete filter from ``q~`` to the feedback voltage, which the margins of
-``models.design.margins`` break; and where it has one its ``law``: the update written
-once (``models.laws``), which the simulation evaluates and ``posfb codegen`` prints as
-C. Plots, exports, tables,
+``law``: the update written once (``models.laws``), which the simulation evaluates
+(``base.LawController``), ``posfb codegen`` prints as C, and from which the linear
+feedback that margins, the map and tuning close is derived (``linearise``: the law on
+the nominal linear part, Eq. 2 with ``h = 0``, the feed-forward terms cancelled by the
+reference). A controller written as a step instead (a user's plug-in) has a ``factory``
+and no law; a plug-in class written as a law has both (its factory names the internals
+its instance declares). Where the design already holds the linear feedback in closed form
+(the Sec. 3 filters of Lin+LC and the paper's controller), ``linear`` reads it instead of
+deriving it (the same filter to round-off, ``tests/test_linearise.py``; a tuner asks for
+thousands). ``tuning`` says what ``posfb tune`` may vary (``tunable``). Plots, exports, tables,
 reports, Monte Carlo and replay read the spec; none of them spells a controller's name.
 A new controller is one module with a ``SPEC`` and one line in
 ``models.controllers.__init__`` (``register``). A user's own controller
@@ -26,20 +30,31 @@ from typing import TYPE_CHECKING
 
 if TYPE_CHECKING:
     from posfb.models.controllers.base import SampledController
+    from posfb.models.controllers.tunable import Tuning
     from posfb.models.design import ControllerConfig
     from posfb.models.design.realisation import DiscreteFilter
     from posfb.models.laws.law import Law
+    from posfb.models.laws.nominal import SymbolicModel
 
 
 @dataclass(frozen=True)
 class ControllerBuild:
-    """What a factory builds a controller from: the design inputs (nominal model,
-    ``T_s``, the Sec. 3 design's settings), the voltage limit per joint (V) and the
-    settings object of the scenario's ``controller:`` entry (``None`` for the flat form)."""
+    """What a law or factory builds a controller from: the design inputs (nominal model,
+    ``T_s``, the Sec. 3 design's settings), the voltage limit per joint (V), the settings
+    object of the scenario's ``controller:`` entry (``None`` for the flat form) and
+    whether the law is wanted on the nominal model's ``linear_part`` (``linearise``)."""
 
     design: ControllerConfig
     voltage_limit: tuple[float, ...]
     settings: object | None = None
+    linear_part: bool = False
+
+    def symbolic_model(self) -> SymbolicModel:
+        """The nominal model a law is written on (``models.laws.nominal``): the design's,
+        or its linear part."""
+        from posfb.models.laws.nominal import symbolic_model
+
+        return symbolic_model(self.design.nominal, self.linear_part)
 
 
 @dataclass(frozen=True)
@@ -48,15 +63,34 @@ class ControllerSpec:
 
     kind: str
     label: str
-    factory: Callable[[ControllerBuild], SampledController]
+    law: Callable[[ControllerBuild], Law] | None = None
+    factory: Callable[[ControllerBuild], SampledController] | None = None
     style: Mapping[str, object] = field(default_factory=dict)
     settings: type | None = None
     checks: tuple[str, ...] = ()
     require: Callable[[ControllerConfig], None] | None = None
     internals: Callable[[int], tuple[str, ...]] | None = None
+    internal_units: Mapping[str, str] = field(default_factory=dict)
     design_label: Callable[[ControllerConfig], str] | None = None
     linear: Callable[[ControllerBuild], DiscreteFilter] | None = None
-    law: Callable[[ControllerBuild], Law] | None = None
+    tuning: Tuning | None = None
+
+    def __post_init__(self) -> None:
+        if self.law is None and self.factory is None:
+            raise ValueError(f"controller {self.kind!r}: a spec needs a law or a factory")
+
+    def build(self, inputs: ControllerBuild) -> SampledController:
+        """The controller's Drake system: ``factory(inputs)``, or the law's
+        ``LawController`` with the internals' names (``internals``) and their unit
+        columns (``internal_units``)."""
+        if self.factory is not None:
+            return self.factory(inputs)
+        from posfb.models.controllers.base import LawController, unit_columns
+
+        law = self.law(inputs)
+        names = self.internals(law.joints) if self.internals is not None else ()
+        columns = unit_columns(names, self.internal_units) if self.internal_units else names
+        return LawController(law, inputs.design.sample_time, names, columns)
 
     def label_for(self, design: ControllerConfig) -> str:
         """The label of this controller built from ``design``: ``design_label(design)``

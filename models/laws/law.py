@@ -7,11 +7,17 @@ graphs (the nominal model's terms too, on the theta model or any URDF arm:
 
 ``Stepper`` evaluates both through CasADi's function buffers (no copies; about a
 microsecond a call for an ``SX`` law), for the simulated controller.
+
+``Law.held`` names the memory entries that adapt a gain or record a bound (the paper's
+controller's ``y = |alpha~1|`` and running maxima): the linear feedback that margins and
+tuning use (``models.controllers.linearise``) holds them at the stated values instead
+of treating them as states.
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable
+import math
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 
 import casadi as ca
@@ -20,12 +26,14 @@ import numpy as np
 
 @dataclass(frozen=True, eq=False)
 class Law:
-    """A controller's ``start`` and ``step`` (module docstring) for ``joints`` joints."""
+    """A controller's ``start`` and ``step`` (module docstring) for ``joints`` joints;
+    ``held``: ``(memory index, value)`` pairs held in the linear feedback."""
 
     name: str
     joints: int
     start: ca.Function
     step: ca.Function
+    held: tuple[tuple[int, float], ...] = ()
 
     @property
     def memory(self) -> int:
@@ -42,10 +50,18 @@ Start = Callable[[ca.SX, ca.SX], ca.SX]
 Step = Callable[[ca.SX, ca.SX, ca.SX, ca.SX, ca.SX], tuple[ca.SX, ca.SX, ca.SX]]
 
 
-def law(name: str, joints: int, memory: int, start: Start, step: Step) -> Law:
+def law(
+    name: str,
+    joints: int,
+    memory: int,
+    start: Start,
+    step: Step,
+    held: Mapping[int, float] | None = None,
+) -> Law:
     """A ``Law`` of ``joints`` joints and ``memory`` numbers kept between samples, from
     ``start`` and ``step`` written on CasADi ``SX`` symbols (which this function makes:
-    the position, the desired signals split in ``[q_d, qd_dot, qd_ddot]``, the memory).
+    the position, the desired signals split in ``[q_d, qd_dot, qd_ddot]``, the memory);
+    ``held``: memory entries held at a value in the linear feedback (module docstring).
     Equal subexpressions of the step's outputs are computed once (``casadi.cse``): a URDF
     arm's kinematics, which Eq. 4 and Eq. 18's mass matrix both build from ``q``."""
     q, desired, state = (ca.SX.sym(label, size) for label, size in
@@ -63,7 +79,21 @@ def law(name: str, joints: int, memory: int, start: Start, step: Step) -> Law:
             ["memory", "q", "desired"],
             ["voltage", "internals", "memory_next"],
         ),  # fmt: skip
+        _held(name, memory, held or {}),
     )
+
+
+def _held(name: str, memory: int, held: Mapping[int, float]) -> tuple[tuple[int, float], ...]:
+    """``held`` as sorted pairs; ``ValueError`` for an index outside the memory or a
+    non-finite value."""
+    for index, value in held.items():
+        if not (isinstance(index, int) and 0 <= index < memory):
+            raise ValueError(f"law {name!r}: held index {index!r}; 0 <= index < {memory} "
+                             "(the memory's size) is required")  # fmt: skip
+        if not math.isfinite(value):
+            raise ValueError(f"law {name!r}: held[{index}] = {value!r}; a finite value is "
+                             "required")  # fmt: skip
+    return tuple(sorted((index, float(value)) for index, value in held.items()))
 
 
 class Evaluator:

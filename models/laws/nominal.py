@@ -25,7 +25,7 @@ import numpy as np
 from posfb.models.laws.serial_dynamics import SerialArmDynamics
 from posfb.models.laws.spectral_norm import spectral_norm
 from posfb.models.lumped import LumpedModel, LumpedParameters
-from posfb.models.nominal import NominalModel, nominal_model
+from posfb.models.nominal import LinearPart, NominalModel, nominal_model
 from posfb.models.serial_model import SerialArmModel
 
 #: A CasADi symbol or expression.
@@ -126,19 +126,52 @@ class UrdfModel:
         return self._scale * self._dynamics.torques(q, zero, zero)
 
 
-def symbolic_model(nominal: NominalModel) -> ThetaModel | UrdfModel:
-    """The law's form of ``nominal`` (module docstring)."""
-    return symbolic_of(nominal_model(nominal))
+class LinearModel:
+    """The nominal linear part (``models.nominal.LinearPart``: Eq. 2 with ``h = 0``) as
+    ``SX`` expressions: ``tau_Lin = 0``, ``||M1*|| = 0``, ``u = M0* a + B* v``."""
+
+    def __init__(self, model: LinearPart) -> None:
+        self.M0, self.B = model.M0(), model.B()
+        self.joints = model.size
+
+    def linearization(self, q: Symbolic, qd_dot: Symbolic, qd_ddot: Symbolic) -> Symbolic:
+        """Eq. 4 on the linear part: 0."""
+        return ca.SX.zeros(self.joints)
+
+    def inverse_dynamics(self, q: Symbolic, v: Symbolic, a: Symbolic) -> Symbolic:
+        """``M0* a + B* v``."""
+        return desired_torque(self.M0, self.B, v, a)
+
+    def M1_norm(self, q: Symbolic) -> Symbolic:
+        """0: ``M*(q) = M0*``."""
+        return ca.SX(0.0)
+
+    def gravity(self, q: Symbolic) -> Symbolic:
+        """0: ``G*`` belongs to ``h``."""
+        return ca.SX.zeros(self.joints)
 
 
-def symbolic_of(model: LumpedModel | SerialArmModel) -> ThetaModel | UrdfModel:
-    """The law's form of a numeric nominal model (``models.nominal.nominal_model``'s)."""
+#: A law's form of a nominal model.
+SymbolicModel = ThetaModel | UrdfModel | LinearModel
+
+
+def symbolic_model(nominal: NominalModel, linear_part: bool = False) -> SymbolicModel:
+    """The law's form of ``nominal`` (module docstring), or of its linear part."""
+    model = nominal_model(nominal)
+    return symbolic_of(LinearPart(model) if linear_part else model)
+
+
+def symbolic_of(model: LumpedModel | SerialArmModel | LinearPart) -> SymbolicModel:
+    """The law's form of a numeric nominal model (``models.nominal.nominal_model``'s, or
+    its ``LinearPart``)."""
+    if isinstance(model, LinearPart):
+        return LinearModel(model)
     if isinstance(model, LumpedModel):
         return ThetaModel(model.parameters)
     return UrdfModel(model)
 
 
-def torque_functions(model: ThetaModel | UrdfModel) -> tuple[ca.Function, ...]:
+def torque_functions(model: SymbolicModel) -> tuple[ca.Function, ...]:
     """``(q, qd_d, qdd_d) -> tau_Lin`` (Eq. 4), ``(qd_d, qdd_d) -> tau_d`` (Eq. 7) and ``q
     -> ||M1*(q)||`` (Eq. 18) of ``model`` as CasADi functions
     (``models.controllers.feedforward.NominalTorques``)."""
