@@ -5,7 +5,7 @@ The command line calls these functions (``posfb simulate`` is ``simulate``, ``po
 compare`` is ``compare``), so a script and a command take one code path and give the
 same numbers to the bit. Every setting of the scenario is applied: the true arm's
 payload and parameter overrides travel inside the resolved ``ClosedLoopConfig``
-(``diagrams.closed_loop.TruePlant``), so no lower-level call can drop them.
+(``diagrams.loop_config.TruePlant``), so no lower-level call can drop them.
 
 Warnings about a scenario (a trajectory beyond the voltage limit, a failed design
 check) are issued as ``ScenarioWarning`` with Python's ``warnings`` module; the
@@ -31,12 +31,6 @@ from posfb.analysis.common.metrics import (
     run_verdict,
 )
 from posfb.analysis.common.shipped import shipped_files
-from posfb.diagrams.closed_loop import (
-    ClosedLoop,
-    ClosedLoopResult,
-    ClosedLoopRunner,
-    Extension,
-)
 from posfb.diagrams.resolve import (
     LoadedScenario,
     ResolvedScenario,
@@ -44,7 +38,9 @@ from posfb.diagrams.resolve import (
     scenario_from_file,
     scenario_from_mapping,
 )
+from posfb.diagrams.runner import ClosedLoopResult, ClosedLoopRunner
 from posfb.diagrams.scenario import yaml_value
+from posfb.diagrams.wiring import ClosedLoop, Extension
 from posfb.models.controllers import PAPER_CONTROLLERS, failed_checks, require_design
 
 if TYPE_CHECKING:
@@ -447,7 +443,7 @@ def build(
         As for ``simulate``.
     extend
         ``extend(builder, systems)`` is called with the ``DiagramBuilder`` and the
-        loop's systems (``diagrams.closed_loop.LoopSystems``) before the diagram is
+        loop's systems (``diagrams.wiring.LoopSystems``) before the diagram is
         built: add a disturbance, a visualiser or another logger there. The
         controller's only input from the arm stays the quantised position.
 

@@ -35,8 +35,8 @@ import numpy as np
 
 from posfb.analysis.common.metrics import run_metrics
 from posfb.analysis.paper.experiment import case_scenario
-from posfb.diagrams.closed_loop import ClosedLoopResult, ClosedLoopRunner
 from posfb.diagrams.resolve import LoadedScenario, load_scenario, resolve
+from posfb.diagrams.runner import ClosedLoopResult, ClosedLoopRunner
 from posfb.models.controllers import PAPER_CONTROLLERS
 from posfb.models.drive import MOTOR_FRICTION_BLOCKS
 

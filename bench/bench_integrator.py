@@ -35,8 +35,8 @@ from pydrake.systems.framework import Context
 
 from posfb.analysis.common.metrics import run_metrics
 from posfb.analysis.paper.experiment import case_scenario
-from posfb.diagrams.closed_loop import ClosedLoopResult, ClosedLoopRunner
 from posfb.diagrams.resolve import resolve
+from posfb.diagrams.runner import ClosedLoopResult, ClosedLoopRunner
 from posfb.models.controllers import PAPER_CONTROLLERS
 
 REFERENCE = ("RK5, 1e-9 (reference)", "runge_kutta5", 1e-9, True)

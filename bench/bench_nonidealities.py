@@ -14,8 +14,8 @@ from __future__ import annotations
 import argparse
 
 from posfb.analysis.common.metrics import run_metrics
-from posfb.diagrams.closed_loop import ClosedLoopRunner
 from posfb.diagrams.resolve import load_scenario, resolve
+from posfb.diagrams.runner import ClosedLoopRunner
 
 #: Effect label -> scenario settings (``--set`` form).
 EFFECTS = {

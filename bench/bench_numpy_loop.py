@@ -43,7 +43,7 @@ table row:
   evaluation count.
 
 **The NumPy loops.** The plant is the lumped model of Sec. 4.1 with theta *identified from
-the shipped URDF* (``models.identify.identify_urdf``: it reproduces the MultibodyPlant's
+the shipped URDF* (``models.theta_of_plant.identify_urdf``: it reproduces the MultibodyPlant's
 accelerations exactly, rotor inertia included) and the true plant's smooth Coulomb law
 ``theta_6|11 tanh(v / v_s)``, ``v_s = 0.01 rad/s``, in place of the model's ``sgn``
 (``LumpedModel.forward_dynamics`` has no smooth-friction option). It is written twice:
@@ -111,12 +111,13 @@ from pydrake.systems.framework import DiagramBuilder, LeafSystem
 from pydrake.systems.primitives import ConstantVectorSource
 
 from posfb.analysis.common.metrics import run_metrics
-from posfb.diagrams.closed_loop import ClosedLoopConfig, ClosedLoopRunner
+from posfb.diagrams.loop_config import ClosedLoopConfig
 from posfb.diagrams.resolve import load_scenario, resolve
+from posfb.diagrams.runner import ClosedLoopRunner
 from posfb.models.controllers import cached_design, make_controller
-from posfb.models.identify import identify_urdf
 from posfb.models.lumped import LumpedModel, LumpedParameters
 from posfb.models.plant import apply_parameters, build_arm_diagram
+from posfb.models.theta_of_plant import identify_urdf
 from posfb.models.trajectory import WaveTrajectory
 
 try:

@@ -38,9 +38,9 @@ def main() -> None:
     import posfb
     from posfb.analysis.api import shipped_scenarios
     from posfb.analysis.common.configurations import scenario_configurations
+    from posfb.analysis.design.design_report import nominal_design
     from posfb.analysis.design.exact_arm import exact_arm_run
     from posfb.analysis.design.linear_loop import linear_design
-    from posfb.analysis.design.report import nominal_design
     from posfb.diagrams.resolve import resolve
     from posfb.models.design.configurations import path_configurations
     from posfb.models.nominal import nominal_model

@@ -61,8 +61,8 @@ from pydrake.geometry import (
 from pydrake.multibody.plant import MultibodyPlant
 from pydrake.systems.framework import DiagramBuilder
 
-from posfb.diagrams.closed_loop import ClosedLoopResult
 from posfb.diagrams.resolve import LoadedScenario, run_scenario
+from posfb.diagrams.runner import ClosedLoopResult
 from posfb.models.plant import PlantConfig, add_arm
 
 #: Vertical field of view of the framing camera (degrees). Narrow, so that the

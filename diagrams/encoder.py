@@ -3,7 +3,7 @@
     q_measured = Delta * round(q / Delta),   Delta = 2 pi / N   (N counts per joint revolution)
 
 It has no state and no sample period of its own: the ``encoder_hold``
-(``ZeroOrderHold(T_s)``, ``diagrams.closed_loop``) samples it at ``t_k``, and the
+(``ZeroOrderHold(T_s)``, ``diagrams.wiring``) samples it at ``t_k``, and the
 controller's direct feedthrough uses that sample with no extra delay
 (``docs/drake-notes.md``, "Timing of discrete systems").
 
@@ -19,7 +19,7 @@ changes per run without rebuilding; ``N = 0`` means an ideal (unquantised)
 sensor. So are a zero offset per joint (the encoder reads ``q + offset``) and,
 when the encoder is built ``noisy``, the standard deviation of additive Gaussian
 noise per joint; a sensor delay is a ``DiscreteTimeDelay`` after it
-(``diagrams.closed_loop``).
+(``diagrams.wiring``).
 
 Default ``N = 20000`` counts per joint revolution (``Delta = 3.14e-4 rad``): a
 500-line optical encoder read in quadrature (2000 counts per motor revolution,
@@ -93,7 +93,7 @@ class Encoder(LeafSystem):
     Numeric parameters (per Context, ``set_counts`` etc.): the counts per revolution
     and the zero offset (rad) per joint and, with ``noisy``, the noise standard
     deviation (rad) per joint; ``w`` is then the input ``unit_noise`` (a standard
-    normal sample held over each period, ``diagrams.closed_loop``)."""
+    normal sample held over each period, ``diagrams.wiring``)."""
 
     def __init__(
         self, size: int = 2, counts: int | Sequence[int] = DEFAULT_ENCODER_COUNTS,

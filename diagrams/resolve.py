@@ -20,13 +20,9 @@ from pathlib import Path
 import numpy as np
 import yaml
 
-from posfb.diagrams.closed_loop import (
-    ClosedLoopConfig,
-    ClosedLoopResult,
-    ClosedLoopRunner,
-    TruePlant,
-)
 from posfb.diagrams.encoder import per_joint_counts
+from posfb.diagrams.loop_config import ClosedLoopConfig, TruePlant
+from posfb.diagrams.runner import ClosedLoopResult, ClosedLoopRunner
 from posfb.diagrams.scenario import (
     SHIPPED_PREFIX,
     CsvFile,
@@ -61,7 +57,6 @@ from posfb.models.design.settings import ArmInputs
 from posfb.models.friction import law_spec, law_values, tag
 from posfb.models.gear import GearConfig, require_motor_inertia
 from posfb.models.identification.model_file import load_model
-from posfb.models.identify import identify_urdf
 from posfb.models.lumped import TABLE1, LumpedParameters
 from posfb.models.nominal import NominalModel as NominalForm
 from posfb.models.nominal import UrdfNominal, joint_count
@@ -72,6 +67,7 @@ from posfb.models.plant import (
     PlantConfig,
     require_payload_mass,
 )
+from posfb.models.theta_of_plant import identify_urdf
 from posfb.models.trajectory import (
     JointWave,
     SplineTrajectory,

@@ -48,7 +48,7 @@ from pathlib import Path
 import yaml
 from pydrake.common.yaml import yaml_dump_typed, yaml_load_typed
 
-from posfb.diagrams.closed_loop import ClosedLoopConfig
+from posfb.diagrams.loop_config import ClosedLoopConfig
 from posfb.diagrams.sections import Actuator, Sensor, Timing
 from posfb.diagrams.yaml_schema import check_shape, parse, prepare
 from posfb.models.controllers import REGISTRY

@@ -1,6 +1,6 @@
 """The closed loop's own settings, as a scenario file writes them and the runner consumes
 them: ``timing``, ``sensor`` and ``actuator`` (``diagrams.scenario`` holds them in the
-settings tree; ``diagrams.closed_loop.ClosedLoopConfig`` takes them as they are, so no
+settings tree; ``diagrams.loop_config.ClosedLoopConfig`` takes them as they are, so no
 code copies them field by field). Each default is written here once, and each section
 checks its own values (``Timing.check``, ``Sensor.state``, ``Actuator.state`` and
 ``Actuator.voltage_limits``), naming them by their scenario keys.
@@ -143,7 +143,7 @@ def require_dac_resolution(bits: int) -> None:
 
 
 def default_simulator() -> SimulatorConfig:
-    """Drake's RK3 with error control at accuracy 3e-3 (``diagrams.closed_loop``)."""
+    """Drake's RK3 with error control at accuracy 3e-3 (``diagrams.runner``)."""
     return SimulatorConfig(integration_scheme="runge_kutta3", accuracy=3e-3, use_error_control=True)
 
 

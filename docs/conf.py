@@ -42,6 +42,7 @@ extensions = [
     "sphinx_gallery.gen_gallery",
     "scenario_reference",
     "report_links",
+    "layer_diagram",
 ]
 source_suffix = {".rst": "restructuredtext", ".md": "markdown"}
 root_doc = "index"

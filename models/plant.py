@@ -359,7 +359,7 @@ def add_arm(builder: DiagramBuilder, config: PlantConfig | None = None) -> Arm:
     Context of the built diagram must get
     ``apply_parameters(arm, context, arm.default_parameters)`` (or sampled
     parameters) before it is simulated, as ``build_arm_diagram`` and
-    ``diagrams.closed_loop.ClosedLoopRunner`` do. With the symbolic blocks,
+    ``diagrams.runner.ClosedLoopRunner`` do. With the symbolic blocks,
     forgetting it fails loudly ("Detected NaN in applied generalized force input
     port")."""
     config = config or PlantConfig()

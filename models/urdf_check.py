@@ -4,7 +4,7 @@ Two checks, each run where its model is made: ``check_serial_urdf`` (any serial 
 inside ``models.plant.add_arm``, so that every way a URDF enters (a scenario's
 ``plant.urdf``, a ``PlantConfig``, a nominal model named by a URDF) gets it; and
 ``check_arm_urdf`` (the paper's planar two-link model) inside
-``models.identify.identify_urdf`` (``posfb identify``, a ``!Theta`` nominal model
+``models.theta_of_plant.identify_urdf`` (``posfb identify``, a ``!Theta`` nominal model
 identified from a URDF). Each failure is one line, ``URDF <path>: <element> =
 <value>; <what is allowed>``, raised as ``ValueError`` (``FileNotFoundError`` for a
 file that does not exist). A file is parsed and checked once per content: both
@@ -12,7 +12,7 @@ checks keep their result for the file's bytes (``_checked``), so the many plants
 a study, or the two checks of one scenario, read it once each.
 
 What ``check_arm_urdf`` checks is what the planar two-link model of Sec. 4.1
-(``models.lumped``, identified by ``models.identify``) and posfb's plant
+(``models.lumped``, identified by ``models.theta_of_plant``) and posfb's plant
 (``models.plant``) can represent:
 
 * the file: it exists, is a file (a directory is named as such), can be read,

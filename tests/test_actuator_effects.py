@@ -22,9 +22,10 @@ from posfb.diagrams.actuator import (
     dac_step,
     set_time_constants,
 )
-from posfb.diagrams.closed_loop import ClosedLoopRunner, LoopSystems
 from posfb.diagrams.resolve import load_scenario, resolve
+from posfb.diagrams.runner import ClosedLoopRunner
 from posfb.diagrams.structure import structure_key
+from posfb.diagrams.wiring import LoopSystems
 
 SHORT = "timing.duration=0.5"
 

@@ -15,8 +15,8 @@ import posfb
 from posfb.analysis.api import yaml_value
 from posfb.analysis.cli import main
 from posfb.analysis.common.errors import run_exit_code
-from posfb.diagrams.closed_loop import ClosedLoopRunner
 from posfb.diagrams.resolve import resolve
+from posfb.diagrams.runner import ClosedLoopRunner
 
 #: Short runs: the property (equality to the bit) does not depend on the length.
 SHORT = {"timing.duration": 2}

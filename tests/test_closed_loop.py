@@ -1,4 +1,4 @@
-"""``diagrams.closed_loop``: wiring, timing, saturation, divergence, reuse."""
+"""``diagrams.wiring`` and ``diagrams.runner``: wiring, timing, saturation, divergence, reuse."""
 
 from __future__ import annotations
 
@@ -11,7 +11,8 @@ import pytest
 from helpers.loop_checks import assert_position_only
 from posfb.analysis.common.metrics import run_metrics
 from posfb.analysis.paper.experiment import case_parameters, payload_mass
-from posfb.diagrams.closed_loop import ClosedLoopConfig, ClosedLoopRunner
+from posfb.diagrams.loop_config import ClosedLoopConfig
+from posfb.diagrams.runner import ClosedLoopRunner
 from posfb.diagrams.sections import Actuator, Sensor, Timing
 from posfb.models.controllers import kinds
 from posfb.models.trajectory import desired

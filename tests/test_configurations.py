@@ -12,7 +12,7 @@ import pytest
 
 import posfb
 from helpers.planar_arm import planar_arm_urdf
-from posfb.analysis.design.report import nominal_design
+from posfb.analysis.design.design_report import nominal_design
 from posfb.diagrams.resolve import resolve
 from posfb.models.design.configurations import (
     EXTREME_SCAN_STEPS,

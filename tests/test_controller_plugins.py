@@ -19,10 +19,10 @@ from posfb.analysis.cli import main
 from posfb.models.controllers import ControllerSetup, PluginError
 from posfb.models.controllers.adrc import AdrcController
 from posfb.models.controllers.plugin import NominalDynamics
-from posfb.models.identify import identify_urdf
 from posfb.models.lumped import TABLE1, LumpedModel
 from posfb.models.nominal import UrdfNominal, nominal_model
 from posfb.models.plant import DEFAULT_URDF, PlantConfig, build_arm_diagram
+from posfb.models.theta_of_plant import identify_urdf
 
 
 def test_a_user_controller_file_runs_in_simulate_and_compare(tmp_path, capsys):

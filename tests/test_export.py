@@ -14,7 +14,8 @@ from posfb.analysis.common.export import (
     run_table,
 )
 from posfb.analysis.common.metrics import rms
-from posfb.diagrams.closed_loop import ClosedLoopConfig, ClosedLoopRunner
+from posfb.diagrams.loop_config import ClosedLoopConfig
+from posfb.diagrams.runner import ClosedLoopRunner
 from posfb.diagrams.sections import Timing
 from posfb.models.controllers import PAPER_CONTROLLERS, spec
 from posfb.models.controllers.base import unit_of

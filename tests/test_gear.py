@@ -11,7 +11,8 @@ from pydrake.systems.analysis import Simulator
 from pydrake.systems.primitives import FirstOrderTaylorApproximation
 
 from helpers.loop_checks import assert_position_only
-from posfb.diagrams.closed_loop import ClosedLoopConfig, ClosedLoopRunner
+from posfb.diagrams.loop_config import ClosedLoopConfig
+from posfb.diagrams.runner import ClosedLoopRunner
 from posfb.diagrams.scenario import Scenario
 from posfb.diagrams.sections import Sensor
 from posfb.diagrams.structure import structure_key

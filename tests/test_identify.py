@@ -5,9 +5,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from posfb.models.identify import identify
 from posfb.models.lumped import TABLE1
 from posfb.models.plant import apply_parameters
+from posfb.models.theta_of_plant import identify
 
 # Reading note 9: theta7 and theta8 cannot both match a rigid arm closer than ~2 %.
 TOLERANCE = {f"theta{i}": 0.02 for i in range(1, 12)} | {"theta7": 0.04, "theta8": 0.04}

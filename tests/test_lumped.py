@@ -5,9 +5,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from posfb.models.identify import identify
 from posfb.models.lumped import TABLE1, LumpedModel, LumpedParameters
 from posfb.models.plant import set_coulomb
+from posfb.models.theta_of_plant import identify
 
 
 def test_identified_model_reproduces_plant_acceleration(arm_diagram):

@@ -19,8 +19,8 @@ from helpers.montecarlo_helpers import run_into_store
 from posfb.analysis.common.configurations import scenario_configurations
 from posfb.analysis.common.shipped import shipped_files
 from posfb.analysis.design.worst_case import format_worst_case, worst_case
-from posfb.analysis.montecarlo.report import write_report
 from posfb.analysis.montecarlo.store import ResultStore
+from posfb.analysis.montecarlo.study_report import write_report
 from posfb.analysis.uncertainty.loops import StudyLoops
 from posfb.analysis.uncertainty.plants import draw_plants, plant_family
 from posfb.analysis.uncertainty.study import load_study

@@ -12,7 +12,7 @@ import sys
 import numpy as np
 import pytest
 
-from posfb.analysis.model_error.report import crossing
+from posfb.analysis.model_error.model_error_report import crossing
 from posfb.analysis.model_error.voltage_error import DesiredPath
 from posfb.models.lumped import TABLE1
 from posfb.models.trajectory import WaveTrajectory

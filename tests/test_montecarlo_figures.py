@@ -1,4 +1,4 @@
-"""The Monte-Carlo report's figures (``analysis.montecarlo.report``, ``stability``,
+"""The Monte-Carlo report's figures (``analysis.montecarlo.study_report``, ``stability``,
 ``convergence``) on a made-up 2000-sample study: titles, legends outside the data,
 thinned dots that keep the statistics of every sample, a median line visible against
 its box."""
@@ -15,12 +15,12 @@ from helpers.figure_checks import legend_labels, legends_over_axes, suptitle
 from helpers.montecarlo_helpers import TINY_STUDY
 from posfb.analysis.common.plots import MAX_DOTS
 from posfb.analysis.montecarlo import convergence, stability
-from posfb.analysis.montecarlo.report import (
+from posfb.analysis.montecarlo.results import StudyData
+from posfb.analysis.montecarlo.study_report import (
     plot_against_payload,
     plot_distributions,
     plot_inside_outside,
 )
-from posfb.analysis.montecarlo.results import StudyData
 from posfb.analysis.uncertainty.coverage import BOUND_NAMES
 from posfb.analysis.uncertainty.study import study_from_text
 

@@ -8,9 +8,9 @@ import pytest
 from helpers.montecarlo_helpers import TINY_STUDY, make_result, run_into_store
 from posfb.analysis.cli import main
 from posfb.analysis.montecarlo.records import STATUSES, ControllerRun, SampleResult, metric_columns
-from posfb.analysis.montecarlo.report import FIGURES, markdown
 from posfb.analysis.montecarlo.results import beats, joint_stats, load, status_counts
 from posfb.analysis.montecarlo.store import ResultStore
+from posfb.analysis.montecarlo.study_report import FIGURES, markdown
 from posfb.analysis.uncertainty.coverage import BOUND_NAMES
 from posfb.analysis.uncertainty.study import study_from_text
 
@@ -236,7 +236,7 @@ def test_the_report_has_the_answer_sections_and_every_figure(store, tmp_path):
 @pytest.mark.slow
 @pytest.mark.parametrize("samples", [1, 3])
 def test_a_study_where_no_run_finished_still_reports(tmp_path, samples):
-    from posfb.analysis.montecarlo.report import write_report
+    from posfb.analysis.montecarlo.study_report import write_report
 
     study = study_from_text(TINY_STUDY)
     with ResultStore.create_or_resume(tmp_path / "d.sqlite", study, "test") as store:

@@ -8,8 +8,8 @@ import pytest
 from posfb.analysis.common.metrics import run_metrics
 from posfb.analysis.montecarlo.worker import ClosedLoopEvaluator
 from posfb.analysis.uncertainty.study import canonical_text, load_study, study_from_text
-from posfb.diagrams.closed_loop import ClosedLoopRunner
 from posfb.diagrams.resolve import load_scenario, resolve
+from posfb.diagrams.runner import ClosedLoopRunner
 from posfb.models.plant import ArmParameters
 
 TIMING_AND_SENSOR = """

@@ -15,7 +15,8 @@ from helpers.figure_checks import legend_labels, legends_over_axes, line_colours
 from posfb.analysis.api import load_scenario, resolve
 from posfb.analysis.common.plots import positions_and_voltages, tracking_errors
 from posfb.analysis.common.shipped import SCENARIO_DIR
-from posfb.diagrams.closed_loop import ClosedLoopConfig, ClosedLoopResult
+from posfb.diagrams.loop_config import ClosedLoopConfig
+from posfb.diagrams.runner import ClosedLoopResult
 from posfb.models.controllers.plugin import load_plugin
 from posfb.models.controllers.registry import registered_colours
 from posfb.models.design import ControllerConfig

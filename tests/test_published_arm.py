@@ -14,8 +14,8 @@ import pytest
 
 import posfb
 from helpers.published import SO101, UR5, VOLTS, published_urdf, user_drives
+from posfb.analysis.design.design_report import nominal_design, relevant_checks
 from posfb.analysis.design.exact_arm import exact_arm_run
-from posfb.analysis.design.report import nominal_design, relevant_checks
 from posfb.analysis.design.scenario_init import InitOptions, write_scenario
 from posfb.diagrams.resolve import LoadedScenario, resolve
 from posfb.diagrams.scenario import with_controller

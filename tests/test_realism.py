@@ -18,7 +18,7 @@ from posfb.analysis.cli import main
 from posfb.analysis.cli.commands.realism import DEFAULT_STUDY
 from posfb.analysis.common.tables import PAPER_TABLE3
 from posfb.analysis.realism.findings import gap_share, paper_pairs, ranking_agreement
-from posfb.analysis.realism.report import _draws_text
+from posfb.analysis.realism.realism_report import _draws_text
 from posfb.analysis.realism.spec import COMBINED, IDEAL, load_realism
 from posfb.analysis.uncertainty.study import Gaussian, UniformDiscrete
 from posfb.diagrams.scenario import get_setting
@@ -224,7 +224,7 @@ def test_the_error_figure_has_a_title_and_its_legend_below_the_data(small_study,
     covers no panel (read back from the drawn figure)."""
     from helpers.figure_checks import legend_labels, legends_over_axes, suptitle
     from posfb.analysis.realism.findings import findings
-    from posfb.analysis.realism.report import plot_errors
+    from posfb.analysis.realism.realism_report import plot_errors
     from posfb.analysis.realism.spec import load_realism
 
     spec, out = small_study
@@ -243,7 +243,7 @@ def test_a_store_of_an_earlier_posfb_is_reported_as_not_resumable(small_study, t
     import sqlite3
 
     from posfb.analysis.realism.findings import findings
-    from posfb.analysis.realism.report import markdown
+    from posfb.analysis.realism.realism_report import markdown
     from posfb.analysis.realism.spec import load_realism
 
     spec, out = small_study

@@ -15,9 +15,10 @@ from posfb.analysis.common.cases import SCENARIO_DIR
 from posfb.analysis.common.errors import EXIT_NOT_TRACKED
 from posfb.analysis.common.metrics import rms
 from posfb.analysis.paper.experiment import CASE_FILES, case_scenario
-from posfb.diagrams.closed_loop import ClosedLoopConfig, ClosedLoopRunner
 from posfb.diagrams.encoder import quantise
+from posfb.diagrams.loop_config import ClosedLoopConfig
 from posfb.diagrams.resolve import load_scenario, resolve, run_scenario
+from posfb.diagrams.runner import ClosedLoopRunner
 from posfb.diagrams.scenario import Scenario, controller_kind, dump_scenario
 from posfb.diagrams.sections import Timing
 from posfb.diagrams.yaml_schema import load_typed

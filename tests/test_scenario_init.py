@@ -310,7 +310,7 @@ def test_the_alpha_rule_judges_the_path_s_configurations(written):
     """The written alpha*'s loop meets the target radius at every configuration of the
     scenario's path (recomputed by ``posfb design``'s configuration set, another code path
     than the rule's)."""
-    from posfb.analysis.design.report import nominal_design
+    from posfb.analysis.design.design_report import nominal_design
     from posfb.diagrams.resolve import resolve
 
     _, out, _ = written

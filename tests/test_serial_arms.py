@@ -20,7 +20,6 @@ from posfb.diagrams.resolve import load_scenario, run_scenario
 from posfb.models.controllers import PAPER_CONTROLLERS
 from posfb.models.controllers.feedforward import nominal_torques
 from posfb.models.design import ControllerConfig, compute_design
-from posfb.models.identify import identify_urdf
 from posfb.models.nominal import UrdfNominal
 from posfb.models.plant import (
     DEFAULT_URDF,
@@ -29,6 +28,7 @@ from posfb.models.plant import (
     build_arm_diagram,
     read_parameters,
 )
+from posfb.models.theta_of_plant import identify_urdf
 from posfb.models.urdf_check import check_serial_urdf
 
 URDF_DIR = DEFAULT_URDF.parent

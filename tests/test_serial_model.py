@@ -10,9 +10,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from posfb.models.identify import identify_urdf
 from posfb.models.lumped import LumpedModel
 from posfb.models.serial_model import SerialArmModel
+from posfb.models.theta_of_plant import identify_urdf
 
 URDF = Path(__file__).resolve().parent.parent / "urdf"
 GRAVITY = 9.81

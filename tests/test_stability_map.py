@@ -19,7 +19,7 @@ from posfb.analysis.common.cases import CASE_FILES, SCENARIO_DIR
 from posfb.analysis.common.configurations import scenario_configurations
 from posfb.analysis.common.errors import UsageError
 from posfb.analysis.design import stability_map as sm
-from posfb.analysis.design.report import nominal_design, relevant_checks
+from posfb.analysis.design.design_report import nominal_design, relevant_checks
 from posfb.analysis.design.settings import DEFAULT_MARGIN, TuneSettings
 from posfb.analysis.uncertainty.plants import draw_plants, plant_family
 from posfb.analysis.uncertainty.study import load_study

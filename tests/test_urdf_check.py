@@ -12,7 +12,6 @@ import numpy as np
 import pytest
 
 from posfb.analysis.cli import EXIT_BAD_INPUT, main
-from posfb.models.identify import identify
 from posfb.models.plant import (
     DEFAULT_URDF,
     MAX_PAYLOAD_MASS,
@@ -21,6 +20,7 @@ from posfb.models.plant import (
     build_arm_diagram,
 )
 from posfb.models.serial_model import SerialArmModel
+from posfb.models.theta_of_plant import identify
 from posfb.models.urdf_check import POSFB_NS, check_arm_urdf, check_serial_urdf
 
 SHIPPED = DEFAULT_URDF.read_text()

@@ -7,7 +7,7 @@ from __future__ import annotations
 
 from functools import lru_cache
 
-from posfb.diagrams.closed_loop import ClosedLoopConfig
+from posfb.diagrams.loop_config import ClosedLoopConfig
 from posfb.models.design.configurations import ConfigurationSet, path_configurations
 from posfb.models.nominal import NominalModel, nominal_model
 from posfb.models.trajectory import Trajectory

@@ -62,7 +62,7 @@ from posfb.analysis.common.outputs import EXPORT_FORMATS, atomic_file
 from posfb.models.validation import require_regular_file
 
 if TYPE_CHECKING:
-    from posfb.diagrams.closed_loop import ClosedLoopResult
+    from posfb.diagrams.runner import ClosedLoopResult
 
 #: pandas < 3 parses CSV floats with a fast, not always exact parser unless told;
 #: pandas 3 parses them exactly by default and deprecates the option.

@@ -16,8 +16,8 @@ from dataclasses import replace
 
 import numpy as np
 
-from posfb.diagrams.closed_loop import ClosedLoopConfig
 from posfb.diagrams.encoder import DEFAULT_ENCODER_COUNTS
+from posfb.diagrams.loop_config import ClosedLoopConfig
 from posfb.diagrams.resolve import ResolvedScenario
 from posfb.models.design import CompliantGear, LoopEffects
 from posfb.models.friction import DEFAULT_LAW

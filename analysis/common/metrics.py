@@ -20,7 +20,7 @@ gear's deflection where the encoder reads the motor (``models.gear``).
 The verdict on a run (``run_verdict``), from best to worst (``RUN_STATUSES``):
 
 * ``diverged``: the runner stopped it (``|q~|`` beyond ``timing.divergence_bound``, a
-  non-finite state, an integrator failure; ``diagrams.closed_loop``);
+  non-finite state, an integrator failure; ``diagrams.runner``);
 * ``lost``: it reached its end, but some joint's RMS error over the run's second half
   (the samples ``k > N0/2``) exceeds ``timing.lost_fraction`` of the path's excursion,
   or ``timing.lost_bound`` (rad) if that is smaller: the arm is far from its path on
@@ -55,7 +55,7 @@ from dataclasses import asdict, dataclass
 
 import numpy as np
 
-from posfb.diagrams.closed_loop import ClosedLoopResult
+from posfb.diagrams.runner import ClosedLoopResult
 from posfb.diagrams.sections import DURATION, Timing
 from posfb.models.trajectory import Trajectory
 

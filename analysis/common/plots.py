@@ -34,7 +34,7 @@ from matplotlib.figure import Figure
 from matplotlib.layout_engine import ConstrainedLayoutEngine
 
 from posfb.analysis.common.outputs import atomic_file
-from posfb.diagrams.closed_loop import ClosedLoopResult
+from posfb.diagrams.runner import ClosedLoopResult
 from posfb.models.controllers.registry import PALETTE, registered_colours
 
 DESIRED_STYLE = {"linestyle": "-.", "color": "black", "linewidth": 0.9}

@@ -8,22 +8,23 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 
-from posfb.models.controllers import PAPER_CONTROLLERS, spec
+from posfb.models.controllers import PAPER_BASELINE, PAPER_CONTROLLERS, spec
 from posfb.models.lumped import TABLE1, LumpedParameters
 
-#: ``{controller: (RMS(q~1), RMS(q~2), RMS(u1), RMS(u2))}``: Table 3 (nominal).
-PAPER_TABLE3 = {
-    "pid": (0.0026, 0.0060, 4.6392, 2.8659),
-    "lin_lc": (0.0037, 0.0059, 4.5017, 2.8639),
-    "proposed": (0.0021, 0.0032, 4.5251, 2.8373),
-}
+#: ``{controller: (RMS(q~1), RMS(q~2), RMS(u1), RMS(u2))}``: Table 3 (nominal), rows in
+#: ``PAPER_CONTROLLERS`` order (PID, Lin+LC, the paper's).
+PAPER_TABLE3 = dict(zip(PAPER_CONTROLLERS, (
+    (0.0026, 0.0060, 4.6392, 2.8659),
+    (0.0037, 0.0059, 4.5017, 2.8639),
+    (0.0021, 0.0032, 4.5251, 2.8373),
+), strict=True))  # fmt: skip
 
 #: Table 4 (0.288 kg payload), same layout.
-PAPER_TABLE4 = {
-    "pid": (0.0028, 0.0076, 4.6457, 3.3094),
-    "lin_lc": (0.0045, 0.0129, 4.5621, 3.2736),
-    "proposed": (0.0025, 0.0058, 4.6574, 3.4224),
-}
+PAPER_TABLE4 = dict(zip(PAPER_CONTROLLERS, (
+    (0.0028, 0.0076, 4.6457, 3.3094),
+    (0.0045, 0.0129, 4.5621, 3.2736),
+    (0.0025, 0.0058, 4.6574, 3.4224),
+), strict=True))  # fmt: skip
 
 #: The paper's table of each case.
 PAPER_TABLES = {"nominal": PAPER_TABLE3, "payload": PAPER_TABLE4}
@@ -65,7 +66,7 @@ def side_by_side(
 def ratios(
     simulated: Mapping[str, Mapping[str, object]],
     paper: Mapping[str, tuple[float, float, float, float]],
-    reference: str = "pid",
+    reference: str = PAPER_BASELINE,
 ) -> str:
     """Each controller's RMS errors relative to ``reference``'s, simulated | paper."""
     lines = [

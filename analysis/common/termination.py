@@ -20,13 +20,13 @@ class TerminatedError(KeyboardInterrupt):
 
 
 #: The command's process id (``install``) and whether SIGTERM arrived.
-_STATE: dict[str, object] = {"pid": None, "terminated": False}
+_STATE: dict[str, object] = {"owner": None, "terminated": False}
 
 
 def install() -> None:
     """Answer SIGTERM in this process (the command's) with ``TerminatedError``, unless
     someone installed a handler of their own."""
-    _STATE.update(pid=os.getpid(), terminated=False)
+    _STATE.update(owner=os.getpid(), terminated=False)
     if signal.getsignal(signal.SIGTERM) in (signal.SIG_DFL, None):
         signal.signal(signal.SIGTERM, _on_terminate)
 
@@ -43,7 +43,7 @@ def terminated() -> bool:
 
 def in_command_process() -> bool:
     """Whether this is the command's own process (not a worker forked from it)."""
-    return os.getpid() == _STATE["pid"]
+    return os.getpid() == _STATE["owner"]
 
 
 def received() -> bool:

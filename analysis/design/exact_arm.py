@@ -10,8 +10,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from posfb.analysis.common.metrics import Verdict, run_verdict
-from posfb.diagrams.closed_loop import ClosedLoopRunner
 from posfb.diagrams.resolve import ResolvedScenario
+from posfb.diagrams.runner import ClosedLoopRunner
 
 
 @dataclass(frozen=True)

@@ -377,7 +377,7 @@ def _simulate(
     scenario's arm; a setting the closed loop refuses is reported as the run's status.
     ``BudgetError`` when ``deadline`` passes during the run (checked every
     ``MONITOR_SAMPLES`` periods, by the runner's progress callback)."""
-    from posfb.diagrams.closed_loop import ClosedLoopRunner
+    from posfb.diagrams.runner import ClosedLoopRunner
 
     scenario = copy.deepcopy(loaded.scenario)
     scenario.controller = entry

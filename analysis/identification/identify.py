@@ -20,7 +20,7 @@ from pathlib import Path
 import numpy as np
 
 from posfb.analysis.identification.log import EncoderLog, read_log
-from posfb.diagrams.closed_loop import ClosedLoopConfig
+from posfb.diagrams.loop_config import ClosedLoopConfig
 from posfb.diagrams.resolve import LoadedScenario, resolve
 from posfb.models.identification.checks import unit_warning
 from posfb.models.identification.consistent import write_urdf

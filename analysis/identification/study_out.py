@@ -6,7 +6,7 @@ The study's plants are physical arms (``ArmParameters``: link masses, centres of
 inertias, rotor inertias, damping, Coulomb levels, motor constants), so the estimate's
 uncertainty, in theta, is carried over to them by the Laplace approximation: with
 ``x = log(p / p_0)`` (``p_0`` the scenario's true arm, every entry that is not 0) and
-``theta(p)`` the arm's theta computed from the plant (``models.identify.identify``),
+``theta(p)`` the arm's theta computed from the plant (``models.theta_of_plant.identify``),
 
     x* = argmin |L^-1 (theta(p(x)) - theta^)|^2 + |x / PRIOR_LOG_STD|^2
 
@@ -33,8 +33,8 @@ from pydrake.systems.framework import Context
 from posfb.analysis.common.loop_effects import rigid_plant
 from posfb.analysis.identification.identify import Identification
 from posfb.diagrams.resolve import LoadedScenario, resolve
+from posfb.models.controllers import PAPER_CONTROLLERS
 from posfb.models.identification.serial_regressor import true_parameters
-from posfb.models.identify import identify
 from posfb.models.plant import (
     JOINT_PARAMETERS,
     Arm,
@@ -43,6 +43,7 @@ from posfb.models.plant import (
     apply_parameters,
     build_arm_diagram,
 )
+from posfb.models.theta_of_plant import identify
 
 #: Standard deviation of the prior on ``log(p / p_0)``: a factor ``e^0.5 = 1.65`` at one
 #: sigma, so that what the log identifies decides the draws.
@@ -50,7 +51,7 @@ PRIOR_LOG_STD = 0.5
 
 #: Default samples and controllers of the study written.
 DEFAULT_SAMPLES = 100
-DEFAULT_CONTROLLERS = ("proposed", "lin_lc", "pid")
+DEFAULT_CONTROLLERS = tuple(reversed(PAPER_CONTROLLERS))
 
 
 @dataclass(frozen=True)

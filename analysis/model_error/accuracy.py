@@ -3,7 +3,7 @@
 Each planned excitation (``posfb identify plan``, seed ``p``) is played on the study
 scenario's true arm by the spec's controller, logged at each encoder resolution and
 identified from the log as ``posfb identify --log`` does; the truth is that arm's own
-theta, computed from the plant (``models.identify``). One record per (resolution,
+theta, computed from the plant (``models.theta_of_plant``). One record per (resolution,
 plan), written as JSON as soon as it is done, so that a rerun continues where it
 stopped; the logs are kept only for plan 0, whose model file and plant posterior
 (``analysis.identification.study_out``) part (b) draws from.
@@ -28,8 +28,8 @@ from posfb.analysis.identification.study_out import plant_posterior, true_arm
 from posfb.analysis.model_error.spec import ModelErrorSpec
 from posfb.diagrams.resolve import LoadedScenario, run_scenario, scenario_from_file
 from posfb.models.identification.checks import IDENTIFIABLE_RELATIVE_STD
-from posfb.models.identify import identify
 from posfb.models.plant import apply_parameters
+from posfb.models.theta_of_plant import identify
 
 #: The plan whose identification part (b) draws from (and whose logs are kept).
 POSTERIOR_PLAN = 0

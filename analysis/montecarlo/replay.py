@@ -47,7 +47,7 @@ from posfb.analysis.montecarlo.records import ControllerRun, SampleResult, metri
 from posfb.analysis.montecarlo.store import RADIUS_COLUMN
 from posfb.analysis.uncertainty.study import Study
 from posfb.diagrams.animate import animation_html
-from posfb.diagrams.closed_loop import ClosedLoopResult
+from posfb.diagrams.runner import ClosedLoopResult
 
 
 def run_columns(joints: int) -> tuple[str, ...]:

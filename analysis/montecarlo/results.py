@@ -26,6 +26,7 @@ from posfb.analysis.montecarlo.store import RADIUS_COLUMN, ResultStore
 from posfb.analysis.uncertainty.coverage import BOUND_NAMES
 from posfb.analysis.uncertainty.statistics import Interval, median_interval, quantile_interval
 from posfb.analysis.uncertainty.study import Study, VariedScalar, study_joints, varied_scalars
+from posfb.models.controllers import PAPER_BASELINE, PAPER_CONTROLLER
 
 
 @dataclass(frozen=True)
@@ -172,7 +173,9 @@ def status_counts(data: StudyData) -> dict[str, dict[str, int]]:
     return {c: {s: int(np.sum(data.status[c] == s)) for s in STATUSES} for c in data.controllers}
 
 
-def beats(data: StudyData, challenger: str = "proposed", baseline: str = "pid") -> tuple[int, int]:
+def beats(
+    data: StudyData, challenger: str = PAPER_CONTROLLER, baseline: str = PAPER_BASELINE
+) -> tuple[int, int]:
     """``(wins, comparable)``: samples where ``challenger`` beats ``baseline`` (module
     docstring) and samples where neither run is an error."""
     ours, theirs = data.status[challenger], data.status[baseline]

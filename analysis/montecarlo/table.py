@@ -19,7 +19,7 @@ in this order:
   ``drake:rotor_inertia`` at the motor times ``drake:gear_ratio`` squared), and
   ``damping``, ``coulomb`` and ``motor_constant`` are joint-side;
 * for a study of the theta nominal model (the paper's), the identified lumped model
-  ``theta1`` ... ``theta11`` and ``l1_m`` (``models.identify``; the theta in the
+  ``theta1`` ... ``theta11`` and ``l1_m`` (``models.theta_of_plant``; the theta in the
   units of Table 1);
 * the Assumption-1 ratios ``delta_M0_ratio`` ... ``delta_F_ratio`` (``||dX|| /
   D_X``, ``analysis.uncertainty.coverage``) and ``inside_bounds``;

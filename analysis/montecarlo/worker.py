@@ -33,17 +33,14 @@ from posfb.analysis.uncertainty.coverage import Coverage, coverage, serial_cover
 from posfb.analysis.uncertainty.sampling import SampledPlant, sample_plant, sample_scenario
 from posfb.analysis.uncertainty.study import Study, study_from_text
 from posfb.diagrams.actuator import ActuatorState
-from posfb.diagrams.closed_loop import (
-    ClosedLoopConfig,
-    ClosedLoopResult,
-    ClosedLoopRunner,
-    SensorState,
-)
+from posfb.diagrams.loop_config import ClosedLoopConfig
 from posfb.diagrams.resolve import LoadedScenario, resolve
+from posfb.diagrams.runner import ClosedLoopResult, ClosedLoopRunner
 from posfb.diagrams.scenario import (
     Scenario,
     with_controller,
 )
+from posfb.diagrams.sections import SensorState
 from posfb.diagrams.structure import structure_key
 from posfb.models.controllers import cached_design
 from posfb.models.design import (
@@ -52,9 +49,9 @@ from posfb.models.design import (
     LoopEffects,
     plant_spectral_radii,
 )
-from posfb.models.identify import linear_part_model
 from posfb.models.lumped import LumpedParameters
 from posfb.models.nominal import nominal_model
+from posfb.models.theta_of_plant import linear_part_model
 
 
 def _metrics_dict(metrics: RunMetrics) -> dict[str, float | None]:

@@ -24,10 +24,10 @@ from posfb.analysis.paper.experiment import CASES, payload_mass
 from posfb.models.controllers import cached_design
 from posfb.models.design import ControllerConfig
 from posfb.models.design.closed_loop import sampled_data_closed_loop
-from posfb.models.identify import identify
 from posfb.models.lumped import LumpedModel, LumpedParameters
 from posfb.models.nominal import trajectory_voltages
 from posfb.models.plant import apply_parameters, build_arm_diagram
+from posfb.models.theta_of_plant import identify
 from posfb.models.trajectory import Trajectory
 
 #: Elbow angles (rad) at which the true arm is linearised: the trajectory's q2 range.
@@ -35,7 +35,7 @@ ELBOW_ANGLES = (0.0, math.pi / 6, math.pi / 3, math.pi / 2)
 
 
 def true_lumped(case: str) -> LumpedParameters:
-    """theta of the URDF arm of ``case`` (identified exactly, ``models.identify``)."""
+    """theta of the URDF arm of ``case`` (identified exactly, ``models.theta_of_plant``)."""
     _, arm, context = build_arm_diagram()
     apply_parameters(arm, context, arm.default_parameters.with_payload(payload_mass(case)))
     return identify(arm, context)

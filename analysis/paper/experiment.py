@@ -22,8 +22,8 @@ from pathlib import Path
 from posfb.analysis.common.cases import CASE_FILES, CASES
 from posfb.analysis.common.metrics import run_metrics, run_verdict
 from posfb.analysis.common.outputs import atomic_file
-from posfb.diagrams.closed_loop import ClosedLoopResult
 from posfb.diagrams.resolve import LoadedScenario, load_scenario, resolve, run_scenario
+from posfb.diagrams.runner import ClosedLoopResult
 from posfb.models.controllers import PAPER_CONTROLLERS
 from posfb.models.plant import Arm, ArmParameters
 

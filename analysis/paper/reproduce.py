@@ -42,15 +42,15 @@ from posfb.analysis.paper.experiment import (
     require_case,
     result_entry,
 )
-from posfb.analysis.paper.report import write_report
-from posfb.diagrams.closed_loop import ClosedLoopResult, ClosedLoopRunner
+from posfb.analysis.paper.paper_report import write_report
 from posfb.diagrams.graph import graphviz_source, render
 from posfb.diagrams.resolve import resolve
+from posfb.diagrams.runner import ClosedLoopResult, ClosedLoopRunner
 from posfb.models.controllers import cached_design, failed_checks
 from posfb.models.design import ControllerConfig
-from posfb.models.identify import identify
 from posfb.models.lumped import TABLE1
 from posfb.models.plant import apply_parameters, build_arm_diagram
+from posfb.models.theta_of_plant import identify
 
 #: The ``alpha*`` values scanned for the second study (the paper's 4 down to 2).
 ALPHA_STAR_GRID = (4.0, 3.75, 3.5, 3.25, 3.0, 2.75, 2.5, 2.25, 2.0)

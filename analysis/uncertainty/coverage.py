@@ -3,7 +3,7 @@
 Assumption 1 (Sec. 2) bounds the differences between the nominal model ``*``
 (Table 1, what the controllers use) and the true plant, both written as the
 lumped model of Sec. 4.1 (the true plant's theta identified exactly,
-``models.identify``)::
+``models.theta_of_plant``)::
 
     ||dM0|| <= D_M0,  ||dM1(q)|| <= D_M1,  ||dC(q, q')|| <= D_C ||q'||,
     ||dG(q)|| <= D_G,  ||dB|| <= D_B,  ||dF(q')|| <= D_F     for all q, q'

@@ -36,17 +36,17 @@ from posfb.analysis.uncertainty.study import (
     study_joints,
     varied_scalars,
 )
-from posfb.diagrams.closed_loop import ClosedLoopConfig
+from posfb.diagrams.loop_config import ClosedLoopConfig
 from posfb.diagrams.resolve import LoadedScenario, resolve
 from posfb.diagrams.scenario import with_controller
 from posfb.models.controllers import linear_feedback
 from posfb.models.design.closed_loop import NO_EFFECTS, LoopEffects
 from posfb.models.design.configurations import Configuration
 from posfb.models.design.margins import SampledFeedback
-from posfb.models.identify import linear_part_model
 from posfb.models.lumped import LumpedModel, LumpedParameters
 from posfb.models.nominal import nominal_model
 from posfb.models.plant import ArmParameters, apply_parameters, build_arm_diagram
+from posfb.models.theta_of_plant import linear_part_model
 
 #: The sample index of a point of the box (``sample_plant``'s random streams need one; no
 #: study's ``overrides`` reach it).

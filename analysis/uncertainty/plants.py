@@ -28,10 +28,10 @@ from posfb.analysis.uncertainty.study import Study, require_study_arm, study_fro
 from posfb.diagrams.arm import arm_identity
 from posfb.diagrams.resolve import LoadedScenario, ResolvedScenario, self_contained
 from posfb.models.design.closed_loop import HeldPlant, LoopEffects, held_plant
-from posfb.models.identify import linear_part_model
 from posfb.models.lumped import LumpedModel, LumpedParameters
 from posfb.models.nominal import nominal_model
 from posfb.models.plant import apply_parameters, build_arm_diagram
+from posfb.models.theta_of_plant import linear_part_model
 
 #: The spread of ``posfb tune`` without ``--study`` (the shipped studies' spreads).
 DEFAULT_SPREAD = """\
@@ -98,7 +98,7 @@ def linear_plants(
 ) -> list[LinearPlant]:
     """``count`` plants drawn from ``family`` (seed ``seed``, sample indices
     ``0..count-1``) around the scenario's true arm, each as its linear part in the form
-    of the scenario's nominal model (``models.identify.linear_part_model``, on the arm
+    of the scenario's nominal model (``models.theta_of_plant.linear_part_model``, on the arm
     with a rigid gear: a compliant one is the plant's ``effects``); with
     ``errors``, also its model error along the trajectory at ``error_instants``."""
     return list(draw_plants(family, resolved, seed, count, errors))

@@ -39,6 +39,13 @@ for _module in (pid, lin_lc, proposed, pd_gravity, adrc):
 #: Lin+LC, the paper's.
 PAPER_CONTROLLERS = (pid.SPEC.kind, lin_lc.SPEC.kind, proposed.SPEC.kind)
 
+#: The paper's controller (Eq. 3): a scenario's default, and the challenger of a study's
+#: comparison with the paper's baseline.
+PAPER_CONTROLLER = proposed.SPEC.kind
+
+#: The paper's baseline (computed torque + PID, Eq. 26).
+PAPER_BASELINE = pid.SPEC.kind
+
 
 def internals_names(kind: str, joints: int) -> tuple[str, ...]:
     """Names of registered controller ``kind``'s ``internals`` output for ``joints`` joints
@@ -155,6 +162,8 @@ def make_controller(
 
 
 __all__ = [
+    "PAPER_BASELINE",
+    "PAPER_CONTROLLER",
     "PAPER_CONTROLLERS",
     "REGISTRY",
     "Controller",

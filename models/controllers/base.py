@@ -6,7 +6,7 @@ the held ``[q_d, qdot_d, qddot_d]`` of ``models.trajectory``); no velocity input
 Outputs: ``voltage`` (n, volts before saturation) and ``internals`` (named by the
 subclass's ``internals`` names).
 
-With both inputs held by ``ZeroOrderHold(T_s)`` blocks (``diagrams.closed_loop``)
+With both inputs held by ``ZeroOrderHold(T_s)`` blocks (``diagrams.wiring``)
 the controller realises, with no extra sample of delay::
 
     u_k = g(x_k, y_k),   x_{k+1} = f(x_k, y_k)

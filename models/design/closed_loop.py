@@ -28,7 +28,7 @@ arm (``held_plant``; none: the loop above, to the bit):
   ``x_(k+1) = Phi x_k + Gamma0 u_k + Gamma1 u_(k-1)``, ``Gamma0 = int_0^(T - tau) e^(As)
   ds B``, ``Gamma1 = e^(A (T - tau)) int_0^tau e^(As) ds B``, ``u_(k-1)`` a state (at
   ``tau = T_s``: ``Gamma0 = 0``, one whole sample of delay);
-- the sensor delay of ``d`` samples (``diagrams.closed_loop``): the filter reads the
+- the sensor delay of ``d`` samples (``diagrams.wiring``): the filter reads the
   measurement of ``t_(k-d)``, ``d`` unit delays (``n`` states each) on the output.
 
 The model error ``w`` acts on the link, held from ``t_k`` (neither lagged nor delayed).

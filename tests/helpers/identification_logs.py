@@ -10,8 +10,8 @@ from pathlib import Path
 import numpy as np
 
 import posfb
-from posfb.models.identify import identify
 from posfb.models.plant import ArmParameters, PlantConfig, build_arm_diagram
+from posfb.models.theta_of_plant import identify
 
 
 def perturbed_parameters(
@@ -34,7 +34,7 @@ def perturbed_parameters(
 
 
 def true_theta(parameters: ArmParameters) -> np.ndarray:
-    """theta_1..theta_11 of the arm with ``parameters`` (``models.identify.identify``)."""
+    """theta_1..theta_11 of the arm with ``parameters`` (``models.theta_of_plant.identify``)."""
     _, arm, context = build_arm_diagram(parameters=parameters)
     return identify(arm, context).theta
 

@@ -4,8 +4,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from posfb.diagrams.closed_loop import ClosedLoop, ClosedLoopResult
 from posfb.diagrams.graph import edges, reachable
+from posfb.diagrams.runner import ClosedLoopResult
+from posfb.diagrams.wiring import ClosedLoop
 
 
 def assert_position_only(loop: ClosedLoop, location: str = "link") -> None:

@@ -17,7 +17,7 @@ from pydrake.systems.analysis import ApplySimulatorConfig, Simulator, SimulatorC
 from pydrake.systems.framework import DiagramBuilder
 from pydrake.systems.primitives import SymbolicVectorSystem, VectorLogSink
 
-from posfb.diagrams.closed_loop import hold_inputs
+from posfb.diagrams.wiring import hold_inputs
 from posfb.models.controllers import internals_names, make_controller
 from posfb.models.design import ControllerConfig, NonlinearTorqueConfig
 from posfb.models.lumped import TABLE1, LumpedModel, LumpedParameters

@@ -34,7 +34,7 @@ from posfb.analysis.cli.commands.montecarlo import _positive_int, _seed
 from posfb.analysis.cli.commands.scenario_args import add_scenario_arguments, scenario_from_args
 from posfb.analysis.common.errors import UsageError
 from posfb.analysis.common.shipped import study_argument
-from posfb.analysis.design.report import (
+from posfb.analysis.design.design_report import (
     design_to_dict,
     format_report,
     nominal_design,
@@ -152,7 +152,7 @@ def design_config(args: argparse.Namespace) -> tuple[ResolvedScenario, tuple[str
 
 
 def scenario_design(resolved: ResolvedScenario, command: str = "design") -> Design:
-    """``design.report.nominal_design`` of the scenario, the settings it leaves out noted on
+    """``design.design_report.nominal_design`` of the scenario, the settings it leaves out noted on
     stderr first (``posfb COMMAND: note: ...``)."""
     from posfb.analysis.common.loop_effects import left_out, left_out_note
 

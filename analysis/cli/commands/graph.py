@@ -21,9 +21,9 @@ def configure(parser: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     from posfb.analysis.common.outputs import atomic_file, output_file
-    from posfb.diagrams.closed_loop import ClosedLoopRunner
     from posfb.diagrams.graph import GRAPH_SUFFIXES, INSTALL_HINT, graphviz_source, render
     from posfb.diagrams.resolve import resolve
+    from posfb.diagrams.runner import ClosedLoopRunner
 
     out = output_file("--out", args.out, GRAPH_SUFFIXES, args.force)
     # Without Graphviz, ``render`` writes the ``.dot`` text: that is the file checked.

@@ -128,8 +128,8 @@ def configure(parser: argparse.ArgumentParser) -> None:
 
 def _exact(args: argparse.Namespace) -> int:
     from posfb.analysis.common.tables import theta_table
-    from posfb.models.identify import identify_urdf
     from posfb.models.plant import DEFAULT_URDF
+    from posfb.models.theta_of_plant import identify_urdf
 
     urdf = args.urdf or str(DEFAULT_URDF)
     identified = identify_urdf(urdf, args.payload)

@@ -45,7 +45,7 @@ def configure(parser: argparse.ArgumentParser) -> None:
 
 
 def model_error_command(args: argparse.Namespace) -> int:
-    from posfb.analysis.model_error.report import write_report
+    from posfb.analysis.model_error.model_error_report import write_report
     from posfb.analysis.model_error.run import run_model_error
     from posfb.analysis.model_error.spec import load_model_error
 

@@ -210,8 +210,8 @@ def export_command(args: argparse.Namespace) -> int:
 
 
 def report_command(args: argparse.Namespace) -> int:
-    from posfb.analysis.montecarlo.report import write_report
     from posfb.analysis.montecarlo.store import ResultStore
+    from posfb.analysis.montecarlo.study_report import write_report
 
     out = output_folder("--out", args.out)
     with ResultStore.open_existing(args.db) as store, staged_folder(out) as staged:

@@ -46,7 +46,7 @@ def configure(parser: argparse.ArgumentParser) -> None:
 
 
 def realism_command(args: argparse.Namespace) -> int:
-    from posfb.analysis.realism.report import write_report
+    from posfb.analysis.realism.realism_report import write_report
     from posfb.analysis.realism.run import run_realism
     from posfb.analysis.realism.spec import load_realism
 

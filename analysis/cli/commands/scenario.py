@@ -15,7 +15,7 @@ from typing import TYPE_CHECKING
 
 from posfb.analysis.cli.commands.design import EXIT_FAILED_CHECK, scenario_design
 from posfb.analysis.cli.commands.scenario_args import add_scenario_arguments, scenario_from_args
-from posfb.analysis.design.report import format_report
+from posfb.analysis.design.design_report import format_report
 
 if TYPE_CHECKING:
     from posfb.diagrams.resolve import ResolvedScenario

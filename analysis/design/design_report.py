@@ -14,7 +14,7 @@ from posfb.analysis.common.errors import UsageError
 if TYPE_CHECKING:
     import numpy as np
 
-    from posfb.diagrams.closed_loop import ClosedLoopConfig
+    from posfb.diagrams.loop_config import ClosedLoopConfig
     from posfb.diagrams.resolve import ResolvedScenario
     from posfb.models.design import Design
     from posfb.models.design.common_lyapunov import LyapunovCertificate

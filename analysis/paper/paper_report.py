@@ -379,7 +379,7 @@ def _differences(data: Mapping[str, object]) -> list[str]:
                 " Tightening the integrator accuracy from 3e-3 to 1e-4 changes the nominal "
                 "RMS errors by at most "
                 + ", ".join(f"{100 * c:.1f} % ({k})" for k, c in changes.items())
-                + " (PID's friction bursts are the sensitive part, `diagrams/closed_loop.py`)."
+                + " (PID's friction bursts are the sensitive part, `diagrams/runner.py`)."
             )
         if ideal:
             changes = [

@@ -53,6 +53,7 @@ from posfb.diagrams.scenario import (
     UrdfModel,
     Wave,
 )
+from posfb.models.controllers import PAPER_BASELINE, PAPER_CONTROLLER
 
 #: A run "saturates often" when more than this share of its control samples
 #: command a voltage beyond the limit.
@@ -293,7 +294,7 @@ def markdown(
     if failures:
         lines += ["", "First messages of the runs that are not `ok`, per controller:", ""]
         lines += [f"- {m}" for m in failures]
-    if {"proposed", "pid"} <= set(data.controllers):
+    if {PAPER_CONTROLLER, PAPER_BASELINE} <= set(data.controllers):
         wins, comparable = beats(data)
         share = _share(proportion_interval(wins, comparable)) if comparable else "-"
         lines += [
