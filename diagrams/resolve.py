@@ -14,7 +14,7 @@ import dataclasses
 import json
 import re
 from collections.abc import Callable, Iterable, Mapping
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
@@ -80,14 +80,27 @@ from posfb.models.validation import per_joint, require_positive, require_regular
 @dataclass
 class LoadedScenario:
     """A scenario, the folder its relative paths are read from, and where it came from
-    (``source``: the file, or a word for a scenario that has none)."""
+    (``source``: the file, or a word for a scenario that has none).
+
+    ``resolve`` keeps its answer here with a copy of the scenario it validated
+    (``_resolution``): resolving again a scenario that still equals that copy returns it
+    without a second validation, so a scenario loaded once and passed on is validated
+    once; an edit (``loaded.scenario.timing.duration = 5``) makes the next ``resolve``
+    validate again."""
 
     scenario: Scenario
     base_dir: Path
     source: str = "defaults"
+    _resolution: tuple[Scenario, Path, ResolvedScenario] | None = field(
+        default=None, repr=False, compare=False
+    )
 
     def with_settings(self, settings: Iterable[str]) -> LoadedScenario:
-        """A copy with the ``KEY=VALUE`` ``settings`` applied in order, validated."""
+        """A copy with the ``KEY=VALUE`` ``settings`` applied in order, validated once
+        (``resolve``; the copy keeps the answer)."""
+        settings = list(settings)
+        if not settings and self._resolved() is not None:
+            return LoadedScenario(self.scenario, self.base_dir, self.source, self._resolution)
         loaded = LoadedScenario(self.scenario, self.base_dir, self.source)
         for setting in settings:
             if _indexes_left_out_list(loaded.scenario, setting):
@@ -95,7 +108,24 @@ class LoadedScenario:
             loaded.scenario = apply_setting(loaded.scenario, setting, loaded.base_dir)
         resolved = resolve(loaded)
         loaded.scenario = with_arm_defaults(loaded.scenario, resolved.arm)
+        loaded.keep(resolved)
         return loaded
+
+    def keep(self, resolved: ResolvedScenario) -> None:
+        """Keep ``resolved`` as the validation of the scenario as it is now."""
+        self._resolution = (copy.deepcopy(self.scenario), self.base_dir, resolved)
+
+    def _resolved(self) -> ResolvedScenario | None:
+        """The kept validation, if the scenario and its folder are still the ones it
+        validated."""
+        if self._resolution is None:
+            return None
+        scenario, base_dir, resolved = self._resolution
+        try:
+            same = base_dir == self.base_dir and scenario == self.scenario
+        except ValueError:  # a value without a plain equality (an array): validate again
+            same = False
+        return resolved if same else None
 
     def get(self, key: str) -> object:
         """The value of dotted ``key`` (``timing.duration``, ``sensor.encoder_counts[1]``)."""
@@ -519,7 +549,18 @@ def nominal_mismatch(scenario: Scenario, nominal_joints: int, joints: int) -> st
 
 
 def resolve(loaded: LoadedScenario) -> ResolvedScenario:
-    """Validate ``loaded`` into a ``ResolvedScenario``; errors name the dotted key."""
+    """Validate ``loaded`` into a ``ResolvedScenario``; errors name the dotted key. A
+    scenario already validated as it is returns that answer (``LoadedScenario``)."""
+    kept = loaded._resolved()
+    if kept is not None:
+        return kept
+    resolved = _validated(loaded)
+    loaded.keep(resolved)
+    return resolved
+
+
+def _validated(loaded: LoadedScenario) -> ResolvedScenario:
+    """``resolve``'s validation itself."""
     scenario, base = loaded.scenario, loaded.base_dir
     section = scenario.controller
     # The design takes the sample time; it is the timing section's.

@@ -7,9 +7,15 @@ import json
 import subprocess
 import sys
 
+import numpy as np
 import pytest
+import scipy.linalg
 
+from helpers.scipy_loop import sampled_radius
 from posfb.analysis.cli import main
+from posfb.models.design import ControllerConfig
+from posfb.models.design.augmented import augmented_system
+from posfb.models.lumped import TABLE1, LumpedModel
 
 
 def _run(capsys, *args: str) -> tuple[int, str, str]:
@@ -30,9 +36,17 @@ def test_json_at_the_paper_settings(capsys):
     assert len(data["P"]) == 6 and len(data["E"]) == 2
     assert len(data["continuous_poles"]) == 6
     assert all(re < 0.0 for re, _ in data["continuous_poles"])
-    assert data["K"][0][0] == pytest.approx(7985.6, rel=1e-4)
-    # ZOH filters (the default); test_design_discretisation rebuilds this loop with scipy
-    assert data["sampled_data_spectral_radius_at_M0"] == pytest.approx(1.0426, abs=1e-4)
+    # K of Eq. 14 from scipy's Riccati solver on the augmented system of Eq. 11
+    config, model = ControllerConfig(), LumpedModel(TABLE1)
+    augmented = augmented_system(model.M0(), model.B(), np.asarray(config.lqr.lambdas))
+    R = np.asarray(config.lqr.R)
+    P = scipy.linalg.solve_continuous_are(augmented.A_a, augmented.B_a1, config.lqr.Q, R)
+    K = np.linalg.solve(R, augmented.B_a1.T @ P)
+    np.testing.assert_allclose(data["K"], K, rtol=1e-6, atol=1e-6 * np.max(np.abs(K)))
+    # The loop rebuilt with scipy's ZOH of the continuous filter (the default sampling)
+    assert data["sampled_data_spectral_radius_at_M0"] == pytest.approx(
+        sampled_radius("zoh", alpha=config.nonlinear.alpha_star), rel=1e-9
+    )
     # the verdict's radius is the worst over the path's configurations, M0* among them
     assert data["sampled_data_spectral_radius"] >= data["sampled_data_spectral_radius_at_M0"]
     assert data["warnings"] == [data["checks"]["sampled_data"]["detail"]]
