@@ -111,7 +111,7 @@ def test_every_built_in_controller_has_a_derived_feedback():
     assert set(kinds()) == set(BY_HAND)
 
 
-def _lead_lag(held: dict[int, float] | None = None):
+def _adaptive(held: dict[int, float] | None = None):
     """A one-joint law with an adapting gain in its memory: ``u = -(1 + sqrt(g)) (q +
     w)``, ``w' = 0.5 w + q``, ``g' = g + q^2``."""
 
@@ -127,10 +127,10 @@ def test_held_memory_is_fixed_and_an_unheld_adaptation_is_named():
     """Holding the adapting entry at ``g = 4`` gives the filter ``A = 0.5, B = 1, C = D =
     -3``; left free, its derivative at ``g = 0`` is not finite and the error says what to
     do. A held index outside the memory is refused."""
-    feedback = law_feedback(_lead_lag({1: 4.0}))
+    feedback = law_feedback(_adaptive({1: 4.0}))
     for name, value in (("A", 0.5), ("B", 1.0), ("C", -3.0), ("D", -3.0), ("initial", 1.0)):
         np.testing.assert_allclose(getattr(feedback, name), [[value]], err_msg=name)
     with pytest.raises(ValueError, match="not finite at rest; hold the memory entries"):
-        law_feedback(_lead_lag())
+        law_feedback(_adaptive())
     with pytest.raises(ValueError, match="held index 2; 0 <= index < 2"):
-        _lead_lag({2: 0.0})
+        _adaptive({2: 0.0})

@@ -9,16 +9,17 @@ settings class (a member of the scenario's ``controller:`` union: ``!Proposed``,
 (``base.LawController``), ``posfb codegen`` prints as C, and from which the linear
 feedback that margins, the map and tuning close is derived (``linearise``: the law on
 the nominal linear part, Eq. 2 with ``h = 0``, the feed-forward terms cancelled by the
-reference). A controller written as a step instead (a user's plug-in) has a ``factory``
-and no law; a plug-in class written as a law has both (its factory names the internals
-its instance declares). Where the design already holds the linear feedback in closed form
-(the Sec. 3 filters of Lin+LC and the paper's controller), ``linear`` reads it instead of
-deriving it (the same filter to round-off, ``tests/test_linearise.py``; a tuner asks for
-thousands). ``tuning`` says what ``posfb tune`` may vary (``tunable``). Plots, exports, tables,
-reports, Monte Carlo and replay read the spec; none of them spells a controller's name.
-A new controller is one module with a ``SPEC`` and one line in
-``models.controllers.__init__`` (``register``). A user's own controller
-(``!Python {file, class}``) gets a spec made from its class (``plugin_spec``).
+reference). A plug-in's spec has a ``factory`` too (it names the internals its instance
+declares); a user's ``!Python`` plug-in written as a step has no law to give, and its
+spec's ``law`` refuses it in one line. Where the design already holds the linear
+feedback in closed form (the Sec. 3 filters of Lin+LC and the paper's controller),
+``linear`` reads it instead of deriving it (the same filter to round-off,
+``tests/test_linearise.py``; a tuner asks for thousands). ``tuning`` says what ``posfb
+tune`` may vary (``tunable``). Plots, exports, tables, reports, Monte Carlo, replay and
+tuning read the spec. A new controller is one module with a ``SPEC``, registered by one
+line in ``models.controllers.__init__`` or by the module itself (``register``) before
+posfb reads a scenario (``tests/test_new_controller.py``). A user's own controller
+(``!Python {file, class}``) gets a spec made from its class (``UserPlugin.spec``).
 """
 
 from __future__ import annotations
