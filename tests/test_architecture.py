@@ -11,6 +11,7 @@ running ``posfb`` was imported from, and runs the contracts there in a fresh int
 
 from __future__ import annotations
 
+import ast
 import importlib.util
 import os
 import subprocess
@@ -60,3 +61,47 @@ def test_imports_point_down_only(tmp_path):
     report = result.stdout + result.stderr
     assert result.returncode == 0, report
     assert f"{len(contracts)} kept, 0 broken" in report, report
+
+
+#: Where a built-in controller's name may be written: the controllers themselves and the
+#: paper's layer, which reproduces the paper's three by name.
+NAMING_FOLDERS = ("models/controllers", "analysis/paper")
+
+
+def _docstrings(tree: ast.AST) -> set[int]:
+    """The ``id`` of every docstring's constant in ``tree``."""
+    found = set()
+    for node in ast.walk(tree):
+        if isinstance(node, ast.Module | ast.ClassDef | ast.FunctionDef | ast.AsyncFunctionDef):
+            first = node.body[0] if node.body else None
+            if isinstance(first, ast.Expr) and isinstance(first.value, ast.Constant):
+                found.add(id(first.value))
+    return found
+
+
+def test_no_package_file_spells_a_builtin_controllers_name():
+    """Issue 44: outside ``NAMING_FOLDERS``, no code writes a built-in kind as a string
+    (a comparison, a key, an argument, a row): what it needs of a controller it reads from
+    the spec. Docstrings and help texts that show a command may name one (they are the
+    user's examples, as ``examples/`` are); a name inside a longer string is not code."""
+    from posfb.models.controllers import REGISTRY
+
+    builtin = set(REGISTRY)
+    assert {"pid", "lin_lc", "proposed", "pd_gravity", "adrc"} <= builtin  # the test's reach
+    spelled = []
+    for sub in (posfb.analysis, posfb.diagrams, posfb.models, posfb):
+        folder = Path(sub.__file__).parent
+        files = folder.rglob("*.py") if sub is not posfb else folder.glob("*.py")
+        for path in files:
+            where = f"{folder.name}/{path.relative_to(folder).as_posix()}"
+            if where.startswith(NAMING_FOLDERS):
+                continue
+            tree = ast.parse(path.read_text(), str(path))
+            docstrings = _docstrings(tree)
+            spelled += [
+                f"{where}:{node.lineno}: {node.value!r}"
+                for node in ast.walk(tree)
+                if isinstance(node, ast.Constant) and node.value in builtin
+                and id(node) not in docstrings
+            ]  # fmt: skip
+    assert not spelled, "\n".join(spelled)

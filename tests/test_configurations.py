@@ -144,7 +144,7 @@ def test_light_gear_mass_matrix_varies_several_fold(light_gear):
 def test_light_gear_unstable_configuration_is_found_and_the_arm_grows(light_gear):
     resolved = resolve(light_gear)
     design = nominal_design(resolved)
-    frozen = design.frozen_radii["lin_lc"]
+    frozen = design.frozen_radii["sampled_data_lin_lc"]
     # the M0* verdict alone says stable ...
     assert frozen.at_M0 < 1.0
     # ... the configuration set finds a configuration of the path where the frozen loop
@@ -171,7 +171,7 @@ def test_paper_arm_verdicts_barely_move():
     # the paper's arm: M*(q) moves little with q, and so do its radii (at M0*: 1.0426 and
     # 0.8521, the design report's; the frozen configurations move them by about 1e-3)
     design = nominal_design(resolve(posfb.load_scenario()))
-    for name in ("proposed", "lin_lc"):
+    for name in ("sampled_data", "sampled_data_lin_lc"):
         figures = design.frozen_radii[name]
         assert abs(figures.worst - figures.at_M0) < 0.005
     passed = {c.name: c.passed for c in design.checks}
@@ -208,6 +208,6 @@ def test_the_agreement_line_names_a_disagreement():
 def test_the_certificate_is_reported_for_the_scenario_controller(light_gear):
     design = nominal_design(resolve(light_gear))
     (name, certificate), = design.certificates.items()
-    assert name == "lin_lc"
+    assert name == "sampled_data_lin_lc"
     # a frozen loop on the path is unstable: no common Lyapunov function can exist
     assert not certificate.feasible and ">= 1" in certificate.message

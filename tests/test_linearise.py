@@ -92,8 +92,8 @@ def _adrc(build: ControllerBuild) -> DiscreteFilter:
 #: The hand-written feedback of each built-in controller.
 BY_HAND = {
     "pid": _pid,
-    "lin_lc": lambda build: designed_feedback(cached_design(build.design), "lin_lc"),
-    "proposed": lambda build: designed_feedback(cached_design(build.design), "proposed"),
+    "lin_lc": lambda build: designed_feedback(cached_design(build.design), "sampled_data_lin_lc"),
+    "proposed": lambda build: designed_feedback(cached_design(build.design), "sampled_data"),
     "pd_gravity": _pd_gravity,
     "adrc": _adrc,
 }

@@ -109,8 +109,8 @@ def test_worst_sampled_plant_is_tunes_worst(paper_study, paper_worst):
     configurations = scenario_configurations(resolved.config).configurations
     plants = list(draw_plants(plant_family(paper_study, loaded), resolved, 5, 12,
                               configurations=tuple(c.q for c in configurations)))  # fmt: skip
-    radii = [max(held_design_radius(design, "lin_lc", held) for held in (p.held, *p.held_at))
-             for p in plants]  # fmt: skip
+    radii = [max(held_design_radius(design, "sampled_data_lin_lc", held)
+                 for held in (p.held, *p.held_at)) for p in plants]  # fmt: skip
     assert found.sampled_radius.radius == pytest.approx(max(radii), rel=1e-12)
     assert found.sampled_radius.source == f"sampled {int(np.argmax(radii))}"
     assert found.configurations == len(configurations) and 1 <= len(found.active) <= 3

@@ -113,15 +113,14 @@ def test_the_radius_on_the_nominal_plant_is_the_design_reports(capsys):
         assert main(["design", "--json", "--alpha-star", str(alpha_star)]) == 0
         report = json.loads(capsys.readouterr().out)
         radii = plant_spectral_radii(cached_design(config), config.nominal)
-        assert radii["proposed"] == report["sampled_data_spectral_radius_at_M0"]
-        assert radii["lin_lc"] == report["sampled_data_spectral_radius_lin_lc_at_M0"]
+        assert radii["sampled_data"] == report["sampled_data_spectral_radius_at_M0"]
+        assert radii["sampled_data_lin_lc"] == report["sampled_data_spectral_radius_lin_lc_at_M0"]
         # over the path's configurations (the study worker's radius): the report's worst
         angles = _angles(posfb.load_scenario())
         frozen = plant_spectral_radii(cached_design(config), config.nominal, configurations=angles)
-        assert frozen["proposed"] == pytest.approx(report["sampled_data_spectral_radius"],
-                                                   rel=1e-12)  # fmt: skip
-        assert frozen["lin_lc"] == pytest.approx(report["sampled_data_spectral_radius_lin_lc"],
-                                                 rel=1e-12)  # fmt: skip
+        for loop, key in (("sampled_data", "sampled_data_spectral_radius"),
+                          ("sampled_data_lin_lc", "sampled_data_spectral_radius_lin_lc")):
+            assert frozen[loop] == pytest.approx(report[key], rel=1e-12)
 
 
 def test_each_sample_stores_the_radius_of_its_own_plant(db):
@@ -138,7 +137,7 @@ def test_each_sample_stores_the_radius_of_its_own_plant(db):
         )
         # the worker's radius: the worst over the plant's M0* and its M*(q) frozen at the
         # configurations of the study's path (its base scenario, 0.3 s)
-        expected = plant_spectral_radii(design, theta, configurations=angles)["proposed"]
+        expected = plant_spectral_radii(design, theta, configurations=angles)["sampled_data"]
         assert row["sampled_data_spectral_radius"] == expected
     radii = table.loc[table["controller"] == "proposed", "sampled_data_spectral_radius"]
     assert radii.nunique() == 4  # four plants, four loops

@@ -24,7 +24,7 @@ from posfb.analysis.design.problem import TuningProblem
 from posfb.analysis.design.stability_map import evaluate_point, map_setup
 from posfb.diagrams.resolve import load_scenario, resolve, run_resolved
 from posfb.models.design import (
-    LOOP_CONTROLLERS,
+    DESIGNED_LOOPS,
     CompliantGear,
     Design,
     LoopEffects,
@@ -104,7 +104,7 @@ def _previous_transition(design: Design, controller: str) -> np.ndarray:
     Eq. 13 (Lin+LC) or Eq. 19 at ``alpha*`` (the proposed filter's ``[eta~, phi, p,
     pbar]``)."""
     n, T = len(design.M0), design.config.sample_time
-    if controller == "lin_lc":
+    if controller == "sampled_data_lin_lc":
         filt, gain = design.lin_lc_filter, np.eye(n)
     else:
         filt, alpha = design.proposed_filter, design.config.nonlinear.alpha_star
@@ -136,10 +136,10 @@ def test_without_effects_the_loop_is_the_previous_one() -> None:
         gear=CompliantGear(stiffness=(0.0,) * n, damping=(0.0,) * n, motor_inertia=(0.1,) * n),
     )
     reported = {
-        "proposed": design.sampled_data_spectral_radius,
-        "lin_lc": design.sampled_data_spectral_radius_lin_lc,
+        "sampled_data": design.sampled_data_spectral_radius,
+        "sampled_data_lin_lc": design.sampled_data_spectral_radius_lin_lc,
     }
-    for controller in LOOP_CONTROLLERS:
+    for controller in DESIGNED_LOOPS:
         previous = _radius(_previous_transition(design, controller))
         held = held_plant(design.M0, design.B, T, at_zero)
         assert held_design_radius(design, controller, held) == pytest.approx(previous, abs=1e-12)
@@ -226,7 +226,7 @@ def test_tuning_and_map_judge_the_loop_with_the_effects() -> None:
         assert plant.effects == effects
         design = compute_design(resolved.config.design)
         held = held_plant(plant.M0, plant.B, resolved.config.sample_time, effects)
-        assert rho == pytest.approx(held_design_radius(design, "lin_lc", held))
+        assert rho == pytest.approx(held_design_radius(design, "sampled_data_lin_lc", held))
 
 
 def test_nonlinear_settings_are_named_as_left_out() -> None:

@@ -315,7 +315,7 @@ def test_the_alpha_rule_judges_the_path_s_configurations(written):
 
     _, out, _ = written
     design = nominal_design(resolve(posfb.load_scenario(out)))
-    assert design.frozen_radii["proposed"].worst <= initial.TARGET_RADIUS + 1e-9
+    assert design.frozen_radii["sampled_data"].worst <= initial.TARGET_RADIUS + 1e-9
 
 
 def test_a_rule_that_cannot_pass_says_why_in_one_line():

@@ -65,7 +65,7 @@ def _plant_radii(design, plants) -> np.ndarray:
     """Each plant's sampled-data radius of the proposed loop, the worst over its ``M0*`` and
     its ``M*(q)`` at the path's lightest and heaviest configurations, from the full
     closed loop (``design_loop``), not the map's transition-only ``held_design_radius``."""
-    return np.array([max(spectral_radius(design_loop(design, "proposed", M, p.B).A)
+    return np.array([max(spectral_radius(design_loop(design, "sampled_data", M, p.B).A)
                          for M in (p.M0, *p.M_at)) for p in plants])  # fmt: skip
 
 
@@ -79,13 +79,13 @@ def _plants(study, loaded, seed: int, count: int) -> list:
                             configurations=extremes))  # fmt: skip
 
 
-def _nominal_radius(design, controller: str = "proposed", scenario=CASE_FILES["nominal"]):
+def _nominal_radius(design, loop: str = "sampled_data", scenario=CASE_FILES["nominal"]):
     """The nominal model's radius, the worst over ``M0*`` and every configuration of the
     scenario's path, from the full closed loop."""
     config = resolve(load_scenario(scenario)).config
     model = nominal_model(config.design.nominal)
     masses = (model.M0(), *scenario_configurations(config).masses)
-    return max(spectral_radius(design_loop(design, controller, M, model.B()).A) for M in masses)
+    return max(spectral_radius(design_loop(design, loop, M, model.B()).A) for M in masses)
 
 
 def test_rho_at_the_scenario_point_is_the_design_report(paper_map):
@@ -177,7 +177,7 @@ def test_lin_lc_entry_maps_its_own_loop():
     assert setup.controller == "lin_lc"
     point = sm.evaluate_point(setup, {T_S: 0.01})
     design = compute_design(resolve(load_scenario(CASE_FILES["nominal"])).config.design)
-    assert point.rho == pytest.approx(_nominal_radius(design, "lin_lc"), abs=1e-12)
+    assert point.rho == pytest.approx(_nominal_radius(design, "sampled_data_lin_lc"), abs=1e-12)
 
 
 @pytest.mark.parametrize(

@@ -126,7 +126,7 @@ def _augmented_sum(loop, disturbance_std, noise_std, pole, terms=4000):
 @pytest.mark.parametrize("pole", [0.0, 0.9])
 def test_predicted_error_is_the_stationary_deviation_of_the_loop(pole):
     design = compute_design(ControllerConfig().with_alpha_star(2.0))
-    loop = design_loop(design, "proposed", design.M0, design.B)
+    loop = design_loop(design, "sampled_data", design.M0, design.B)
     assert spectral_radius(loop.A) < 1.0
     disturbance, noise = np.array([0.4, 0.3]), np.array([1e-4, 1e-4])
     q_std, _ = stationary_deviations(loop, disturbance, noise, pole)

@@ -24,14 +24,14 @@ def relevant_checks(config: ClosedLoopConfig) -> tuple[str, ...]:
     """The design checks the controller entry of a resolved ``config`` determines
     (``models.controllers.design_checks``); PID and the plug-ins (PD + gravity, ADRC, a
     ``!Python`` class) have no Sec. 3 design: refused."""
-    from posfb.models.controllers import design_checks
+    from posfb.models.controllers import design_checks, loop_kinds
 
     relevant = design_checks(config.controller)
     if not relevant:
         raise UsageError(
             f"controller {config.controller!r} ({config.spec.label}) has no Sec. 3 design; "
             "posfb design designs the paper's controller and Lin+LC "
-            "(--set controller.kind=proposed or lin_lc)"
+            f"(--set controller.kind={' or '.join(loop_kinds().values())})"
         )
     return relevant
 
@@ -43,22 +43,15 @@ def nominal_design(resolved: ResolvedScenario) -> Design:
     configuration of the scenario's path (``analysis.common.configurations``)."""
     from posfb.analysis.common.configurations import scenario_configurations
     from posfb.analysis.common.loop_effects import nominal_effects
-    from posfb.models.design import cached_design, with_configurations
+    from posfb.models.design import DESIGNED_LOOPS, cached_design, with_configurations
 
     config = resolved.config
     return with_configurations(
         cached_design(config.design),
         nominal_effects(resolved),
         scenario_configurations(config),
-        certify=tuple(
-            name for name, check in CERTIFIED_LOOPS.items() if check in config.spec.checks
-        ),
+        certify=tuple(loop for loop in DESIGNED_LOOPS if loop in config.spec.checks),
     )
-
-
-#: The loop certified (``models.design.common_lyapunov``) for a controller whose checks hold
-#: its check: the proposed controller's and Lin+LC's.
-CERTIFIED_LOOPS = {"proposed": "sampled_data", "lin_lc": "sampled_data_lin_lc"}
 
 
 def _poles(poles: np.ndarray) -> list[list[float]]:
@@ -75,32 +68,31 @@ _NONLINEAR_KEYS = ("alpha_star", "E", "E1", "E2", "E3", "Gamma", "kyp_gamma", "P
                    "sampled_data_spectral_radius_at_M0", "bound_filter",
                    "uncertainty_bounds")  # fmt: skip
 
-#: The ``--json`` key of each loop's radii (the worst over the configurations; ``_at_M0``:
-#: at the design's ``M0*``).
-_RADIUS_KEYS = {"proposed": "sampled_data_spectral_radius",
-                "lin_lc": "sampled_data_spectral_radius_lin_lc"}  # fmt: skip
-
-
 def _configurations_dict(design: Design) -> dict:
     """The ``--json`` keys of the configuration set: each loop's radius at ``M0*``
     (``..._at_M0``) and ``configurations``: their count, the eigenvalue range of
-    ``M0*^-1 M*(q)`` over them and, per loop, where its worst radius is."""
+    ``M0*^-1 M*(q)`` over them and, per loop, where its worst radius is; a loop is keyed
+    by the kind of the controller it belongs to (``ControllerSpec.design_loop``)."""
+    from posfb.models.controllers import loop_kinds
+    from posfb.models.design import DESIGNED_LOOPS
+
     if design.frozen_radii is None or design.configurations is None:
         return {}
-    configurations = design.configurations
+    configurations, kind = design.configurations, loop_kinds()
     worst = {}
     for name, figures in design.frozen_radii.items():
         where = configurations.configurations[figures.worst_index]
-        worst[name] = {"radius": figures.worst, "time": where.time, "q": list(where.q),
+        worst[kind[name]] = {"radius": figures.worst, "time": where.time, "q": list(where.q),
                        "role": where.role}  # fmt: skip
     certificates = {
-        name: {"feasible": c.feasible, "decay": c.decay if c.feasible else None,
+        kind[name]: {"feasible": c.feasible, "decay": c.decay if c.feasible else None,
                "condition": c.condition if c.feasible else None, "loops": c.loops,
                "message": c.message}
         for name, c in (design.certificates or {}).items()
     }  # fmt: skip
     return {
-        **{f"{key}_at_M0": design.frozen_radii[name].at_M0 for name, key in _RADIUS_KEYS.items()},
+        **{f"{loop.radius}_at_M0": design.frozen_radii[name].at_M0
+           for name, loop in DESIGNED_LOOPS.items()},  # fmt: skip
         "configurations": {
             "count": len(configurations),
             "eigenvalue_range": list(configurations.eigenvalue_range()),
@@ -169,10 +161,6 @@ def _pole_text(poles: np.ndarray) -> str:
     )
 
 
-#: The loops' names in the report.
-LOOP_LABELS = {"proposed": "proposed, alpha = alpha*", "lin_lc": "Lin+LC"}
-
-
 def _certificate_text(certificate: LyapunovCertificate) -> str:
     """One line: what a common Lyapunov function certifies, or why there is none."""
     if certificate.feasible:
@@ -183,8 +171,12 @@ def _certificate_text(certificate: LyapunovCertificate) -> str:
             "configuration figures above are what holds")  # fmt: skip
 
 
-def _radius_text(design: Design, loop: str, radius: float) -> str:
-    """``radius``, and with a configuration set the radius at ``M0*`` beside it."""
+def _radius_text(design: Design, loop: str) -> str:
+    """The radius of designed ``loop``, and with a configuration set its radius at ``M0*``
+    beside it."""
+    from posfb.models.design import DESIGNED_LOOPS
+
+    radius = getattr(design, DESIGNED_LOOPS[loop].radius)
     if design.frozen_radii is None:
         return f"{radius:.4f}"
     return (
@@ -197,6 +189,7 @@ def format_report(design: Design, relevant: tuple[str, ...] | None = None) -> st
     """The readable report: the design, then every check (``relevant``: those only) with
     ``ok`` or ``FAILED``; an entry without the nonlinear torque (Lin+LC's) shows only the
     linear torque's numbers."""
+    from posfb.models.design import DESIGNED_LOOPS
     from posfb.models.design.discretise import DISCRETISATION_NAMES
 
     config = design.config
@@ -220,16 +213,18 @@ def format_report(design: Design, relevant: tuple[str, ...] | None = None) -> st
             f"continuous poles with tau_NC at alpha*: "
             f"{_pole_text(design.continuous_poles_with_nc)}",
             f"sampled-data spectral radius (proposed, alpha = alpha*): "
-            f"{_radius_text(design, 'proposed', design.sampled_data_spectral_radius)}",
+            f"{_radius_text(design, 'sampled_data')}",
         ]
     lines.append(
         "sampled-data spectral radius (Lin+LC): "
-        + _radius_text(design, "lin_lc", design.sampled_data_spectral_radius_lin_lc)
+        + _radius_text(design, "sampled_data_lin_lc")
     )
     if design.configurations is not None:
         lines.append(f"configurations: {design.configurations.describe_range()}")
     for name, certificate in (design.certificates or {}).items():
-        lines.append(f"certificate ({LOOP_LABELS[name]}): {_certificate_text(certificate)}")
+        lines.append(
+            f"certificate ({DESIGNED_LOOPS[name].label}): {_certificate_text(certificate)}"
+        )
     if nonlinear:
         lines.append(
             f"||P2 (M0*)^-1|| = {design.coupling_norm:.4g}, k_C1 = {design.bounds.k_C1:.4g}"

@@ -2,17 +2,20 @@
 Lin+LC, PID, the two position-only baselines and the tuned designs of the shipped
 scenarios, one row per (scenario, controller), from ``posfb.design``.
 
-    python -m posfb.analysis.design.margins_table > docs/margins/table.md
+    python -m posfb.analysis.design.margins_table docs/margins/rows.yaml > docs/margins/table.md
 
-``tests/test_margins.py`` regenerates it and compares, so the committed table is
-the code's output. A labelled row (``alpha* = 3.25``) is the second Monte-Carlo study's
+The rows (``docs/margins/rows.yaml``, ``RowsFile``) are the guide's choice, not the
+package's. ``tests/test_margins.py`` regenerates the table and compares, so the committed
+table is the code's output. A labelled row (``alpha* = 3.25``) is the second Monte-Carlo study's
 setting (``paper_uncertainty_alpha_star``), not a default.
 """
 
-from __future__ import annotations
+# No "from __future__ import annotations": Drake's YAML reads the field types at runtime.
 
 import math
-from dataclasses import dataclass
+import sys
+from dataclasses import dataclass, field
+from pathlib import Path
 
 from posfb.analysis.common.shipped import shipped_files
 from posfb.analysis.design.linear_loop import LinearDesign, linear_design
@@ -21,33 +24,30 @@ from posfb.diagrams.resolve import load_scenario, resolve
 from posfb.models.design.margins import LoopMargins
 
 
-@dataclass(frozen=True)
+@dataclass
 class Row:
     """One row: a shipped ``scenario`` (by name), a ``controller`` kind, settings applied
     first (``KEY=VALUE``) and a ``note`` for a labelled setting."""
 
-    scenario: str
-    controller: str
-    settings: tuple[str, ...] = ()
+    scenario: str = ""
+    controller: str = ""
+    settings: list[str] = field(default_factory=list)
     note: str = ""
 
 
-ROWS = (
-    Row("paper_nominal", "proposed"),
-    Row("paper_nominal", "proposed", ("controller.alpha_star=3.25",), "labelled: alpha* = 3.25"),
-    Row("paper_nominal", "lin_lc"),
-    Row("paper_nominal", "pid"),
-    Row("paper_nominal", "pd_gravity"),
-    Row("paper_nominal", "adrc"),
-    Row("paper_tuned", "proposed", note="tuned"),
-    Row("paper_tuned", "lin_lc", note="tuned"),
-    Row("three_link_nominal", "lin_lc"),
-    Row("three_link_nominal", "pid"),
-    Row("three_link_tuned", "proposed", note="tuned"),
-    Row("three_link_tuned", "lin_lc", note="tuned"),
-    Row("six_joint_tuned", "proposed", note="tuned"),
-    Row("six_joint_tuned", "lin_lc", note="tuned"),
-)
+@dataclass
+class RowsFile:
+    """A rows file (YAML): ``rows``, in table order."""
+
+    rows: list[Row] = field(default_factory=list)
+
+
+def read_rows(path: Path) -> list[Row]:
+    """The rows of the YAML file at ``path`` (``RowsFile``)."""
+    from posfb.diagrams.yaml_schema import load_typed, read_text
+
+    return load_typed(RowsFile, read_text(path, "rows file"), str(path)).rows
+
 
 HEADER = (
     "| scenario | controller | radius | delay margin | disk margin | disk gain | "
@@ -81,7 +81,7 @@ def row_text(row: Row, loop: LinearDesign, margins: LoopMargins) -> str:
     )
 
 
-def table(rows: tuple[Row, ...] = ROWS) -> str:
+def table(rows: list[Row]) -> str:
     """The Markdown table of ``rows`` (module docstring)."""
     files = shipped_files("scenario")
     lines = [HEADER]
@@ -94,4 +94,4 @@ def table(rows: tuple[Row, ...] = ROWS) -> str:
 
 
 if __name__ == "__main__":
-    print(table(), end="")
+    print(table(read_rows(Path(sys.argv[1]))), end="")

@@ -425,7 +425,7 @@ def design_controllers(
             model,
             masses=(*masses, lightest / CONFIGURATION_GAIN_MARGIN),
         )
-        return radii["lin_lc"] < 1.0
+        return radii["sampled_data_lin_lc"] < 1.0
 
     scale = largest_bandwidth_scale(lin_lc_passes) or BANDWIDTH_SCALES[-1]
     weights = lqr_weights(facts.M0, settings.sample_time, scale)
@@ -434,9 +434,9 @@ def design_controllers(
 
     def radius(alpha_star: float) -> float:
         changed = replace(design, config=config.with_alpha_star(alpha_star))
-        return plant_spectral_radii(changed, model, masses=masses)["proposed"]
+        return plant_spectral_radii(changed, model, masses=masses)["sampled_data"]
 
-    radius_lin_lc = plant_spectral_radii(design, model, masses=masses)["lin_lc"]
+    radius_lin_lc = plant_spectral_radii(design, model, masses=masses)["sampled_data_lin_lc"]
     cap = config.nonlinear.alpha_star
     return DesignedControllers(
         weights=weights,
@@ -493,6 +493,7 @@ def build_scenario(settings: Settings, facts: ArmFacts, fitted: FittedTrajectory
         WaveJoint,
     )
     from posfb.diagrams.sections import Actuator, Sensor, Timing
+    from posfb.models.controllers import kind_of
     from posfb.models.design.settings import DiagonalH, LinLc, Pid, Proposed
 
     n = len(facts.joints)
@@ -546,12 +547,21 @@ def build_scenario(settings: Settings, facts: ArmFacts, fitted: FittedTrajectory
             filter_a=designed.filter_a,
         ),
         controllers={
-            "lin_lc": LinLc(**lqr),
-            "pid": Pid(
+            kind_of(LinLc): LinLc(**lqr),
+            kind_of(Pid): Pid(
                 Kp=list(designed.pid.Kp), Kv=list(designed.pid.Kv), KI=list(designed.pid.KI)
             ),  # fmt: skip
         },
     )
+
+
+def _written_kinds() -> tuple[str, str, str]:
+    """The kinds of the entries the file holds, as the scenario names them: PID and Lin+LC
+    (named entries) and the paper's controller (``controller:``)."""
+    from posfb.models.controllers import kind_of
+    from posfb.models.design.settings import LinLc, Pid, Proposed
+
+    return kind_of(Pid), kind_of(LinLc), kind_of(Proposed)
 
 
 def comments(settings: Settings, facts: ArmFacts, fitted: FittedTrajectory,
@@ -563,6 +573,8 @@ def comments(settings: Settings, facts: ArmFacts, fitted: FittedTrajectory,
         h_gamma_rule,
         trajectory_rule,
     )
+
+    pid, lin_lc, _ = _written_kinds()
 
     return {
         "plant": [
@@ -613,10 +625,10 @@ def comments(settings: Settings, facts: ArmFacts, fitted: FittedTrajectory,
         "controller.filter_a": filter_pole_rule(settings.sample_time),
         "controller.bounds": ["Assumption 1: the default, half of each nominal norm."],
         "controllers": [
-            "Named entries: --controller lin_lc and --controller pid, and posfb compare."
+            f"Named entries: --controller {lin_lc} and --controller {pid}, and posfb compare."
         ],
-        "controllers.lin_lc": ["Lin+LC (Eq. 4 + 13) with the same LQR weights."],
-        "controllers.pid": designed.pid.rule(),
+        f"controllers.{lin_lc}": ["Lin+LC (Eq. 4 + 13) with the same LQR weights."],
+        f"controllers.{pid}": designed.pid.rule(),
     }
 
 
@@ -648,7 +660,8 @@ def header(settings: Settings) -> str:
         "# Every derived setting carries its rule and numbers; a starting point, not a tuned\n"
         "# design. Check and run it:\n"
         f"#   posfb scenario check {settings.out.name}\n"
-        f"#   posfb compare --scenario {settings.out.name} --controllers pid,lin_lc,proposed\n"
+        f"#   posfb compare --scenario {settings.out.name} --controllers "
+        f"{','.join(_written_kinds())}\n"
     )
 
 

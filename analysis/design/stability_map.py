@@ -60,8 +60,14 @@ from posfb.diagrams.resolve import (
     resolve,
 )
 from posfb.diagrams.scenario import Scenario, apply_setting, scenario_description
-from posfb.models.controllers import require_design
-from posfb.models.design import Design, cached_design, held_design_radius, with_effects
+from posfb.models.controllers import loop_kinds, require_design
+from posfb.models.design import (
+    DESIGNED_LOOPS,
+    Design,
+    cached_design,
+    held_design_radius,
+    with_effects,
+)
 from posfb.models.design.closed_loop import NO_EFFECTS, HeldPlant, LoopEffects, held_plant
 from posfb.models.design.configurations import ConfigurationSet
 from posfb.models.nominal import NominalModel, nominal_model
@@ -145,14 +151,16 @@ class MapAxis:
 
 @dataclass(frozen=True, eq=False)
 class MapSetup:
-    """What every grid point shares: the scenario, its nominal model, the loop's
-    controller (``proposed`` or ``lin_lc``), the plants (each with the scenario's linear
+    """What every grid point shares: the scenario, its nominal model, the designed
+    ``loop`` drawn (a ``models.design.DESIGNED_LOOPS`` name) and the ``controller`` kind it
+    belongs to, the plants (each with the scenario's linear
     effects, ``analysis.common.loop_effects``, and its ``M*(q)`` at the path's lightest
     and heaviest configurations), the margin, the nominal loop's effects and the
     nominal model's configuration set."""
 
     loaded: LoadedScenario
     nominal: NominalModel
+    loop: str
     controller: str
     plants: tuple[LinearPlant, ...]
     margin: float
@@ -391,9 +399,11 @@ def check_endpoints(loaded: LoadedScenario, axes: Sequence[MapAxis]) -> None:
 # ---- the setup and one point -------------------------------------------------------------
 
 
-def loop_controller(relevant: Sequence[str]) -> str:
-    """The loop the map draws for a controller entry with design checks ``relevant``."""
-    return "proposed" if "sampled_data" in relevant else "lin_lc"
+def map_loop(relevant: Sequence[str]) -> str:
+    """The designed loop the map draws for a controller entry with design checks
+    ``relevant``: the first of ``models.design.DESIGNED_LOOPS`` among them (the paper's
+    controller's entry answers for its own loop and Lin+LC's: its own is drawn)."""
+    return next(loop for loop in DESIGNED_LOOPS if loop in relevant)
 
 
 def map_setup(
@@ -421,7 +431,8 @@ def map_setup(
             loaded.base_dir,
             scenario_description(loaded.scenario, loaded.base_dir),
         ),
-        controller=loop_controller(relevant),
+        loop=map_loop(relevant),
+        controller=loop_kinds()[map_loop(relevant)],
         plants=tuple(draw_plants(family, resolved, seed, plants, configurations=extremes)),
         margin=margin,
         arm=Path(resolved.config.plant.urdf).name,
@@ -453,17 +464,13 @@ def _evaluate(setup: MapSetup, scenario: Scenario) -> PointResult:
     if design is None or design.config.sample_time < setup.effects.compute_delay:
         return PointResult(refused=True)  # a compute delay longer than T_s is refused too
     design = with_effects(design, setup.effects)
-    at_M0 = (
-        design.sampled_data_spectral_radius
-        if setup.controller == "proposed"
-        else design.sampled_data_spectral_radius_lin_lc
-    )
+    at_M0 = getattr(design, DESIGNED_LOOPS[setup.loop].radius)
     T = design.config.sample_time
     B = nominal_model(setup.nominal).B()
-    rho = max([at_M0, *(held_design_radius(design, setup.controller, held)
+    rho = max([at_M0, *(held_design_radius(design, setup.loop, held)
                         for held in setup.nominal_held(T, B))])  # fmt: skip
     plant_rho = tuple(
-        max(held_design_radius(design, setup.controller, held) for held in helds)
+        max(held_design_radius(design, setup.loop, held) for held in helds)
         for helds in setup.held_plants(T)
     )
     return PointResult(refused=False, rho=float(rho), plant_rho=plant_rho)

@@ -44,7 +44,6 @@ from posfb.diagrams.sections import SensorState
 from posfb.diagrams.structure import structure_key
 from posfb.models.controllers import cached_design
 from posfb.models.design import (
-    LOOP_CONTROLLERS,
     ControllerConfig,
     LoopEffects,
     plant_spectral_radii,
@@ -215,16 +214,15 @@ class ClosedLoopEvaluator:
         plug-ins)."""
         radii, by_design = {}, {}
         for name, config in configs.items():
-            if config.controller_settings is not None or config.controller not in LOOP_CONTROLLERS:
+            loop = config.spec.design_loop
+            if config.controller_settings is not None or loop is None:
                 continue
             if config.design not in by_design:
                 angles = tuple(c.q for c in scenario_configurations(config).configurations)
                 by_design[config.design] = plant_spectral_radii(
                     cached_design(config.design), linear_plant, effects, angles
                 )
-            radius = by_design[config.design].get(config.controller)
-            if radius is not None:
-                radii[name] = radius
+            radii[name] = by_design[config.design][loop]
         return radii
 
     def _runner_or_error(self, scenario: Scenario, controller: str) -> ClosedLoopRunner | Exception:

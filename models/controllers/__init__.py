@@ -27,7 +27,13 @@ from posfb.models.controllers.registry import (
     register,
     spec,
 )
-from posfb.models.design import ControllerConfig, Design, cached_design
+from posfb.models.design import (
+    DESIGNED_LOOPS,
+    ControllerConfig,
+    Design,
+    cached_design,
+    designed_feedback,
+)
 from posfb.models.design.realisation import DiscreteFilter
 from posfb.models.laws.law import Law
 from posfb.models.nominal import NominalModel
@@ -92,6 +98,26 @@ def controller_spec(kind: str, settings: object | None = None) -> ControllerSpec
     return settings.spec if isinstance(settings, UserPlugin) else spec(kind)
 
 
+def kind_of(settings: type) -> str:
+    """The registered kind whose scenario entry is a ``settings`` object (its spec's
+    ``settings`` class): how a caller that builds an entry names it."""
+    for kind, entry in REGISTRY.items():
+        if entry.settings is settings:
+            return kind
+    raise ValueError(f"settings class {settings.__name__}: no registered controller reads it")
+
+
+def loop_kinds() -> dict[str, str]:
+    """The kind each designed loop (``models.design.DESIGNED_LOOPS``) belongs to
+    (``ControllerSpec.design_loop``; the first registered where two name one), in the
+    order of ``DESIGNED_LOOPS``."""
+    found: dict[str, str] = {}
+    for kind, entry in REGISTRY.items():
+        if entry.design_loop is not None:
+            found.setdefault(entry.design_loop, kind)
+    return {loop: found[loop] for loop in DESIGNED_LOOPS if loop in found}
+
+
 def linear_kinds() -> tuple[str, ...]:
     """The registered kinds with a linear feedback: those written as a law."""
     return tuple(kind for kind, entry in REGISTRY.items() if entry.law is not None)
@@ -126,12 +152,12 @@ def linear_feedback(
     """Controller ``kind``'s feedback linearised on the nominal linear part: the filter from
     ``q~`` to the feedback voltage derived from its law (``linearise.law_feedback``), with
     no voltage limit (a linear loop does not saturate), or the design's closed form of it
-    (``ControllerSpec.linear``); ``ValueError`` (one line) for a controller written as a
+    (``ControllerSpec.design_loop``); ``ValueError`` (one line) for a controller written as a
     step or a design it refuses."""
     entry = controller_spec(kind, settings)
-    if entry.linear is not None:
+    if entry.design_loop is not None:
         entry.refuse(config)
-        return entry.linear(ControllerBuild(config, (), settings, linear_part=True))
+        return designed_feedback(cached_design(config), entry.design_loop)
     return law_feedback(controller_law(kind, config, settings=settings, linear_part=True))
 
 
@@ -182,10 +208,12 @@ __all__ = [
     "controller_spec",
     "failed_checks",
     "internals_names",
+    "kind_of",
     "kinds",
     "controller_law",
     "linear_feedback",
     "linear_kinds",
+    "loop_kinds",
     "spec",
     "make_controller",
     "require_design",

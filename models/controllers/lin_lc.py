@@ -12,7 +12,7 @@ from typing import TYPE_CHECKING
 from posfb.models.controllers.base import joint_names
 from posfb.models.controllers.registry import ControllerSpec
 from posfb.models.controllers.tunable import Tuning, lqr_knobs, with_lqr_knobs
-from posfb.models.design import Design, cached_design, designed_feedback
+from posfb.models.design import Design, cached_design
 from posfb.models.design.settings import LinLc
 
 if TYPE_CHECKING:
@@ -64,7 +64,7 @@ SPEC = ControllerSpec(
     # The torques of the lumped model are armature voltages.
     internal_units={"tau_lin": "V", "tau_lc": "V"},
     settings=LinLc,
-    linear=lambda build: designed_feedback(cached_design(build.design), "lin_lc"),
+    design_loop="sampled_data_lin_lc",
     tuning=Tuning(
         knobs=lambda entry: lqr_knobs(),
         apply=lambda entry, values, sample_time: with_lqr_knobs(entry, values),

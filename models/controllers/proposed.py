@@ -28,7 +28,7 @@ import numpy as np
 from posfb.models.controllers.base import joint_names
 from posfb.models.controllers.registry import ControllerSpec
 from posfb.models.controllers.tunable import Knob, Tuning, lqr_knobs, with_lqr_knobs
-from posfb.models.design import ControllerConfig, Design, cached_design, designed_feedback
+from posfb.models.design import ControllerConfig, Design, cached_design
 from posfb.models.design.bounds import bound_filter_constants
 from posfb.models.design.initial import filter_pole
 from posfb.models.design.settings import Proposed
@@ -160,7 +160,7 @@ SPEC = ControllerSpec(
         "U1": "rad_per_s", "U2": "rad_per_s2", "delta_bar": "V",
     },  # fmt: skip
     settings=Proposed,
-    linear=lambda build: designed_feedback(cached_design(build.design), "proposed"),
+    design_loop="sampled_data",
     tuning=Tuning(
         knobs=_knobs, apply=_tuned,
         shown=("alpha_star", "K_alpha", "filter_a", "Q1", "R", "lambdas"),

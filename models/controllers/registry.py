@@ -11,10 +11,12 @@ feedback that margins, the map and tuning close is derived (``linearise``: the l
 the nominal linear part, Eq. 2 with ``h = 0``, the feed-forward terms cancelled by the
 reference). A plug-in's spec has a ``factory`` too (it names the internals its instance
 declares); a user's ``!Python`` plug-in written as a step has no law to give, and its
-spec's ``law`` refuses it in one line. Where the design already holds the linear
-feedback in closed form (the Sec. 3 filters of Lin+LC and the paper's controller),
-``linear`` reads it instead of deriving it (the same filter to round-off,
-``tests/test_linearise.py``; a tuner asks for thousands). ``tuning`` says what ``posfb
+spec's ``law`` refuses it in one line. A controller whose linear feedback the Sec. 3
+design already holds in closed form (Lin+LC, the paper's controller) names that loop,
+``design_loop`` (a ``models.design.DESIGNED_LOOPS`` name): its feedback is read from the
+design instead of derived (the same filter to round-off, ``tests/test_linearise.py``; a
+tuner asks for thousands), and the loop's radius is the controller's in the design
+report, the stability map and a study's rho. ``tuning`` says what ``posfb
 tune`` may vary (``tunable``). Plots, exports, tables, reports, Monte Carlo, replay and
 tuning read the spec. A new controller is one module with a ``SPEC``, registered by one
 line in ``models.controllers.__init__`` or by the module itself (``register``) before
@@ -33,7 +35,6 @@ if TYPE_CHECKING:
     from posfb.models.controllers.base import SampledController
     from posfb.models.controllers.tunable import Tuning
     from posfb.models.design import ControllerConfig
-    from posfb.models.design.realisation import DiscreteFilter
     from posfb.models.laws.law import Law
     from posfb.models.laws.nominal import SymbolicModel
 
@@ -73,12 +74,20 @@ class ControllerSpec:
     internals: Callable[[int], tuple[str, ...]] | None = None
     internal_units: Mapping[str, str] = field(default_factory=dict)
     design_label: Callable[[ControllerConfig], str] | None = None
-    linear: Callable[[ControllerBuild], DiscreteFilter] | None = None
+    design_loop: str | None = None
     tuning: Tuning | None = None
 
     def __post_init__(self) -> None:
         if self.law is None and self.factory is None:
             raise ValueError(f"controller {self.kind!r}: a spec needs a law or a factory")
+        if self.design_loop is not None:
+            from posfb.models.design import DESIGNED_LOOPS
+
+            if self.design_loop not in DESIGNED_LOOPS:
+                raise ValueError(
+                    f"controller {self.kind!r}: design_loop = {self.design_loop!r}; one of "
+                    f"{', '.join(DESIGNED_LOOPS)} is required"
+                )
 
     def build(self, inputs: ControllerBuild) -> SampledController:
         """The controller's Drake system: ``factory(inputs)``, or the law's

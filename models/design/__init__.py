@@ -14,9 +14,10 @@ from posfb.models.design.config import (
     diagonal,
 )
 from posfb.models.design.synthesis import (
-    LOOP_CONTROLLERS,
+    DESIGNED_LOOPS,
     Check,
     Design,
+    DesignedLoop,
     compute_design,
     design_loop,
     designed_feedback,
@@ -33,7 +34,8 @@ cached_design = lru_cache(maxsize=32)(compute_design)
 __all__ = [
     "cached_design",
     "designed_feedback",
-    "LOOP_CONTROLLERS",
+    "DESIGNED_LOOPS",
+    "DesignedLoop",
     "plant_spectral_radii",
     "Check",
     "ControllerConfig",

@@ -9,7 +9,9 @@ for its two joints).
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field, fields, replace
+import functools
+from dataclasses import MISSING, dataclass, field, fields, replace
+from typing import ClassVar
 
 import numpy as np
 
@@ -102,6 +104,9 @@ class LqrWeights:
             raise ValueError(f"{error} (n = {n} joints, from lambdas)") from None
         freeze(self, "Q1", "Q2", "R", "lambdas")
 
+    #: The entry whose length is ``n`` (``ControllerConfig`` names it when sizes differ).
+    SIZED_BY: ClassVar[str] = "lambdas"
+
     @property
     def joints(self) -> int:
         """``n``: the number of ``lambdas``."""
@@ -158,6 +163,8 @@ class NonlinearTorqueConfig:
         require_positive("filter_a", self.filter_a)
         freeze(self, "A_zeta", "B_zeta", "C_zeta")
 
+    SIZED_BY: ClassVar[str] = "A_zeta"
+
     @property
     def joints(self) -> int:
         """``n``: the size of ``A_zeta``."""
@@ -211,6 +218,8 @@ class PidGains:
                 check(f"{name}[{i}]", value)
         freeze(self, "Kp", "Kv", "KI")
 
+    SIZED_BY: ClassVar[str] = "Kp"
+
     @property
     def joints(self) -> int:
         """``n``: the number of ``Kp``."""
@@ -249,24 +258,16 @@ class ControllerConfig:
                 f"nominal = {self.nominal!r} is not a nominal model "
                 "(LumpedParameters or UrdfNominal)"
             )
-        for name, kind in (
-            ("lqr", LqrWeights),
-            ("nonlinear", NonlinearTorqueConfig),
-            ("bounds", UncertaintyBounds),
-            ("pid", PidGains),
-        ):
+        for name, kind in _part_types().items():
             if not isinstance(getattr(self, name), kind):
                 raise ValueError(f"{name} = {getattr(self, name)!r} is not a {kind.__name__}")
         n = self.joints
-        for name, part, entry in (
-            ("lqr", self.lqr, "lambdas"),
-            ("nonlinear", self.nonlinear, "A_zeta"),
-            ("pid", self.pid, "Kp"),
-        ):
-            if part.joints != n:
+        for name, kind in _part_types().items():
+            part = getattr(self, name)
+            if hasattr(kind, "SIZED_BY") and part.joints != n:
                 raise ValueError(
-                    f"{name}.{entry} is sized for {part.joints} joints; the nominal model "
-                    f"has {n}: one entry per joint is required"
+                    f"{name}.{kind.SIZED_BY} is sized for {part.joints} joints; the nominal "
+                    f"model has {n}: one entry per joint is required"
                 )
 
     @property
@@ -296,3 +297,14 @@ class ControllerConfig:
         """This config with the nonlinear torque's steady-state gain ``alpha*`` changed
         (validated by ``NonlinearTorqueConfig``)."""
         return replace(self, nonlinear=replace(self.nonlinear, alpha_star=alpha_star))
+
+
+@functools.cache
+def _part_types() -> dict[str, type]:
+    """The class of each ``ControllerConfig`` part made by a default factory (the LQR
+    weights, the nonlinear torque, the bounds, the PID gains), by member name."""
+    return {
+        part.name: type(part.default_factory())
+        for part in fields(ControllerConfig)
+        if part.default_factory is not MISSING
+    }

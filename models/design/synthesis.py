@@ -251,19 +251,54 @@ def _stability_check(
     )  # fmt: skip
 
 
-#: The controllers whose sampled-data loop a design computes (PID is not a filter of
-#: Sec. 3: its loop on the nominal model is not part of the design report).
-LOOP_CONTROLLERS = ("proposed", "lin_lc")
+@dataclass(frozen=True)
+class DesignedLoop:
+    """One sampled-data loop a design closes around the held nominal linear part: a Sec. 3
+    filter at ``alpha = alpha*``. ``name`` is the design check that judges it, and its key
+    in ``Design.frozen_radii``, ``Design.certificates`` and ``plant_spectral_radii``;
+    ``label`` how the report names it; ``filter`` and ``radius`` the ``Design`` members
+    that hold its filter and its spectral radius; ``nonlinear``: the filter outputs
+    ``[eta~, phi, p, pbar]`` and ``u = eta~ - alpha* phi`` (Eq. 13, 19 with ``alpha =
+    alpha*``; the bound filter runs open loop, so its poles ``abar`` are in the spectrum
+    too), else it outputs ``eta~`` and ``u = eta~`` (Eq. 13)."""
+
+    name: str
+    label: str
+    filter: str
+    radius: str
+    nonlinear: bool
+
+    def output_gain(self, n: int, outputs: int, alpha_star: float) -> np.ndarray:
+        """``G`` of ``u = G y`` for this loop's filter with ``outputs`` outputs."""
+        if not self.nonlinear:
+            return np.eye(n)
+        return np.hstack([np.eye(n), -alpha_star * np.eye(n), np.zeros((n, outputs - 2 * n))])
 
 
-def _output_gain(controller: str, n: int, outputs: int, alpha_star: float) -> np.ndarray:
-    """``G`` of ``u = G y`` for a ``LOOP_CONTROLLERS`` filter with ``outputs`` outputs: the
-    proposed controller's ``[eta~, phi, p, pbar]`` give ``u = eta~ - alpha* phi`` (Eq. 13,
-    19 with ``alpha = alpha*``; the bound filter runs open loop, so its poles ``abar`` are
-    in the spectrum too), Lin+LC's ``eta~`` gives ``u = eta~``."""
-    if controller == "lin_lc":
-        return np.eye(n)
-    return np.hstack([np.eye(n), -alpha_star * np.eye(n), np.zeros((n, outputs - 2 * n))])
+#: The loops a design computes, by name: ``tau_LC + tau_NC`` with the bound filter (the
+#: proposed controller's) and ``tau_LC`` alone (Lin+LC's). A controller names its loop in
+#: its spec (``ControllerSpec.design_loop``); PID is no filter of Sec. 3.
+DESIGNED_LOOPS = {
+    loop.name: loop
+    for loop in (
+        DesignedLoop("sampled_data", "proposed, alpha = alpha*", "proposed_filter",
+                     "sampled_data_spectral_radius", nonlinear=True),
+        DesignedLoop("sampled_data_lin_lc", "Lin+LC", "lin_lc_filter",
+                     "sampled_data_spectral_radius_lin_lc", nonlinear=False),
+    )
+}  # fmt: skip
+
+
+def _designed_loop(name: str) -> DesignedLoop:
+    """The loop ``name`` of ``DESIGNED_LOOPS``; another name is refused in one line."""
+    if name not in DESIGNED_LOOPS:
+        raise ValueError(f"design loop {name!r}: one of {', '.join(DESIGNED_LOOPS)} is required")
+    return DESIGNED_LOOPS[name]
+
+
+def _filters(design: Design) -> dict[str, DiscreteFilter]:
+    """Each designed loop's filter, by loop name."""
+    return {name: getattr(design, loop.filter) for name, loop in DESIGNED_LOOPS.items()}
 
 
 def _loop_transitions(
@@ -274,7 +309,7 @@ def _loop_transitions(
     sample_time: float,
     effects: LoopEffects = NO_EFFECTS,
 ) -> dict[str, np.ndarray]:
-    """The transition matrix of each ``LOOP_CONTROLLERS`` sampled-data loop (its filter in
+    """The transition matrix of each ``DESIGNED_LOOPS`` sampled-data loop (its filter in
     ``filters``) on the linear part ``M0 q~'' + B q~' = u`` with ``effects``
     (``models.design.closed_loop``)."""
     plant = held_plant(M0, B, sample_time, effects)
@@ -282,9 +317,9 @@ def _loop_transitions(
         name: held_transition(
             plant,
             filters[name],
-            _output_gain(name, len(M0), filters[name].C.shape[0], alpha_star),
+            loop.output_gain(len(M0), filters[name].C.shape[0], alpha_star),
         )  # fmt: skip
-        for name in LOOP_CONTROLLERS
+        for name, loop in DESIGNED_LOOPS.items()
     }
 
 
@@ -310,12 +345,12 @@ def _sampled_checks(
             f"sampled-data closed loop of the proposed controller (nominal linear plant held "
             f"over T_s = {T:g} s, alpha = alpha* = {config.nonlinear.alpha_star:g}, "
             f"{method} filters{included})",
-            radii["proposed"], frozen.get("proposed"), configurations,
+            radii["sampled_data"], frozen.get("sampled_data"), configurations,
         ),
         _stability_check(
             "sampled_data_lin_lc",
             f"sampled-data closed loop of Lin+LC (T_s = {T:g} s, {method} filters{included})",
-            radii["lin_lc"], frozen.get("lin_lc"), configurations,
+            radii["sampled_data_lin_lc"], frozen.get("sampled_data_lin_lc"), configurations,
         ),
     )  # fmt: skip
 
@@ -327,15 +362,13 @@ def with_effects(design: Design, effects: LoopEffects) -> Design:
     if effects.ideal:
         return design
     radii = _radii(_loop_transitions(
-        design.M0, design.B,
-        {"proposed": design.proposed_filter, "lin_lc": design.lin_lc_filter},
+        design.M0, design.B, _filters(design),
         design.config.nonlinear.alpha_star, design.config.sample_time, effects,
     ))  # fmt: skip
     sampled = {check.name: check for check in _sampled_checks(design.config, radii, effects)}
     return replace(
         design,
-        sampled_data_spectral_radius=radii["proposed"],
-        sampled_data_spectral_radius_lin_lc=radii["lin_lc"],
+        **{loop.radius: radii[name] for name, loop in DESIGNED_LOOPS.items()},
         checks=tuple(sampled.get(check.name, check) for check in design.checks),
     )
 
@@ -348,11 +381,11 @@ def with_configurations(
     (``with_effects``) at ``M0*`` and with ``M*(q)`` frozen at every configuration of
     ``configurations`` (``models.design.configurations``): the radii it reports are the
     worst over the set and ``M0*``, ``frozen_radii`` holds each loop's figures; for each
-    loop of ``certify`` (``LOOP_CONTROLLERS`` names), ``certificates`` holds the search for
+    loop of ``certify`` (``DESIGNED_LOOPS`` names), ``certificates`` holds the search for
     a quadratic Lyapunov function common to its frozen loops and its loop at ``M0*``
     (``models.design.common_lyapunov``)."""
     at_M0 = with_effects(design, effects)
-    filters = {"proposed": design.proposed_filter, "lin_lc": design.lin_lc_filter}
+    filters = _filters(design)
     alpha_star, T = design.config.nonlinear.alpha_star, design.config.sample_time
     transitions = [
         _loop_transitions(M, design.B, filters, alpha_star, T, effects)
@@ -364,20 +397,19 @@ def with_configurations(
     certificates = {
         name: common_lyapunov([loops[name] for loops in transitions]) for name in certify
     }
-    nominal = {
-        "proposed": at_M0.sampled_data_spectral_radius,
-        "lin_lc": at_M0.sampled_data_spectral_radius_lin_lc,
-    }
+    nominal = {name: getattr(at_M0, loop.radius) for name, loop in DESIGNED_LOOPS.items()}
     frozen = {
         name: FrozenFigures(tuple(r[name] for r in per_configuration), nominal[name])
-        for name in LOOP_CONTROLLERS
+        for name in DESIGNED_LOOPS
     }
     checks = _sampled_checks(design.config, nominal, effects, frozen, configurations)
     sampled = {check.name: check for check in checks}
     return replace(
         at_M0,
-        sampled_data_spectral_radius=max(frozen["proposed"].worst, nominal["proposed"]),
-        sampled_data_spectral_radius_lin_lc=max(frozen["lin_lc"].worst, nominal["lin_lc"]),
+        **{
+            loop.radius: max(frozen[name].worst, nominal[name])
+            for name, loop in DESIGNED_LOOPS.items()
+        },  # fmt: skip
         checks=tuple(sampled.get(check.name, check) for check in at_M0.checks),
         configurations=configurations,
         frozen_radii=frozen,
@@ -387,44 +419,44 @@ def with_configurations(
 
 def design_loop(
     design: Design,
-    controller: str,
+    loop: str,
     M0: np.ndarray,
     B: np.ndarray,
     effects: LoopEffects = NO_EFFECTS,
 ) -> SampledLoop:
-    """The sampled-data loop of ``controller`` (one of ``LOOP_CONTROLLERS``) with its filter
-    *as designed* closed around the linear part ``M0, B`` with ``effects`` (``SampledLoop``:
+    """The sampled-data loop ``loop`` (a ``DESIGNED_LOOPS`` name) with its filter *as
+    designed* closed around the linear part ``M0, B`` with ``effects`` (``SampledLoop``:
     its inputs and outputs too)."""
     plant = held_plant(M0, B, design.config.sample_time, effects)
-    return held_design_loop(design, controller, plant)
+    return held_design_loop(design, loop, plant)
 
 
-def _designed(design: Design, controller: str, joints: int) -> tuple[DiscreteFilter, np.ndarray]:
-    """The filter of ``controller`` as designed and its output gain."""
-    designed = design.proposed_filter if controller == "proposed" else design.lin_lc_filter
-    gain = _output_gain(controller, joints, designed.C.shape[0], design.config.nonlinear.alpha_star)
+def _designed(design: Design, loop: str, joints: int) -> tuple[DiscreteFilter, np.ndarray]:
+    """The filter of ``loop`` as designed and its output gain."""
+    designed_loop = _designed_loop(loop)
+    designed = getattr(design, designed_loop.filter)
+    gain = designed_loop.output_gain(joints, designed.C.shape[0],
+                                     design.config.nonlinear.alpha_star)  # fmt: skip
     return designed, gain
 
 
-def designed_feedback(design: Design, controller: str) -> DiscreteFilter:
-    """The filter of ``controller`` (one of ``LOOP_CONTROLLERS``) as designed, from ``q~`` to
-    the feedback voltage: its output gain folded into ``C`` and ``D`` (the proposed
+def designed_feedback(design: Design, loop: str) -> DiscreteFilter:
+    """The filter of ``loop`` (a ``DESIGNED_LOOPS`` name) as designed, from ``q~`` to the
+    feedback voltage: its output gain folded into ``C`` and ``D`` (the proposed
     controller's at ``alpha = alpha*``), as the sampled-data checks close it."""
-    designed, gain = _designed(design, controller, design.config.joints)
+    designed, gain = _designed(design, loop, design.config.joints)
     return DiscreteFilter(designed.A, designed.B, gain @ designed.C, gain @ designed.D,
                           designed.initial)  # fmt: skip
 
 
-def held_design_loop(design: Design, controller: str, plant: HeldPlant) -> SampledLoop:
+def held_design_loop(design: Design, loop: str, plant: HeldPlant) -> SampledLoop:
     """``design_loop`` around a plant already held over the design's sample time."""
-    return held_loop(plant, *_designed(design, controller, plant.Gamma.shape[1]))
+    return held_loop(plant, *_designed(design, loop, plant.Gamma.shape[1]))
 
 
-def held_design_radius(design: Design, controller: str, plant: HeldPlant) -> float:
+def held_design_radius(design: Design, loop: str, plant: HeldPlant) -> float:
     """The spectral radius of ``held_design_loop`` (only its transition matrix is built)."""
-    return spectral_radius(
-        held_transition(plant, *_designed(design, controller, plant.Gamma.shape[1]))
-    )
+    return spectral_radius(held_transition(plant, *_designed(design, loop, plant.Gamma.shape[1])))
 
 
 def plant_spectral_radii(
@@ -434,7 +466,7 @@ def plant_spectral_radii(
     configurations: tuple[tuple[float, ...], ...] = (),
     masses: tuple[np.ndarray, ...] = (),
 ) -> dict[str, float]:
-    """The sampled-data spectral radius of each ``LOOP_CONTROLLERS`` loop with the filters
+    """The sampled-data spectral radius of each ``DESIGNED_LOOPS`` loop with the filters
     *as designed* (on the nominal model) closed around the linear part ``M0, B`` of
     ``plant`` (another arm's theta, or a serial arm's model) with ``effects``: the design
     report's check, asked of a sampled plant; with ``configurations`` (joint angles, rad),
@@ -443,13 +475,13 @@ def plant_spectral_radii(
     mass matrices too. On the design's own nominal model without configurations it is
     the design's radii (``with_effects``')."""
     model = LumpedModel(plant) if isinstance(plant, LumpedParameters) else plant
-    filters = {"proposed": design.proposed_filter, "lin_lc": design.lin_lc_filter}
+    filters = _filters(design)
     alpha_star, T = design.config.nonlinear.alpha_star, design.config.sample_time
     B = model.B()
     masses = [model.M0(), *(model.M(np.asarray(q, dtype=float)) for q in configurations),
               *masses]  # fmt: skip
     radii = [_radii(_loop_transitions(M, B, filters, alpha_star, T, effects)) for M in masses]
-    return {name: max(r[name] for r in radii) for name in LOOP_CONTROLLERS}
+    return {name: max(r[name] for r in radii) for name in DESIGNED_LOOPS}
 
 
 def compute_design(config: ControllerConfig | None = None) -> Design:
@@ -480,7 +512,11 @@ def compute_design(config: ControllerConfig | None = None) -> Design:
     proposed_filter = stack(nc, velocity_bound_filter(nonlinear.filter_a, n)).discretise(T, method)
     radii = _radii(
         _loop_transitions(
-            M0, B, {"proposed": proposed_filter, "lin_lc": lin_lc_filter}, nonlinear.alpha_star, T
+            M0,
+            B,
+            {"sampled_data": proposed_filter, "sampled_data_lin_lc": lin_lc_filter},
+            nonlinear.alpha_star,
+            T,
         )
     )
     continuous_poles = _sorted_poles(augmented.A_a - augmented.B_a1 @ lqr.K)
@@ -529,7 +565,7 @@ def compute_design(config: ControllerConfig | None = None) -> Design:
         bound_filter=bound_filter,
         lin_lc_filter=lin_lc_filter,
         proposed_filter=proposed_filter,
-        sampled_data_spectral_radius=radii["proposed"],
-        sampled_data_spectral_radius_lin_lc=radii["lin_lc"],
+        sampled_data_spectral_radius=radii["sampled_data"],
+        sampled_data_spectral_radius_lin_lc=radii["sampled_data_lin_lc"],
         checks=checks,
     )
