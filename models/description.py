@@ -56,6 +56,17 @@ from urllib.parse import unquote, urlparse
 
 import numpy as np
 
+from posfb.models.urdf_tree import (
+    DRAKE_NS,
+    POSFB_NS,
+    SERIAL_JOINTS,
+    actuator_of,
+    drive_element,
+    parse_robot,
+    read_tree,
+    read_urdf_bytes,
+    serial_chain,
+)
 from posfb.models.validation import require_finite
 
 #: The per-joint drive fields, their unit and whether a value must be > 0 (else >= 0).
@@ -222,9 +233,7 @@ class PreparedUrdf:
 
 def prepare_urdf(path: str | Path, description: Description | None = None) -> PreparedUrdf:
     """The prepared text of the URDF at ``path`` (module docstring). Raises as
-    ``models.urdf_check``: ``FileNotFoundError`` or one-line ``ValueError``s."""
-    from posfb.models.urdf_check import read_urdf_bytes
-
+    ``models.urdf_tree.read_urdf_bytes``: ``FileNotFoundError`` or one-line ``ValueError``s."""
     path = Path(path)
     text = read_urdf_bytes(path)
     return _prepare(path, text, description or Description(), os.environ.get("ROS_PACKAGE_PATH"))
@@ -234,8 +243,6 @@ def prepare_urdf(path: str | Path, description: Description | None = None) -> Pr
 def _prepare(
     path: Path, text: bytes, description: Description, ros_package_path: str | None
 ) -> PreparedUrdf:
-    from posfb.models.urdf_check import parse_robot
-
     robot = parse_robot(path, text, comments=True)
     try:
         snapped = _snap_joint_frames(robot)
@@ -503,8 +510,6 @@ def _make_fixed(element: ET.Element, position: float) -> None:
 
 def _register_namespaces() -> None:
     """Write Drake's and posfb's elements with the prefixes Drake's parser matches."""
-    from posfb.models.urdf_check import DRAKE_NS, POSFB_NS
-
     ET.register_namespace("drake", DRAKE_NS)
     ET.register_namespace("posfb", POSFB_NS)
 
@@ -512,16 +517,6 @@ def _register_namespaces() -> None:
 def _order_transmissions(robot: ET.Element, drives: Drives, welded: set[str]) -> None:
     """Transmissions of the arm joints in chain order (one each), the others dropped, and
     the drive values written where ``drives`` gives them."""
-    from posfb.models.urdf_check import (
-        DRAKE_NS,
-        POSFB_NS,
-        SERIAL_JOINTS,
-        actuator_of,
-        drive_element,
-        read_tree,
-        serial_chain,
-    )
-
     _, joints, root, parent_joint = read_tree(robot, SERIAL_JOINTS)
     chain = serial_chain(root, joints, parent_joint)
     names = [joint.name for joint in chain]

@@ -37,11 +37,11 @@ from posfb.models.description import (
     Drives,
     prepare_urdf,
 )
-from posfb.models.urdf_check import (
+from posfb.models.urdf_check import finite_number
+from posfb.models.urdf_tree import (
     SERIAL_JOINTS,
     actuator_of,
     drive_element,
-    finite_number,
     parse_robot,
     read_tree,
     read_urdf_bytes,

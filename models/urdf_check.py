@@ -47,7 +47,9 @@ What ``check_arm_urdf`` checks is what the planar two-link model of Sec. 4.1
 
 A serial arm of any joint count (``check_serial_urdf``) gets every check above that
 is not about the planar two-link model: the file, the tree, the motor stages, the
-masses and inertias, nonzero axes and some inertia about each joint's axis.
+masses and inertias, nonzero axes and some inertia about each joint's axis. The file,
+the tree and the drive elements are read with ``models.urdf_tree``'s primitives, which
+``models.description.prepare_urdf`` reads the file with too.
 
 Drake then parses the file (``add_urdf_models``): each warning its parser logs is
 shown once per process, as one line.
@@ -73,27 +75,27 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from posfb.models.validation import require_regular_file
+from posfb.models.description import Description, PreparedUrdf, prepare_urdf
+from posfb.models.urdf_tree import (
+    DRAKE_NS,
+    SERIAL_JOINTS,
+    _attribute,
+    _carrier,
+    _Joint,
+    _posfb_element,
+    _rotation,
+    _shown,
+    _triple,
+    actuator_of,
+    parse_robot,
+    read_tree,
+    read_urdf_bytes,
+    serial_chain,
+)
 
 if TYPE_CHECKING:
     from pydrake.multibody.parsing import Parser
     from pydrake.multibody.plant import MultibodyPlant
-
-    from posfb.models.description import Description, PreparedUrdf
-
-#: XML namespace of posfb's own URDF elements (motor constants, Coulomb levels): a URN,
-#: a fixed identifier that nothing resolves (XML compares it character by character).
-POSFB_NS = "urn:posfb:urdf"
-
-#: The namespace of posfb's URDF elements before ``POSFB_NS``, a placeholder web address;
-#: still read, so that files written with it keep loading.
-EARLIER_POSFB_NS = "https://posfb.example/urdf"
-
-#: Every namespace posfb reads its elements in, the documented one first.
-POSFB_NAMESPACES = (POSFB_NS, EARLIER_POSFB_NS)
-
-#: XML namespace of Drake's URDF extensions.
-DRAKE_NS = "http://drake.mit.edu"
 
 #: Relative tolerance of the geometry checks, for unit directions and for
 #: offsets relative to l1: angles written with five decimals of pi (3.14159 is
@@ -103,30 +105,9 @@ TOLERANCE = 1e-5
 #: Relative slack of the inertia checks (round-off in thin-plate inertias).
 INERTIA_TOLERANCE = 1e-9
 
-ARM_JOINT_TYPES = ("revolute", "continuous")
-JOINT_TYPES = (*ARM_JOINT_TYPES, "fixed")
-
 UP = np.array([0.0, 0.0, 1.0])
 X_AXIS = np.array([1.0, 0.0, 0.0])
 Y_AXIS = np.array([0.0, 1.0, 0.0])
-
-
-@dataclass(frozen=True)
-class _Joint:
-    """One URDF ``<joint>``; ``axis`` is in the joint (= child link) frame."""
-
-    name: str
-    kind: str
-    parent: str
-    child: str
-    xyz: np.ndarray
-    rpy: np.ndarray
-    axis: np.ndarray
-    element: ET.Element
-
-    @property
-    def rotation(self) -> np.ndarray:
-        return _rotation(self.rpy)
 
 
 @dataclass(frozen=True)
@@ -231,42 +212,11 @@ def weld_base(plant: MultibodyPlant, base: str) -> None:
         plant.WeldFrames(plant.world_frame(), frame, RigidTransform())
 
 
-def read_urdf_bytes(path: Path) -> bytes:
-    require_regular_file("URDF", path, FileNotFoundError)
-    try:
-        return path.read_bytes()
-    except OSError as error:
-        raise ValueError(
-            f"URDF {path} cannot be read ({error.strerror}); a readable file is required"
-        ) from None
-
-
-def parse_robot(path: Path, text: bytes, *, comments: bool = False) -> ET.Element:
-    """The ``<robot>`` element of the URDF text ``text`` (read from ``path``), with the
-    comments inside it where ``comments``."""
-    try:
-        parser = ET.XMLParser(target=ET.TreeBuilder(insert_comments=comments))
-        robot = ET.fromstring(text, parser)
-    except ET.ParseError as error:
-        raise ValueError(f"URDF {path} is not well-formed XML: {error}") from None
-    if robot.tag != "robot":
-        raise ValueError(f"URDF {path}: root element = <{robot.tag}>; <robot> is required")
-    return robot
-
-
 # --- numbers --------------------------------------------------------------
-
-
-def _shown(value: str | None) -> str:
-    return "(missing)" if value is None else value
 
 
 def _vector(values: np.ndarray) -> str:
     return "(" + ", ".join(f"{v + 0.0:.6g}" for v in values) + ")"
-
-
-def _attribute(element: ET.Element | None, name: str) -> str | None:
-    return None if element is None else element.get(name)
 
 
 def _value(element: ET.Element | None) -> str | None:
@@ -285,30 +235,6 @@ def _scalar(value: str | None, name: str, positive: bool, unit: str) -> float:
     return number
 
 
-def _triple(element: ET.Element | None, attribute: str, default: str, name: str) -> np.ndarray:
-    """Three finite numbers from ``attribute`` of ``element`` (``default`` if absent)."""
-    text = default if element is None else element.get(attribute, default)
-    try:
-        values = np.array([float(v) for v in text.split()])
-    except ValueError:
-        values = np.array([])
-    if values.shape != (3,) or not np.all(np.isfinite(values)):
-        raise ValueError(f"{name} = {text}; three finite numbers are required")
-    return values
-
-
-def _rotation(rpy: np.ndarray) -> np.ndarray:
-    """URDF's fixed-axis roll-pitch-yaw: ``Rz(yaw) Ry(pitch) Rx(roll)``."""
-    (cr, cp, cy), (sr, sp, sy) = np.cos(rpy), np.sin(rpy)
-    return np.array(
-        [
-            [cy * cp, cy * sp * sr - sy * cr, cy * sp * cr + sy * sr],
-            [sy * cp, sy * sp * sr + cy * cr, sy * sp * cr - cy * sr],
-            [-sp, cp * sr, cp * cr],
-        ]
-    )
-
-
 # --- the tree ---------------------------------------------------------------
 
 
@@ -318,98 +244,12 @@ TWO_LINK_JOINTS = (
     "any other joint (a welded body)"
 )
 
-#: What a serial arm accepts as joints (in messages).
-SERIAL_JOINTS = (
-    "revolute or continuous is required for an arm joint (posfb drives rotary joints "
-    "through motors) and fixed for a welded body (prismatic, planar, floating and mimic "
-    "joints are welded, models.description)"
-)
-
-
-def read_tree(
-    robot: ET.Element, rule: str
-) -> tuple[dict[str, ET.Element], list[_Joint], str, dict[str, _Joint]]:
-    """Links, joints (each of a type ``rule`` allows), the root link and each link's
-    parent joint; refuses ``<drake:joint>``, repeated names, a forest and loops."""
-    drake_joint = robot.find(f"{{{DRAKE_NS}}}joint")
-    if drake_joint is not None:
-        raise ValueError(
-            f"drake:joint {drake_joint.get('name')!r} type = {_shown(drake_joint.get('type'))}; "
-            f"only URDF <joint> elements are supported: {rule}"
-        )
-    links = _links(robot)
-    joints = [_joint(element, links, rule) for element in robot.findall("joint")]
-    names = [joint.name for joint in joints]
-    for name in names:
-        if names.count(name) > 1:
-            raise ValueError(f"joint name = {name!r} appears twice; unique names are required")
-    root, parent_joint = _tree(links, joints)
-    return links, joints, root, parent_joint
-
 
 def _parse_arm(robot: ET.Element) -> _Arm:
     links, joints, root, parent_joint = read_tree(robot, TWO_LINK_JOINTS)
     poses = _world_poses(root, links, parent_joint)
     shoulder, elbow = _arm_joints(root, joints, parent_joint)
     return _Arm(links, parent_joint, poses, shoulder, elbow)
-
-
-def _links(robot: ET.Element) -> dict[str, ET.Element]:
-    links: dict[str, ET.Element] = {}
-    for element in robot.findall("link"):
-        name = element.get("name")
-        if not name:
-            raise ValueError("link name = (missing); every <link> needs a unique name")
-        if name in links:
-            raise ValueError(f"link name = {name!r} appears twice; unique names are required")
-        links[name] = element
-    return links
-
-
-def _joint(element: ET.Element, links: dict[str, ET.Element], rule: str) -> _Joint:
-    name = element.get("name")
-    if not name:
-        raise ValueError("joint name = (missing); every <joint> needs a unique name")
-    label = f"joint {name!r}"
-    kind = element.get("type")
-    if kind not in JOINT_TYPES:
-        raise ValueError(f"{label} type = {_shown(kind)}; {rule}")
-    ends = {}
-    for end in ("parent", "child"):
-        link = _shown(_attribute(element.find(end), "link"))
-        if link not in links:
-            raise ValueError(f"{label} {end} link = {link}; a <link> of this URDF is required")
-        ends[end] = link
-    origin = element.find("origin")
-    return _Joint(
-        name=name,
-        kind=kind,
-        parent=ends["parent"],
-        child=ends["child"],
-        xyz=_triple(origin, "xyz", "0 0 0", f"{label} origin xyz"),
-        rpy=_triple(origin, "rpy", "0 0 0", f"{label} origin rpy"),
-        axis=_triple(element.find("axis"), "xyz", "1 0 0", f"{label} axis xyz"),
-        element=element,
-    )
-
-
-def _tree(links: dict[str, ET.Element], joints: list[_Joint]) -> tuple[str, dict[str, _Joint]]:
-    """The root link and, for every other link, the joint it hangs from."""
-    parent_joint: dict[str, _Joint] = {}
-    for joint in joints:
-        if joint.child in parent_joint:
-            raise ValueError(
-                f"link {joint.child!r} parent joints = {parent_joint[joint.child].name}, "
-                f"{joint.name}; one parent joint per link is required (a tree)"
-            )
-        parent_joint[joint.child] = joint
-    roots = [name for name in links if name not in parent_joint]
-    if len(roots) != 1:
-        raise ValueError(
-            f"root links = {', '.join(roots) or '(none)'}; exactly one (the base) is required, "
-            "every other link hangs from a joint"
-        )
-    return roots[0], parent_joint
 
 
 def _world_poses(
@@ -433,13 +273,6 @@ def _world_poses(
             rotation, position = poses[joint.parent]
             poses[child] = (rotation @ joint.rotation, position + rotation @ joint.xyz)
     return poses
-
-
-def _carrier(link: str, parent_joint: dict[str, _Joint]) -> str:
-    """The link that moves ``link``: itself, or what it is welded to."""
-    while link in parent_joint and parent_joint[link].kind == "fixed":
-        link = parent_joint[link].parent
-    return link
 
 
 def _arm_joints(
@@ -473,36 +306,6 @@ def _arm_joints(
 # --- what models.plant reads --------------------------------------------------
 
 
-def actuator_of(robot: ET.Element, joint: str) -> ET.Element | None:
-    for transmission in robot.findall("transmission"):
-        driven = transmission.find("joint")
-        if driven is not None and driven.get("name") == joint:
-            return transmission.find("actuator")
-    return None
-
-
-def _posfb_element(parent: ET.Element, tag: str, label: str) -> ET.Element | None:
-    """``parent``'s ``<posfb:tag>`` in one of ``POSFB_NAMESPACES`` (``None`` if it has
-    none); a ``<tag>`` child in another XML namespace, or in none, is refused naming the
-    namespace posfb reads."""
-    for namespace in POSFB_NAMESPACES:
-        element = parent.find(f"{{{namespace}}}{tag}")
-        if element is not None:
-            return element
-    for child in parent:
-        if not isinstance(child.tag, str):  # a comment
-            continue
-        namespace, _, local = child.tag.rpartition("}")
-        if local == tag:
-            where = f"namespace {namespace[1:]}" if namespace else "no namespace"
-            raise ValueError(
-                f"{label} posfb:{tag} = (missing): its <{tag}> is in {where}; posfb reads "
-                f'it in the namespace {POSFB_NS} (declare xmlns:posfb="{POSFB_NS}" on '
-                f"<robot> and write <posfb:{tag}>)"
-            )
-    return None
-
-
 def finite_number(text: str | None) -> float | None:
     """``text`` as a finite number, ``None`` where it is absent or not one (the check
     refuses it; ``scenario init``'s rules pass on to the next source)."""
@@ -511,15 +314,6 @@ def finite_number(text: str | None) -> float | None:
     except (TypeError, ValueError):
         return None
     return value if math.isfinite(value) else None
-
-
-def drive_element(parent: ET.Element, tag: str) -> ET.Element | None:
-    """``parent``'s drive element ``tag``, written ``posfb:NAME`` (in any of
-    ``POSFB_NAMESPACES``) or ``drake:NAME``; ``None`` if it has none."""
-    prefix, _, local = tag.partition(":")
-    if prefix == "drake":
-        return parent.find(f"{{{DRAKE_NS}}}{local}")
-    return _posfb_element(parent, local, f"{parent.tag} {parent.get('name')!r}")
 
 
 def posfb_value(parent: ET.Element, tag: str, label: str) -> float | None:
@@ -816,8 +610,6 @@ def check_serial_urdf(path: str | Path, description: Description | None = None) 
     The file is checked as ``models.description.prepare_urdf`` hands it to Drake, with
     what ``description`` (the scenario's) adds. Raises as ``check_arm_urdf``: one line
     naming the element; drive data missing on several joints are named at once."""
-    from posfb.models.description import prepare_urdf
-
     path = Path(path)
     return _check_serial(path, prepare_urdf(path, description).text.encode())
 
@@ -840,36 +632,6 @@ def _check_serial(path: Path, text: bytes) -> SerialChain:
     return SerialChain(
         root, tuple(joint.name for joint in chain), coulomb, motor_constant, tuple(links)
     )
-
-
-def serial_chain(root: str, joints: list[_Joint], parent_joint: dict[str, _Joint]) -> list[_Joint]:
-    """The arm joints from the base to the tip; refuses a branch or no arm joint."""
-    movable = [joint for joint in joints if joint.kind != "fixed"]
-    if not movable:
-        raise ValueError(
-            "revolute/continuous joints = 0; at least one arm joint is required, each with "
-            "posfb:coulomb_friction and a transmission actuator with posfb:motor_constant"
-        )
-    chain, carrier = [], root
-    while True:
-        hanging = [joint for joint in movable if _carrier(joint.parent, parent_joint) == carrier]
-        if len(hanging) > 1:
-            raise ValueError(
-                f"link {carrier!r} carries the arm joints {', '.join(j.name for j in hanging)}; "
-                "one is required: a serial chain base -> link 1 -> ... -> link n (a branched "
-                "tree is not supported)"
-            )
-        if not hanging:
-            break
-        chain.append(hanging[0])
-        carrier = hanging[0].child
-    if len(chain) != len(movable):
-        left = [joint.name for joint in movable if joint not in chain]
-        raise ValueError(
-            f"arm joints {', '.join(left)} are not on the chain from the base "
-            f"({' -> '.join(j.name for j in chain)}); one serial chain is required"
-        )
-    return chain
 
 
 def _check_moving_masses(

@@ -63,6 +63,59 @@ def test_imports_point_down_only(tmp_path):
     assert f"{len(contracts)} kept, 0 broken" in report, report
 
 
+#: ``python -c``: every import inside a function (``argv[1]``: the laid-out ``posfb``) whose
+#: target imports its importer back at run time (imports under ``TYPE_CHECKING`` left out:
+#: they never run), one per line.
+FUNCTION_CYCLES = """
+import ast, sys
+from pathlib import Path
+import grimp
+
+graph = grimp.build_graph("posfb", exclude_type_checking_imports=True, cache_dir=None)
+root = Path(sys.argv[1])
+
+
+def function_imports(module):
+    parts = module.split(".")
+    path = root.joinpath(*parts)
+    path = path / "__init__.py" if path.is_dir() else path.with_suffix(".py")
+    found = []
+    def visit(node, inside):
+        for child in ast.iter_child_nodes(node):
+            if inside and isinstance(child, ast.ImportFrom):
+                found.append((child.module or "", child.lineno))
+            if inside and isinstance(child, ast.Import):
+                found.extend((alias.name, child.lineno) for alias in child.names)
+            visit(child, inside or isinstance(child, ast.FunctionDef | ast.AsyncFunctionDef))
+    visit(ast.parse(path.read_text()), False)
+    return found
+
+
+for module in sorted(graph.modules):
+    for target, line in function_imports(module):
+        if target not in graph.modules or not target.startswith("posfb"):
+            continue
+        back = graph.find_shortest_chain(importer=target, imported=module)
+        if back:
+            print(f"{module}:{line} imports {target}, which imports it back: {' -> '.join(back)}")
+"""
+
+
+def test_no_cycle_runs_through_a_function_level_import(tmp_path):
+    """Issue 44: a lazy import (inside a function, for start-up time) never closes a cycle:
+    what it imports does not import its importer back at run time."""
+    root = installed_layout(tmp_path)
+    result = subprocess.run(
+        [sys.executable, "-c", FUNCTION_CYCLES, str(root)],
+        cwd=root,
+        env={**os.environ, "PYTHONPATH": str(root)},
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
+    assert result.returncode == 0, result.stderr
+    assert not result.stdout, result.stdout
+
 #: Where a built-in controller's name may be written: the controllers themselves and the
 #: paper's layer, which reproduces the paper's three by name.
 NAMING_FOLDERS = ("models/controllers", "analysis/paper")

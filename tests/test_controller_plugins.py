@@ -51,6 +51,12 @@ def test_the_settings_reach_the_plugin_and_survive_a_dump(tmp_path):
     np.testing.assert_array_equal(again.systems.controller.plugin.Kp, [150.0, 150.0])
 
 
+def _tunable(boxes: str) -> str:
+    """``P_GRAVITY`` with the class attribute ``tunable = boxes``."""
+    size = "    memory_size = 1\n"
+    return P_GRAVITY.replace(size, f"{size}    tunable = {boxes}\n")
+
+
 @pytest.mark.parametrize(
     ("body", "class_name", "settings", "needle"),
     [
@@ -62,6 +68,10 @@ def test_the_settings_reach_the_plugin_and_survive_a_dump(tmp_path):
         (P_GRAVITY.replace("+ gravity, [", "* np.inf, ["), "PGravity", "{}",
          "step returned a non-finite voltage"),
         ("def broken(:\n", "X", "{}", "line 1"),
+        (_tunable("{'Kd': (1, 2)}"), "PGravity", "{}",
+         "PGravity.tunable names 'Kd', which is no keyword argument"),
+        (_tunable("{'Kp': (2, 1)}"), "PGravity", "{}",
+         "PGravity.tunable['Kp'] = (2, 1); a search box (low, high) with 0 < low < high"),
     ],
 )  # fmt: skip
 def test_a_plugin_that_breaks_the_contract_is_one_line_naming_its_file(
@@ -260,3 +270,10 @@ def test_a_user_controller_runs_in_a_study_export_and_replay(tmp_path, capsys):
     plugin.unlink()
     assert main(replay) == 0
     assert "is gone since the study ran" in capsys.readouterr().out
+
+
+def test_tune_refuses_a_plugin_written_as_a_step_in_one_line(tmp_path, capsys):
+    path = write_plugin(tmp_path, _tunable("{'Kp': (1, 100)}"), settings="{}")
+    assert main(["tune", path, "--out", str(tmp_path / "t.yaml"), "--plants", "2"]) == 2
+    error = capsys.readouterr().err.strip()
+    assert len(error.splitlines()) == 1 and "is written as a step (no law)" in error, error

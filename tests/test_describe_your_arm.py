@@ -11,7 +11,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from posfb.models import urdf_check
+from posfb.models import urdf_check, urdf_tree
 from posfb.models.plant import DEFAULT_URDF
 from posfb.models.serial_model import SerialArmModel
 
@@ -24,8 +24,8 @@ CLI = [sys.executable, "-m", "posfb.analysis.cli"]
 def test_the_page_names_the_namespace_posfb_reads() -> None:
     """The URI on the page and in the template is the one the check looks elements up
     in (copied exactly, as the page says)."""
-    assert f"`{urdf_check.POSFB_NS}`" in PAGE.read_text()
-    assert f'xmlns:posfb="{urdf_check.POSFB_NS}"' in TEMPLATE.read_text()
+    assert f"`{urdf_tree.POSFB_NS}`" in PAGE.read_text()
+    assert f'xmlns:posfb="{urdf_tree.POSFB_NS}"' in TEMPLATE.read_text()
 
 
 def test_the_page_lists_every_posfb_element_the_check_reads() -> None:
@@ -83,7 +83,7 @@ def test_the_earlier_namespace_still_loads(tmp_path: Path) -> None:
     template in the documented URN (its refusal of other namespaces aside)."""
     text = TEMPLATE.read_text()
     earlier = tmp_path / "earlier.urdf"
-    earlier.write_text(text.replace(urdf_check.POSFB_NS, urdf_check.EARLIER_POSFB_NS))
-    assert urdf_check.EARLIER_POSFB_NS in earlier.read_text()
-    assert f"`{urdf_check.EARLIER_POSFB_NS}`" in PAGE.read_text()
+    earlier.write_text(text.replace(urdf_tree.POSFB_NS, urdf_tree.EARLIER_POSFB_NS))
+    assert urdf_tree.EARLIER_POSFB_NS in earlier.read_text()
+    assert f"`{urdf_tree.EARLIER_POSFB_NS}`" in PAGE.read_text()
     assert urdf_check.check_serial_urdf(earlier) == urdf_check.check_serial_urdf(TEMPLATE)

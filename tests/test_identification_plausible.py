@@ -25,7 +25,7 @@ from posfb.models.identification.serial import SerialModel
 from posfb.models.identification.serial_regressor import SerialRegressor, base_parameters
 from posfb.models.package_data import package_path
 from posfb.models.plant import PlantConfig, build_arm_diagram
-from posfb.models.urdf_check import parse_robot
+from posfb.models.urdf_tree import parse_robot
 
 
 def _joint_values(text: str, joint: str) -> tuple[list[float], list[float]]:

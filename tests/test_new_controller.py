@@ -2,8 +2,8 @@
 its settings, its spec and what tune may vary, registered from a module of its own
 (``sitecustomize`` imports it before posfb reads a scenario), gets ``simulate``,
 ``compare``, ``design --margins``, ``tune``, a Monte-Carlo study, ``codegen`` and
-``--sil`` with no posfb file touched; the same law as a ``!Python`` plug-in gets the same
-but ``tune`` (a plug-in's settings are the user's own map)."""
+``--sil`` with no posfb file touched; the same law as a ``!Python`` plug-in gets the same,
+its class saying what tune may vary (``tunable``)."""
 
 from __future__ import annotations
 
@@ -13,6 +13,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+import posfb
 from helpers.cli_batch import Command, run_commands
 
 #: The law, shared by the registered module and the plug-in: per joint a lead-lag from
@@ -86,6 +87,8 @@ register(ControllerSpec(
 PLUGIN = LAW + '''
 
 class LeadLagPlugin(posfb.Controller):
+    tunable = {"bandwidth": (3.0, 300.0), "lag_ratio": (2.0, 20.0)}
+
     def __init__(self, setup, bandwidth=30.0, lag_ratio=5.0):
         super().__init__(setup)
         self.internals = tuple(f"rate_{j + 1}_rad_per_s" for j in range(setup.joints))
@@ -109,7 +112,7 @@ SMALL = ["--plants", "2", "--generations", "2", "--epsilon", "0.5", "--beta", "0
          "--rounds", "1", "--accept-worse"]  # fmt: skip
 
 
-def _commands(folder: Path, scenario: str, kind: str, tune: bool) -> dict[str, list[str]]:
+def _commands(folder: Path, scenario: str, kind: str) -> dict[str, list[str]]:
     (folder / "study.yaml").write_text(STUDY.format(scenario=scenario, kind=kind))
     commands = {
         "simulate": ["simulate", "--scenario", scenario, "--json"],
@@ -119,9 +122,8 @@ def _commands(folder: Path, scenario: str, kind: str, tune: bool) -> dict[str, l
                   "--no-progress"],
         "codegen": ["codegen", "--scenario", scenario, "--out", "generated"],
         "sil": ["simulate", "--scenario", scenario, "--sil", "--json"],
+        "tune": ["tune", scenario, "--out", "tuned.yaml", *SMALL, "--json"],
     }  # fmt: skip
-    if tune:
-        commands["tune"] = ["tune", scenario, "--out", "tuned.yaml", *SMALL, "--json"]
     return commands
 
 
@@ -151,8 +153,7 @@ def test_a_registered_controller_module_gets_the_whole_route(tmp_path, monkeypat
     (tmp_path / "lead_lag.py").write_text(MODULE)
     (tmp_path / "sitecustomize.py").write_text("import lead_lag  # noqa: F401\n")
     (tmp_path / "scenario.yaml").write_text("controller: !LeadLag {}\ntiming: {duration: 1}\n")
-    done = _run(tmp_path, _commands(tmp_path, "scenario.yaml", "lead_lag", tune=True),
-                monkeypatch)  # fmt: skip
+    done = _run(tmp_path, _commands(tmp_path, "scenario.yaml", "lead_lag"), monkeypatch)
     _check(tmp_path, done, "lead_lag")
     tuned = json.loads(done["tune"].stdout)
     assert next(iter(tuned["controllers"])) == "lead_lag"  # the scenario's own kind first
@@ -166,6 +167,11 @@ def test_the_same_law_as_a_plugin_gets_the_same(tmp_path, monkeypatch):
         "controller: !Python {file: lead_lag_plugin.py, class: LeadLagPlugin}\n"
         "timing: {duration: 1}\n"
     )
-    done = _run(tmp_path, _commands(tmp_path, "scenario.yaml", "LeadLagPlugin", tune=False),
-                monkeypatch)  # fmt: skip
+    done = _run(tmp_path, _commands(tmp_path, "scenario.yaml", "LeadLagPlugin"), monkeypatch)
     _check(tmp_path, done, "LeadLagPlugin")
+    tuned = json.loads(done["tune"].stdout)
+    assert next(iter(tuned["controllers"])) == "LeadLagPlugin"
+    searched = tuned["controllers"]["LeadLagPlugin"]["settings"]
+    assert searched["bandwidth"]["before"] == 30.0  # the __init__ default
+    written = posfb.load_scenario(str(tmp_path / "tuned.yaml")).scenario.controller
+    assert json.loads(written.settings)["bandwidth"] == searched["bandwidth"]["after"]

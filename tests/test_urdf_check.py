@@ -21,7 +21,8 @@ from posfb.models.plant import (
 )
 from posfb.models.serial_model import SerialArmModel
 from posfb.models.theta_of_plant import identify
-from posfb.models.urdf_check import POSFB_NS, check_arm_urdf, check_serial_urdf
+from posfb.models.urdf_check import check_arm_urdf, check_serial_urdf
+from posfb.models.urdf_tree import POSFB_NS
 
 SHIPPED = DEFAULT_URDF.read_text()
 

@@ -39,10 +39,11 @@ each plant's worst configuration that breaks the constraint and searches again.
 
 from __future__ import annotations
 
+import json
 import math
 import time
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -50,7 +51,9 @@ from posfb.analysis.common.loop_effects import nominal_effects
 from posfb.analysis.design.budget import Deadline
 from posfb.analysis.uncertainty.plants import LinearPlant, error_instants
 from posfb.diagrams.resolve import ResolvedScenario
-from posfb.models.controllers import entry_build, linear_feedback, spec
+from posfb.diagrams.scenario import Python
+from posfb.models.controllers import ControllerConfig, entry_build, linear_feedback, spec
+from posfb.models.controllers.registry import ControllerSpec
 from posfb.models.controllers.tunable import Knob, Tuning
 from posfb.models.design.closed_loop import (
     HeldPlant,
@@ -62,7 +65,7 @@ from posfb.models.design.closed_loop import (
 )
 from posfb.models.design.configurations import ConfigurationSet
 from posfb.models.design.realisation import DiscreteFilter
-from posfb.models.nominal import NominalModel, nominal_model, trajectory_voltages
+from posfb.models.nominal import nominal_model, trajectory_voltages
 
 #: The plant index of the nominal model in an active pair (``TuningProblem.active``).
 NOMINAL = -1
@@ -71,26 +74,42 @@ NOMINAL = -1
 VOLTAGE_SIGMAS = 3.0
 
 
-def tuning(controller: str) -> Tuning:
-    """What tune may vary of registered ``controller``; ``ValueError`` (one line) for one
-    that says nothing (``ControllerSpec.tuning``)."""
-    entry = spec(controller)
+def scenario_spec(resolved: ResolvedScenario | None, controller: str) -> ControllerSpec:
+    """The spec of ``controller`` in ``resolved``: the scenario's own entry's when it is of
+    that kind (a ``!Python`` plug-in's, made from its class), else the registered kind's."""
+    if resolved is not None and controller == resolved.config.controller:
+        return resolved.config.spec
+    return spec(controller)
+
+
+def tuning(controller: str, resolved: ResolvedScenario | None = None) -> Tuning:
+    """What tune may vary of ``controller`` (``scenario_spec``); ``ValueError`` (one line)
+    for one that says nothing (``ControllerSpec.tuning``)."""
+    entry = scenario_spec(resolved, controller)
     if entry.tuning is None:
         raise ValueError(f"controller {controller!r} says nothing tune may vary (its spec has "
                          "no tuning)")  # fmt: skip
     return entry.tuning
 
 
-def knobs(controller: str, entry: object) -> tuple[Knob, ...]:
+def knobs(
+    controller: str, entry: object, resolved: ResolvedScenario | None = None
+) -> tuple[Knob, ...]:
     """The decision variables of ``controller``'s settings ``entry``."""
-    return tuning(controller).knobs(entry)
+    return tuning(controller, resolved).knobs(entry)
 
 
-def entry_feedback(
-    controller: str, entry: object, nominal: NominalModel, sample_time: float
-) -> DiscreteFilter:
-    """The linear feedback of ``controller`` with the settings ``entry`` on ``nominal``;
-    ``ValueError`` (one line) for settings the controller refuses."""
+def entry_feedback(resolved: ResolvedScenario, controller: str, entry: object) -> DiscreteFilter:
+    """The linear feedback of ``controller`` with the settings ``entry`` on the scenario's
+    nominal model at its sample time (a ``!Python`` entry: the scenario's own plug-in class
+    with the entry's settings); ``ValueError`` (one line) for settings the controller
+    refuses."""
+    config = resolved.config
+    nominal, sample_time = config.design.nominal, config.sample_time
+    if isinstance(entry, Python):
+        plugin = replace(config.controller_settings, settings=json.loads(entry.settings))
+        design = ControllerConfig.without_design(nominal, sample_time)
+        return linear_feedback(controller, design, settings=plugin)
     build = entry_build(entry, nominal, sample_time)
     return linear_feedback(controller, build.design, settings=build.settings)
 
@@ -138,9 +157,8 @@ def judging_seconds(
     """Seconds to judge ``entry``'s loop (``controller``) around one plant: the fastest
     over ``plants`` (the price of each further plant); 0 when the entry is refused (its
     cost is then not known)."""
-    config = resolved.config
     try:
-        feedback = entry_feedback(controller, entry, config.design.nominal, config.sample_time)
+        feedback = entry_feedback(resolved, controller, entry)
     except ValueError:
         return 0.0
     times = []
@@ -172,7 +190,7 @@ class TuningProblem:
         config = self.resolved.config
         self.sample_time = config.sample_time
         self.nominal = config.design.nominal
-        self.tuning = tuning(self.controller)
+        self.tuning = tuning(self.controller, self.resolved)
         self.knobs = self.tuning.knobs(self.entry)
         model = nominal_model(self.nominal)
         self.effects = nominal_effects(self.resolved)
@@ -214,7 +232,7 @@ class TuningProblem:
     def feedback(self, entry: object) -> DiscreteFilter:
         """The linear feedback of ``entry`` on the scenario's nominal model; ``ValueError``
         (one line) for settings the controller refuses."""
-        return entry_feedback(self.controller, entry, self.nominal, self.sample_time)
+        return entry_feedback(self.resolved, self.controller, entry)
 
     def evaluate(self, entry: object) -> Evaluation:
         """``entry`` judged on the nominal loop and the design plants."""

@@ -67,6 +67,7 @@ from posfb.analysis.design.problem import (
     Evaluation,
     Knob,
     TuningProblem,
+    entry_feedback,
     judging_seconds,
     knobs,
 )
@@ -87,7 +88,8 @@ from posfb.diagrams.scenario import (
     dump_scenario,
     with_controller,
 )
-from posfb.models.controllers import REGISTRY, spec
+from posfb.models.controllers import REGISTRY, PluginError
+from posfb.models.controllers.tunable import Tuning
 from posfb.models.design.margins import LoopMargins
 
 #: Seconds of the cross-check simulations (at most the scenario's duration).
@@ -104,20 +106,15 @@ REFINEMENT_SHARE = 1.0 / 6.0
 #: A tuned value within this share of an edge of its search box is flagged.
 EDGE_SHARE = 0.02
 
-def tuned_kinds(scenario: Scenario) -> tuple[str, ...]:
-    """The controllers ``tune`` designs, in order: the registered kinds whose spec says
-    what tune may vary (``ControllerSpec.tuning``), the scenario's own kind first (the
-    scenario's default kind when its own is not tunable), then the others in registration
-    order."""
+def tuned_kinds(resolved: ResolvedScenario) -> tuple[str, ...]:
+    """The controllers ``tune`` designs, in order: the scenario's own when its spec says
+    what tune may vary (``ControllerSpec.tuning``; a ``!Python`` plug-in's, its class's
+    ``tunable``), else the scenario's default kind; then the other registered kinds whose
+    spec says it, in registration order."""
     tunable = [kind for kind, entry in REGISTRY.items() if entry.tuning is not None]
-    own = controller_kind(scenario.controller)
-    lead = own if own in tunable else DEFAULT_KIND
-    return tuple(dict.fromkeys([lead, *tunable] if lead in tunable else tunable))
-
-
-def shown_settings(controller: str) -> tuple[str, ...]:
-    """The settings a report shows beside their former value (``Tuning.shown``)."""
-    return spec(controller).tuning.shown
+    own = resolved.config.controller
+    lead = own if resolved.config.spec.tuning is not None else DEFAULT_KIND
+    return tuple(dict.fromkeys([lead, *tunable] if lead in (own, *tunable) else tunable))
 
 
 @dataclass(frozen=True)
@@ -223,6 +220,7 @@ class TunedController:
     ``at_edge``: the tuned values at their search box's edge."""
 
     controller: str
+    tuning: Tuning
     before: object
     after: object
     start: Evaluation
@@ -486,6 +484,18 @@ def refinement_generations(generations: int) -> int:
     return max(1, math.ceil(REFINEMENT_SHARE * generations))
 
 
+def _require_plugin_feedback(resolved: ResolvedScenario, controller: str, entry: object) -> None:
+    """Raise a plug-in's own ``PluginError`` for its starting ``entry`` (one written as a
+    step has no linear feedback to judge; its code refuses its scenario's settings); a
+    start that a design refuses is searched from all the same."""
+    try:
+        entry_feedback(resolved, controller, entry)
+    except PluginError:
+        raise
+    except ValueError:
+        pass
+
+
 def _tune_controller(
     loaded: LoadedScenario,
     resolved: ResolvedScenario,
@@ -500,10 +510,11 @@ def _tune_controller(
     beta`` overall, by the union bound); ``BudgetError`` when ``deadline`` passes, or
     would (``_drawn``), first."""
     before = _entry(loaded.scenario, controller)
+    _require_plugin_feedback(resolved, controller, before)
     checks = verification_plants(settings.epsilon, settings.beta / settings.rounds)
     configurations = scenario_configurations(resolved.config)
     angles = tuple(c.q for c in configurations.configurations)
-    members = population(len(knobs(controller, before)))
+    members = population(len(knobs(controller, before, resolved)))
     for round_ in range(settings.rounds):
         count = settings.plants * 2**round_
         design_set = _drawn(
@@ -558,6 +569,7 @@ def _tune_controller(
     allowance = float(np.linalg.norm(problem.noise_std))
     return TunedController(
         controller=controller,
+        tuning=problem.tuning,
         before=before,
         after=after,
         start=found.start,
@@ -615,7 +627,7 @@ def tune(
     )
     tuned: dict[str, object] = {}
     with threadpool_limits(1):
-        for controller in tuned_kinds(loaded.scenario):
+        for controller in tuned_kinds(resolved):
             entry = _tune_controller(loaded, resolved, family, controller, settings, deadline)
             result.controllers[controller] = entry
             tuned[controller] = entry.after

@@ -7,25 +7,24 @@ why it gets none (``TunedController.not_certified``; text, and a JSON-ready dict
 from __future__ import annotations
 
 import math
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from posfb.analysis.design.problem import VOLTAGE_SIGMAS, Evaluation
-from posfb.analysis.design.tune import (
-    SimulatedCheck,
-    TunedController,
-    TuneResult,
-    shown_settings,
-)
-from posfb.models.design.margins import LoopMargins
+
+if TYPE_CHECKING:  # the result's writer: the result's module imports this one
+    from posfb.analysis.design.tune import SimulatedCheck, TunedController, TuneResult
+    from posfb.models.design.margins import LoopMargins
 
 #: The violation the guarantee bounds.
 UNSTABLE = "the sampled loop unstable (rho >= 1)"
 
 
-def _value(entry: object, name: str) -> object:
-    """A setting as the report shows it: a matrix by its diagonal."""
-    value = getattr(entry, name)
+def _value(entry: TunedController, which: str, name: str) -> object:
+    """Setting ``name`` of the entry ``which`` (``before``, ``after``) as the report shows
+    it (``Tuning.value``): a matrix by its diagonal."""
+    value = entry.tuning.value(getattr(entry, which), name)
     if isinstance(value, list) and value and isinstance(value[0], list):
         return [float(v) for v in np.diag(np.asarray(value, dtype=float))]
     if isinstance(value, list):
@@ -76,11 +75,11 @@ def _controller_lines(entry: TunedController, result: TuneResult) -> list[str]:
         f"model error of the {entry.design_plants} design plants RMS ({error}) V, bandwidth "
         f"{entry.disturbance_bandwidth:.3g} rad/s"
     ]
-    for name in shown_settings(entry.controller):
+    for name in entry.tuning.shown:
         shown = "diagonal of " if name in ("Q1", "R") else ""
         lines.append(
-            f"  {shown}controller.{name}: {_text(_value(entry.before, name))} -> "
-            f"{_text(_value(entry.after, name))}"
+            f"  {shown}controller.{name}: {_text(_value(entry, 'before', name))} -> "
+            f"{_text(_value(entry, 'after', name))}"
         )
     start, best = entry.start, entry.best
     lines += [
@@ -178,8 +177,8 @@ def result_dict(result: TuneResult) -> dict[str, object]:
         guarantee = entry.guarantee
         controllers[name] = {
             "settings": {
-                key: {"before": _value(entry.before, key), "after": _value(entry.after, key)}
-                for key in shown_settings(name)
+                key: {"before": _value(entry, "before", key), "after": _value(entry, "after", key)}
+                for key in entry.tuning.shown
             },
             "before": _evaluation_dict(entry.start),
             "after": _evaluation_dict(entry.best),

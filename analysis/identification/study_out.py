@@ -25,13 +25,13 @@ import json
 import os
 from dataclasses import dataclass, replace
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 import scipy.optimize
 from pydrake.systems.framework import Context
 
 from posfb.analysis.common.loop_effects import rigid_plant
-from posfb.analysis.identification.identify import Identification
 from posfb.diagrams.resolve import LoadedScenario, resolve
 from posfb.models.controllers import PAPER_CONTROLLERS
 from posfb.models.identification.serial_regressor import true_parameters
@@ -44,6 +44,9 @@ from posfb.models.plant import (
     build_arm_diagram,
 )
 from posfb.models.theta_of_plant import identify
+
+if TYPE_CHECKING:  # the result's writer: the result's module imports this one
+    from posfb.analysis.identification.identify import Identification
 
 #: Standard deviation of the prior on ``log(p / p_0)``: a factor ``e^0.5 = 1.65`` at one
 #: sigma, so that what the log identifies decides the draws.

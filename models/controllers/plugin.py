@@ -32,6 +32,13 @@ they get: its linear feedback for ``design --margins``, the map and ``tune``
 (``models.controllers.linearise``), ``posfb codegen`` and ``--sil``. ``memory_size`` is
 then the law's; ``internals`` still names its internals.
 
+**What tune may vary.** A plug-in written as a law may say which of its settings ``posfb
+tune`` searches: ``tunable``, a class attribute mapping a keyword argument of
+``__init__`` to its search box ``(low, high)``, ``0 < low < high`` (searched in log10).
+The search starts from the scenario's value of the setting, else the ``__init__``
+default; the tuned scenario holds the tuned values in its ``settings:`` map
+(``plugin_tuning``).
+
 Wrong sizes or non-finite output are refused in one line naming the class and its file
 (``PluginError``). A ``ValueError`` raised inside the plug-in's own code (numpy's
 "operands could not be broadcast", say) is one line too, naming the class and the file
@@ -43,6 +50,8 @@ from __future__ import annotations
 
 import dataclasses
 import hashlib
+import inspect
+import json
 import math
 import sys
 import traceback
@@ -60,6 +69,7 @@ from posfb.models.nominal import LinearPart, nominal_model
 from posfb.models.serial_model import SerialArmModel
 
 if TYPE_CHECKING:
+    from posfb.models.controllers.tunable import Tuning
     from posfb.models.laws.law import Law, Stepper
     from posfb.models.laws.nominal import SymbolicModel
 
@@ -211,6 +221,9 @@ class Controller:
     memory_size: int = 0
     #: Names of the ``internals`` values, each ending in its unit.
     internals: tuple[str, ...] = ()
+    #: What ``posfb tune`` may vary: keyword argument of ``__init__`` -> ``(low, high)``
+    #: (module docstring); empty: nothing.
+    tunable: Mapping[str, tuple[float, float]] = {}
 
     def __init__(self, setup: ControllerSetup, **settings: object) -> None:
         if settings:
@@ -433,7 +446,68 @@ class UserPlugin:
             label=self.label,
             factory=lambda inputs: plugin_system(self.instance(inputs)),
             law=lambda inputs: written_law(self.instance(inputs), self.kind),
+            tuning=plugin_tuning(self.cls) if self.cls.tunable else None,
         )
+
+
+def _defaults(cls: type[Controller]) -> dict[str, object]:
+    """The keyword arguments of ``cls.__init__`` with their defaults."""
+    parameters = inspect.signature(cls.__init__).parameters
+    return {name: p.default for name, p in parameters.items() if p.kind is p.KEYWORD_ONLY
+            or p.kind is p.POSITIONAL_OR_KEYWORD}  # fmt: skip
+
+
+def check_tunable(cls: type[Controller], where: str) -> None:
+    """Refuse a ``tunable`` that names no keyword argument of ``__init__`` or whose box is
+    not ``0 < low < high`` (one line naming the class and the setting)."""
+    tunable = cls.tunable
+    if not isinstance(tunable, Mapping):
+        raise PluginError(f"{where}: {cls.__name__}.tunable = {tunable!r}; a map of setting "
+                          "names to (low, high) is required")  # fmt: skip
+    accepted = _defaults(cls)
+    for name, box in tunable.items():
+        if name not in accepted or name in ("self", "setup"):
+            raise PluginError(f"{where}: {cls.__name__}.tunable names {name!r}, which is no "
+                              "keyword argument of its __init__")  # fmt: skip
+        low, high = box if isinstance(box, Sequence) and len(box) == 2 else (None, None)
+        numbers = all(isinstance(v, int | float) and math.isfinite(v) for v in (low, high))
+        if not (numbers and 0 < low < high):
+            raise PluginError(f"{where}: {cls.__name__}.tunable[{name!r}] = {box!r}; a search "
+                              "box (low, high) with 0 < low < high is required")  # fmt: skip
+
+
+def plugin_tuning(cls: type[Controller]) -> Tuning:
+    """What tune may vary of plug-in ``cls`` (its ``tunable``): one knob per setting, from
+    the entry's value (a ``!Python`` entry's ``settings``, JSON text) or the ``__init__``
+    default; ``apply`` writes the values into the entry's ``settings``."""
+    from posfb.models.controllers.tunable import Knob, Tuning
+
+    defaults = _defaults(cls)
+
+    def value(entry: object, name: str) -> object:
+        given = json.loads(entry.settings)
+        if name in given:
+            return given[name]
+        if defaults[name] is inspect.Parameter.empty:
+            raise ValueError(f"controller.settings.{name}: {cls.__name__}.tunable names it "
+                             "and it has no default; a value is required")  # fmt: skip
+        return defaults[name]
+
+    def knobs(entry: object) -> tuple[Knob, ...]:
+        found = []
+        for name, (low, high) in cls.tunable.items():
+            start = value(entry, name)
+            if not (isinstance(start, int | float) and start > 0):
+                raise ValueError(f"controller.settings.{name} = {start!r}; tune searches it "
+                                 "in log10: a number > 0 is required")  # fmt: skip
+            found.append(Knob(name, float(low), float(high), float(start)))
+        return tuple(found)
+
+    def apply(entry: object, values: np.ndarray, sample_time: float) -> object:
+        tuned = dict(zip(cls.tunable, (float(v) for v in values), strict=True))
+        return dataclasses.replace(entry, settings=json.dumps(json.loads(entry.settings) | tuned))
+
+    return Tuning(knobs=knobs, apply=apply, shown=tuple(cls.tunable), value=value)
 
 
 def load_plugin(
@@ -499,4 +573,5 @@ def plugin_class(module: types.ModuleType, class_name: str, where: str) -> type[
         raise PluginError(f"{where} has no class {class_name!r}{hint}")
     if not (isinstance(cls, type) and issubclass(cls, Controller)):
         raise PluginError(f"{where}: {class_name} is not a posfb.Controller subclass")
+    check_tunable(cls, where)
     return cls

@@ -34,11 +34,13 @@ class Tuning:
     """What tune varies of a controller: ``knobs(entry)``, the decision variables of a
     settings ``entry``; ``apply(entry, values, sample_time)``, the entry with the
     variables' actual values (in ``knobs`` order); ``shown``, the settings a report shows
-    beside their former value."""
+    beside their former value, read by ``value(entry, name)`` (the entry's attribute;
+    a plug-in's reads its ``settings`` map)."""
 
     knobs: Callable[[object], tuple[Knob, ...]]
     apply: Callable[[object, np.ndarray, float], object]
     shown: tuple[str, ...] = ()
+    value: Callable[[object, str], object] = getattr
 
 
 def lqr_knobs() -> tuple[Knob, ...]:

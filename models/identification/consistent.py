@@ -44,12 +44,12 @@ import scipy.linalg
 
 from posfb.models.description import Description, prepare_urdf
 from posfb.models.identification.serial_regressor import DRIVE_PARAMETERS, BaseParameters
-from posfb.models.urdf_check import (
+from posfb.models.urdf_check import check_serial_urdf
+from posfb.models.urdf_tree import (
     DRAKE_NS,
     POSFB_NAMESPACES,
     POSFB_NS,
     actuator_of,
-    check_serial_urdf,
     parse_robot,
 )
 from posfb.models.validation import require_finite, shown
