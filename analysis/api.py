@@ -637,6 +637,7 @@ def tune(
     set: Settings | None = None,  # noqa: A002
     out: str | Path | None = None,
     accept_worse: bool = False,
+    progress: bool = False,
 ) -> TuneResult:
     """A robust design of the paper's controller and Lin+LC for the scenario's arm, with
     a stated probabilistic guarantee (``analysis.design``; what ``posfb tune`` runs).
@@ -661,6 +662,9 @@ def tune(
     accept_worse
         Return a tuned design that is worse than the scenario's own (its predicted error
         or its check run; ``TuneResult.worse`` says why) instead of raising ``WorseError``.
+    progress
+        Rewrite one status line on stderr at each step and generation (the step, the best
+        design so far, the budget left), when stderr is a terminal.
 
     Returns
     -------
@@ -710,7 +714,12 @@ def tune(
     if name is not None:
         study = load_study(name, arm=arm_identity(loaded.scenario, loaded.base_dir))
     target = None if out is None else Path(out)
-    return tune_loaded(loaded, study, settings, target, name, accept_worse=accept_worse)
+    from posfb.analysis.common import progress as progress_line
+
+    shown = progress_line.wanted(not progress)
+    with progress_line.status_line("posfb tune", shown) as show:
+        return tune_loaded(loaded, study, settings, target, name, accept_worse=accept_worse,
+                           progress=show if shown else None)  # fmt: skip
 
 
 def identify(

@@ -1,5 +1,5 @@
 """Do identification's stated intervals hold (issue 42, item 3)? The full form of
-``tests/test_identification_honest.py``'s coverage test:
+``tests/models/identification/test_identification_honest.py``'s coverage test:
 
     .venv/bin/python bench/bench_identification_coverage.py [--arms 10] [--joints 4]
         [--duration 20] [--counts 4096 131072] [--out DIR]

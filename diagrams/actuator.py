@@ -72,7 +72,7 @@ per value).
 The DAC is the one Python block: its output is declared to depend on its input and its
 bits only, so Drake's cache recomputes it only when its input changes, i.e. once per
 period (at ``t_k``, or at ``t_k + d`` behind a compute delay), never per integrator step
-(``tests/test_actuator_effects.py`` counts the calls).
+(``tests/diagrams/test_actuator_effects.py`` counts the calls).
 """
 
 from __future__ import annotations

@@ -74,10 +74,10 @@ LOST_FRACTION = 0.3
 #: ``six_joint_nominal``, ``six_joint_tuned``, ``three_link_nominal``, ``three_link_tuned``),
 #: except the untuned, labelled ``three_link_nominal.yaml``'s paper controller: 67 %. A
 #: loop made unstable by a delay 20 % beyond its margin saturates 12-20 % of the time
-#: (``tests/test_margins.py``). 5 % leaves room for brief clipping (a friction break-away,
-#: the peak of a fast path), and a steady saturation far from 5 % either way is judged the
-#: same at any duration (a share near 50 % judged a six-joint run at its limit 47.6 % of its
-#: second half ``ok`` over 20 s and ``saturated`` over 5 s).
+#: (``tests/models/design/test_margins.py``). 5 % leaves room for brief clipping (a friction
+#: break-away, the peak of a fast path), and a steady saturation far from 5 % either way is
+#: judged the same at any duration (a share near 50 % judged a six-joint run at its limit
+#: 47.6 % of its second half ``ok`` over 20 s and ``saturated`` over 5 s).
 SATURATED_SHARE = 0.05
 
 #: The paper's run: 20 s (Sec. 4.2).
@@ -105,8 +105,8 @@ def require_run_samples(samples: float, where: str) -> None:
 #: aside): one count ``2 pi / N`` must be at most a quarter turn
 #: (``models.design.initial.QUARTER_TURN``, the largest excursion ``scenario init`` gives
 #: a joint), or a joint's whole motion fits inside one count and the encoder reads none
-#: of it (``tests/test_arm_defaults.py`` pins the arithmetic; written out here so that
-#: loading a scenario does not import the rules' optimiser).
+#: of it (``tests/models/design/test_arm_defaults.py`` pins the arithmetic; written out here
+#: so that loading a scenario does not import the rules' optimiser).
 MIN_ENCODER_COUNTS = 4
 
 #: Fewest bits a DAC may have (0, the ideal DAC, aside): one step ``2 / 2^b`` of the

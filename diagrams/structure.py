@@ -11,7 +11,7 @@ the friction law's kind its block): ``CONTEXT_VALUES`` maps each key to that sha
 ``structure_key`` is the scenario with every such value replaced by its shape: two
 scenarios with one key build the same Diagram. Every other setting is part of the
 key as it is, so a new setting (or a new block it switches) rebuilds by default; a new
-value that a Context holds is listed here, where ``tests/test_diagram_structure.py``
+value that a Context holds is listed here, where ``tests/diagrams/test_diagram_structure.py``
 checks, key by key, that changing it within its shape leaves the built Diagram's graph
 unchanged and changing its shape changes it.
 """

@@ -14,7 +14,7 @@ Between controller and arm the actuator section (``diagrams.actuator``): [comput
 config switches its effect on.
 
 The only path from the plant to the controller is the quantised position
-(``tests/test_closed_loop.py`` checks it on the diagram's graph): the true
+(``tests/diagrams/test_closed_loop.py`` checks it on the diagram's graph): the true
 velocity feeds the friction and motor-work blocks and the loggers, never the
 controller. Timing: two ``ZeroOrderHold(T_s)`` blocks sample the encoder and the
 desired trajectory at ``t_k = k T_s``; the controller has direct feedthrough
@@ -24,7 +24,7 @@ sample of delay (``docs/drake-notes.md``). A sensor delay of ``d`` samples is a
 ``DiscreteTimeDelay`` of ``d - 1`` steps at ``T_s`` (read at ``t_k`` before its own
 update, it lags one period more than its step count): the controller's update at
 ``t_k`` reads the measurement of ``t_{k-d}`` (the buffer starts filled with the
-first measurement; ``tests/test_scenario.py`` checks the lag); sensor noise
+first measurement; ``tests/diagrams/test_scenario.py`` checks the lag); sensor noise
 is a ``RandomSource`` sampled at ``T_s`` and scaled inside the encoder.
 
 One logger (a ``VectorLogSink`` of period ``T_s`` behind a ``Multiplexer``,

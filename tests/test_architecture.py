@@ -22,8 +22,9 @@ from pathlib import Path
 import posfb.analysis
 import posfb.diagrams
 import posfb.models
+from helpers.paths import REPO
 
-PYPROJECT = Path(__file__).resolve().parent.parent / "pyproject.toml"
+PYPROJECT = REPO / "pyproject.toml"
 
 #: ``python -c``: every contract of ``argv[1]`` (no cache); the exit code is 0 if all hold.
 LINT = """

@@ -11,11 +11,12 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from helpers.paths import REPO
 from posfb.models import urdf_check, urdf_tree
 from posfb.models.plant import DEFAULT_URDF
 from posfb.models.serial_model import SerialArmModel
 
-ROOT = Path(__file__).resolve().parent.parent
+ROOT = REPO
 PAGE = ROOT / "docs" / "guide" / "describe_your_arm.md"
 TEMPLATE = DEFAULT_URDF.with_name("template_arm.urdf")
 CLI = [sys.executable, "-m", "posfb.analysis.cli"]

@@ -4,16 +4,16 @@ and shows the property it is about."""
 from __future__ import annotations
 
 import importlib.util
-from pathlib import Path
 from types import ModuleType
 
 import numpy as np
 import pytest
 
 import posfb
+from helpers.paths import REPO
 from posfb.models.lumped import TABLE1, LumpedModel
 
-EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
+EXAMPLES = REPO / "examples"
 
 
 def load_example(name: str) -> ModuleType:

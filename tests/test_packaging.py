@@ -13,9 +13,10 @@ from pathlib import Path
 import pytest
 
 import posfb
+from helpers.paths import REPO
 from posfb.analysis.common import provenance, shipped
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = REPO
 
 #: The repository folders installed as posfb's packages (setup.py's LAYERS).
 PACKAGE_FOLDERS = ("posfb", "models", "diagrams", "analysis", "urdf")

@@ -1,6 +1,7 @@
-"""A progress bar for one long closed-loop run: simulated seconds done, their rate
-and the time left (tqdm on stderr). Shown only when stderr is a terminal and the
-user did not ask for ``--no-progress``."""
+"""Progress on stderr: a bar for one long closed-loop run (simulated seconds done, their
+rate and the time left; tqdm), and a status line rewritten in place for work with no
+total (``status_line``: tune's steps and generations). Shown only when stderr is a
+terminal and the user did not ask for ``--no-progress``."""
 
 from __future__ import annotations
 
@@ -32,3 +33,24 @@ def run_progress(duration: float, label: str, show: bool) -> Iterator[Callable[[
         yield update
     finally:
         bar.close()
+
+
+@contextmanager
+def status_line(label: str, show: bool) -> Iterator[Callable[[str], None]]:
+    """A callback ``(text) -> None`` that rewrites one line on stderr, ``label: text``
+    (for steps with no total, such as a search's generations); the line is ended when the
+    block is left. Nothing is written when ``show`` is false."""
+    written = [False]
+
+    def update(text: str) -> None:
+        if show:
+            sys.stderr.write(f"\r{label}: {text}\x1b[K")
+            sys.stderr.flush()
+            written[0] = True
+
+    try:
+        yield update
+    finally:
+        if written[0]:
+            sys.stderr.write("\n")
+            sys.stderr.flush()

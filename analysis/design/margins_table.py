@@ -5,9 +5,9 @@ scenarios, one row per (scenario, controller), from ``posfb.design``.
     python -m posfb.analysis.design.margins_table docs/margins/rows.yaml > docs/margins/table.md
 
 The rows (``docs/margins/rows.yaml``, ``RowsFile``) are the guide's choice, not the
-package's. ``tests/test_margins.py`` regenerates the table and compares, so the committed
-table is the code's output. A labelled row (``alpha* = 3.25``) is the second Monte-Carlo study's
-setting (``paper_uncertainty_alpha_star``), not a default.
+package's. ``tests/models/design/test_margins.py`` regenerates the table and compares, so
+the committed table is the code's output. A labelled row (``alpha* = 3.25``) is the second
+Monte-Carlo study's setting (``paper_uncertainty_alpha_star``), not a default.
 """
 
 # No "from __future__ import annotations": Drake's YAML reads the field types at runtime.

@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import math
 import warnings
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -50,12 +51,13 @@ class SearchResult:
 
 def search(
     problem: TuningProblem, seed: int, generations: int, deadline: Deadline,
-    x0: np.ndarray | None = None,
+    x0: np.ndarray | None = None, progress: Callable[[int, Evaluation], None] | None = None,
 ) -> SearchResult:  # fmt: skip
     """Minimise ``problem``'s predicted error subject to its constraints; raise
     ``BudgetError`` when ``deadline`` passes first: after a generation, or inside one
     (``problem.deadline``, checked before each plant a design is judged on). ``x0``: the
-    point put in the first population (default: the entry's own, ``problem.start()``)."""
+    point put in the first population (default: the entry's own, ``problem.start()``);
+    ``progress(generations done, best design's evaluation)`` after each generation."""
     import scipy.linalg  # on use: start-up
     import scipy.optimize
 
@@ -84,6 +86,8 @@ def search(
 
     def on_generation(intermediate_result: object) -> None:  # scipy passes it by this name
         done[0] += 1
+        if progress is not None:
+            progress(done[0], evaluation(intermediate_result.x))
         if deadline.passed():
             raise ran_out()
 

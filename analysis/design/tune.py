@@ -456,23 +456,57 @@ def _tuned_scenario(
     return scenario
 
 
+@dataclass(frozen=True)
+class _Progress:
+    """The progress line of one controller's tuning: ``show(text)`` (``None``: silent),
+    each line ending in the budget left."""
+
+    show: Callable[[str], None] | None
+    controller: str
+    deadline: Deadline
+
+    def say(self, doing: str) -> None:
+        if self.show is not None:
+            left = max(0.0, self.deadline.left())
+            self.show(f"{self.controller}: {doing}; {left:.0f} s of the {self.deadline.budget:g} "
+                      "s budget left")  # fmt: skip
+
+    def search(self, stage: str, schedule: int) -> Callable[[int, Evaluation], None] | None:
+        """The search's callback: ``stage``, the generation of ``schedule`` and the best
+        design's predicted error."""
+        if self.show is None:
+            return None
+
+        def report(done: int, best: Evaluation) -> None:
+            found = (f"best predicted RMS {best.predicted_rms:.3g} rad" if best.feasible
+                     else "no design meets the constraints yet")  # fmt: skip
+            self.say(f"{stage}, generation {done}/{schedule}, {found}")
+
+        return report
+
+
 def _search_over_configurations(
-    problem: TuningProblem, settings: TuneSettings, deadline: Deadline
-) -> tuple[TuningProblem, SearchResult]:
+    problem: TuningProblem, settings: TuneSettings, deadline: Deadline, progress: _Progress,
+    stage: str,
+) -> tuple[TuningProblem, SearchResult]:  # fmt: skip
     """The search on ``problem``'s active configurations (``analysis.design.problem``),
     repeated with the configurations its best design breaks added to the set, until the
     best design holds at all of them (or ``MAX_REFINEMENTS`` searches have run: its
     verification then judges it at all of them)."""
     problem = replace(problem, active=problem.initial_active())
-    found = search(problem, settings.seed, settings.generations, deadline)
+    found = search(problem, settings.seed, settings.generations, deadline,
+                   progress=progress.search(f"{stage} search", settings.generations))  # fmt: skip
     generations, evaluations = found.generations, found.evaluations
     for _ in range(MAX_REFINEMENTS):
         missing = problem.violated(problem.settings(found.x)) if found.best.feasible else ()
         if not missing:
             break
         problem = replace(problem, active=problem.active + missing)
-        found = search(problem, settings.seed, refinement_generations(settings.generations),
-                       deadline, x0=found.x)  # fmt: skip
+        refinement = refinement_generations(settings.generations)
+        found = search(problem, settings.seed, refinement, deadline, x0=found.x,
+                       progress=progress.search(f"{stage} refinement with "
+                                                f"{len(problem.active)} configurations",
+                                                refinement))  # fmt: skip
         generations, evaluations = generations + found.generations, evaluations + found.evaluations
     return problem, replace(found, generations=generations, evaluations=evaluations)
 
@@ -503,12 +537,14 @@ def _tune_controller(
     controller: str,
     settings: TuneSettings,
     deadline: Deadline,
+    show: Callable[[str], None] | None = None,
 ) -> TunedController:
     """Search, then verify on fresh plants; up to ``settings.rounds`` rounds, each on
     twice the design plants of the last and verified on its own fresh set at
     ``beta / rounds`` (so that the statement of the round that passes holds at ``1 -
     beta`` overall, by the union bound); ``BudgetError`` when ``deadline`` passes, or
-    would (``_drawn``), first."""
+    would (``_drawn``), first. ``show`` gets a progress line at each step."""
+    progress = _Progress(show, controller, deadline)
     before = _entry(loaded.scenario, controller)
     _require_plugin_feedback(resolved, controller, before)
     checks = verification_plants(settings.epsilon, settings.beta / settings.rounds)
@@ -517,6 +553,8 @@ def _tune_controller(
     members = population(len(knobs(controller, before, resolved)))
     for round_ in range(settings.rounds):
         count = settings.plants * 2**round_
+        stage = f"round {round_ + 1}/{settings.rounds}"
+        progress.say(f"{stage}, drawing {count} design plants")
         design_set = _drawn(
             draw_plants(
                 family, resolved, settings.seed, count, errors=True, configurations=angles
@@ -530,7 +568,7 @@ def _tune_controller(
         problem, found = _search_over_configurations(
             TuningProblem(resolved, controller, before, design_set, settings.margin, deadline,
                           configurations),
-            settings, deadline,
+            settings, deadline, progress, stage,
         )  # fmt: skip
         if not found.best.feasible:
             raise InfeasibleError(
@@ -541,6 +579,7 @@ def _tune_controller(
                 "limit); a smaller --margin, fewer --plants or another sample time may admit one"
             )
         after = problem.settings(found.x)
+        progress.say(f"{stage}, verifying the design on {checks} fresh plants")
         fresh_set = _drawn(
             draw_plants(
                 family, resolved, settings.seed + 1 + round_, checks, configurations=angles
@@ -564,6 +603,7 @@ def _tune_controller(
             f"{settings.rounds} rounds: P(rho >= 1) <= {guarantee.epsilon_bound:.3g} only, "
             f"above epsilon = {settings.epsilon:g}; raise --margin or --plants"
         )
+    progress.say("check runs of the entry before and after, on the scenario's arm")
     simulated_before = _simulate(loaded, before, deadline, f"the scenario's {controller} entry")
     simulated_after = _simulate(loaded, after, deadline, f"the tuned {controller} entry")
     allowance = float(np.linalg.norm(problem.noise_std))
@@ -600,6 +640,7 @@ def tune(
     out: Path | None = None,
     study_name: str | None = None,
     accept_worse: bool = False,
+    progress: Callable[[str], None] | None = None,
 ) -> TuneResult:
     """Tune ``tuned_kinds`` for the scenario ``loaded`` on plants of ``study``
     (``None``: the default spread; ``study_name`` names it in the report). Raises
@@ -608,7 +649,9 @@ def tune(
     ``settings.budget`` (a wall-clock bound, checked inside the work) or would (a set of
     plants priced before it is drawn), ``UnverifiedError`` when no round's design passes its
     verification, and ``WorseError`` when the tuned design is worse than the scenario's
-    own (``TuneResult.worse``), unless ``accept_worse``."""
+    own (``TuneResult.worse``), unless ``accept_worse``. ``progress`` gets one line at each
+    step and each generation of the search (the step, the best design so far, the budget
+    left)."""
     from threadpoolctl import threadpool_limits  # small matrices: one BLAS thread is faster
 
     settings = TuneSettings() if settings is None else settings
@@ -628,7 +671,8 @@ def tune(
     tuned: dict[str, object] = {}
     with threadpool_limits(1):
         for controller in tuned_kinds(resolved):
-            entry = _tune_controller(loaded, resolved, family, controller, settings, deadline)
+            entry = _tune_controller(loaded, resolved, family, controller, settings, deadline,
+                                     progress)  # fmt: skip
             result.controllers[controller] = entry
             tuned[controller] = entry.after
     result.scenario = _tuned_scenario(loaded, tuned, out)

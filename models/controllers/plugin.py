@@ -6,7 +6,7 @@ built-in controllers (``models.controllers.base.SampledController``): both input
 by zero-order holds, direct feedthrough, so the voltage computed from the measurement
 at ``t_k`` is applied on ``[t_k, t_k + T_s)``. The plug-in never gets a velocity: its
 only measurement is the held, quantised joint position (position-only is structural,
-``tests/test_controller_plugins.py`` checks it on the diagram).
+``tests/models/controllers/test_controller_plugins.py`` checks it on the diagram).
 
 The contract, in the order posfb calls it:
 

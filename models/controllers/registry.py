@@ -14,13 +14,14 @@ declares); a user's ``!Python`` plug-in written as a step has no law to give, an
 spec's ``law`` refuses it in one line. A controller whose linear feedback the Sec. 3
 design already holds in closed form (Lin+LC, the paper's controller) names that loop,
 ``design_loop`` (a ``models.design.DESIGNED_LOOPS`` name): its feedback is read from the
-design instead of derived (the same filter to round-off, ``tests/test_linearise.py``; a
-tuner asks for thousands), and the loop's radius is the controller's in the design
-report, the stability map and a study's rho. ``tuning`` says what ``posfb
-tune`` may vary (``tunable``). Plots, exports, tables, reports, Monte Carlo, replay and
-tuning read the spec. A new controller is one module with a ``SPEC``, registered by one
-line in ``models.controllers.__init__`` or by the module itself (``register``) before
-posfb reads a scenario (``tests/test_new_controller.py``). A user's own controller
+design instead of derived (the same filter to round-off,
+``tests/models/controllers/test_linearise.py``; a tuner asks for thousands), and the loop's
+radius is the controller's in the design report, the stability map and a study's rho.
+``tuning`` says what ``posfb tune`` may vary (``tunable``). Plots, exports, tables,
+reports, Monte Carlo, replay and tuning read the spec. A new controller is one module with
+a ``SPEC``, registered by one line in ``models.controllers.__init__`` or by the module
+itself (``register``) before posfb reads a scenario
+(``tests/models/controllers/test_new_controller.py``). A user's own controller
 (``!Python {file, class}``) gets a spec made from its class (``UserPlugin.spec``).
 """
 

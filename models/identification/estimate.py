@@ -46,8 +46,8 @@ unless one is given:
 
 The condition number reported is that of the decimated regressor with every column
 scaled to unit norm (so units do not enter it). The stated intervals were checked on
-posfb's simulated logs (``tests/test_identification.py``) and on an independent
-generator's (``tests/test_identification_honest.py``).
+posfb's simulated logs (``tests/models/identification/test_identification.py``) and on an
+independent generator's (``tests/models/identification/test_identification_honest.py``).
 """
 
 from __future__ import annotations

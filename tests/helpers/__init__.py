@@ -8,6 +8,7 @@
 - ``plugin_helpers``: a controller plug-in written to a temporary file;
 - ``figure_checks``: what a Matplotlib figure shows (legends, titles, colours);
 - ``output_checks``: digests and read-only folders for the output-writing tests.
+- ``paths``: the repository's root (``REPO``), for tests that read its files.
 
 Fixtures shared across files live in ``tests/conftest.py``.
 """

@@ -1,6 +1,6 @@
 """Many ``posfb`` commands, each in a process of its own, without paying each one's
 start-up: a fresh interpreter spends 3-5 s importing Drake, SciPy and posfb before a
-command reads its first argument, which made ``tests/test_misuse.py``'s 200-odd cases
+command reads its first argument, which made ``tests/analysis/cli/test_misuse.py``'s 200-odd cases
 the suite's slowest fixture. ``run_commands`` starts one server process that imports
 those once, then forks a child per command; the child runs ``python -m
 posfb.analysis.cli`` (``runpy``, as ``-m`` does) in the command's folder and environment,

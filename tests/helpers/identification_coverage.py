@@ -6,8 +6,8 @@ instrumental variables and the motor-constant ratios) estimates the base paramet
 ratios from the log. The truth is the true arm's base parameters scaled by joint 1's
 nominal over its true motor constant (joint 1's is the one scale the log cannot give)
 and its ratios relative to joint 1's; a value is covered when it lies within
-``SIGMAS`` stated standard errors. ``tests/test_identification_coverage.py`` runs a
-small form, ``bench/bench_identification_coverage.py`` the full one.
+``SIGMAS`` stated standard errors. ``tests/models/identification/test_identification_honest.py``
+runs a small form, ``bench/bench_identification_coverage.py`` the full one.
 """
 
 from __future__ import annotations

@@ -4,13 +4,14 @@ from __future__ import annotations
 
 from pathlib import Path
 
+from helpers.paths import REPO
 from posfb.analysis.montecarlo.records import ControllerRun, SampleResult, metric_columns
 from posfb.analysis.montecarlo.store import ResultStore
 from posfb.analysis.uncertainty.coverage import BOUND_NAMES
 
 #: A store an earlier posfb wrote (schema version 3, before the ``saturated`` and
 #: ``lost`` statuses): the realism study's ideal arm, shipped with the docs.
-EARLIER_STORE = Path(__file__).resolve().parents[2] / "docs/realism/stores/ideal.sqlite"
+EARLIER_STORE = REPO / "docs/realism/stores/ideal.sqlite"
 
 #: A tiny study: two controllers, 1 s runs, parameters drawn the shipped study's way.
 TINY_STUDY = """\

@@ -1,4 +1,4 @@
-"""Folders for the output tests (``tests/test_outputs.py``): one the process cannot
+"""Folders for the output tests (``tests/analysis/common/test_outputs.py``): one the process cannot
 write into, and a folder's contents as digests, to compare byte for byte."""
 
 from __future__ import annotations

@@ -95,7 +95,7 @@ MAP_OPTIONS = {"map_axes": "--map-axes", "map_range": "--map-range", "map_points
 def add_map_arguments(parser: argparse.ArgumentParser) -> None:
     """``--map`` and its options. The defaults are ``analysis.design.settings``' and
     ``analysis.design.stability_map``'s; the help restates the latter's without importing it (it
-    loads Drake), and ``tests/test_stability_map.py`` keeps the two equal."""
+    loads Drake), and ``tests/analysis/design/test_stability_map.py`` keeps the two equal."""
     defaults = TuneSettings()
     group = parser.add_argument_group(
         "stability map (--map)",

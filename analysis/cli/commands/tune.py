@@ -74,6 +74,10 @@ def configure(parser: argparse.ArgumentParser) -> None:
         "than the scenario's own (default: refused, exit 1)",
     )  # fmt: skip
     parser.add_argument("--json", action="store_true", help="print one JSON object")
+    parser.add_argument(
+        "--no-progress", action="store_true",
+        help="no progress line on stderr (none with --json either)",
+    )  # fmt: skip
     parser.set_defaults(handler=run)
 
 
@@ -101,8 +105,9 @@ def run(args: argparse.Namespace) -> int:
     from posfb.analysis.design.search import TuneError
 
     try:
-        result = tune(args.scenario, study=args.study, settings=settings,
-                      set=args.settings, out=out, accept_worse=args.accept_worse)  # fmt: skip
+        result = tune(args.scenario, study=args.study, settings=settings, set=args.settings,
+                      out=out, accept_worse=args.accept_worse,
+                      progress=not (args.no_progress or args.json))  # fmt: skip
     except TuneError as failure:
         sys.stderr.write(f"posfb tune: {failure}\n")
         return EXIT_NOT_FOUND

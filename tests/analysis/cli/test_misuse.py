@@ -19,6 +19,7 @@ from pathlib import Path
 import pytest
 
 from helpers.cli_batch import Command, run_commands
+from helpers.paths import REPO
 from helpers.planar_arm import planar_arm_text
 from helpers.slow import heavy
 from posfb.analysis.montecarlo.store import APPLICATION_ID
@@ -198,7 +199,7 @@ FILES.update({
     "replay_time_nan.csv": _replay_log([0.0, 0.01, math.nan, 0.03]),
 })  # fmt: skip
 
-SCENARIOS = Path(__file__).resolve().parent.parent / "analysis" / "scenarios"
+SCENARIOS = REPO / "analysis" / "scenarios"
 THREE_LINK = str(SCENARIOS / "three_link_nominal.yaml")
 SIX_JOINT = str(SCENARIOS / "six_joint_nominal.yaml")
 STUDIES = SCENARIOS.parent / "studies"

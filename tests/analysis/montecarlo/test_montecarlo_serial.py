@@ -11,6 +11,7 @@ import numpy as np
 import pytest
 
 from helpers.montecarlo_helpers import run_into_store
+from helpers.paths import REPO
 from helpers.slow import heavy
 from posfb.analysis.cli import main
 from posfb.analysis.montecarlo.table import study_table
@@ -21,7 +22,7 @@ from posfb.models.design import plant_spectral_radii
 from posfb.models.nominal import nominal_model
 from posfb.models.plant import PlantConfig, apply_parameters, arm_model, build_arm_diagram
 
-SCENARIO = Path(__file__).resolve().parent.parent / "analysis/scenarios/three_link_nominal.yaml"
+SCENARIO = REPO / "analysis/scenarios/three_link_nominal.yaml"
 
 STUDY = f"""\
 seed: 11

@@ -14,6 +14,7 @@ import numpy as np
 import pytest
 
 import posfb
+from helpers.paths import REPO
 from posfb.diagrams.resolve import resolve
 from posfb.models.design import compute_design
 from posfb.models.design.closed_loop import NO_EFFECTS
@@ -261,7 +262,7 @@ def test_drake_linear_systems_close_the_same_loop():
 
 
 # The margins' tests pass --no-sim: the exact arm's run (20 s of the paper's arm) is not
-# what they check; tests/test_cli_design.py checks it.
+# what they check; tests/analysis/cli/test_cli_design.py checks it.
 def test_margins_json_and_text():
     result = subprocess.run(
         [*CLI, "design", "--margins", "--controller", "lin_lc", "--json", "--no-sim"],
@@ -300,11 +301,9 @@ def test_unstable_loop_has_no_margins():
 @pytest.mark.slow
 def test_the_guides_margins_table_is_the_codes():
     """``docs/margins/table.md`` (included in the guide) is what ``margins_table`` writes."""
-    from pathlib import Path
-
     from posfb.analysis.design.margins_table import read_rows, table
 
-    docs = Path(__file__).resolve().parent.parent / "docs/margins"
+    docs = REPO / "docs/margins"
     assert (docs / "table.md").read_text() == table(read_rows(docs / "rows.yaml"))
 
 
@@ -334,6 +333,7 @@ def test_bode_marks_each_channels_margins():
         assert end % 360.0 == pytest.approx(180.0, abs=0.5)
 
 
+@pytest.mark.slow  # over 10 s on 2 cores (issue 45, item 4)
 def test_margins_out_writes_the_json_and_figures(tmp_path):
     out = tmp_path / "margins"
     subprocess.run(

@@ -67,6 +67,7 @@ def test_study_loops_have_the_workers_radii(paper_study, controller):
         assert loops.sample(index).radius() <= stored  # at M0* only: never worse
 
 
+@pytest.mark.slow  # over 10 s on 2 cores (issue 45, item 4)
 def test_report_gives_the_margins_over_the_plants(tmp_path):
     """A study whose plants are all the nominal arm: every plant's disk and delay margin are
     those of ``posfb design``'s loop at one configuration of the path (``M0*`` among them:

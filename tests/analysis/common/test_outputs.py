@@ -13,12 +13,13 @@ import pytest
 
 from helpers.montecarlo_helpers import TINY_STUDY, SmallDisk, run_into_store
 from helpers.output_checks import read_only_folder, tree_digest
+from helpers.paths import REPO
 from posfb.analysis.cli import main
 from posfb.analysis.common.errors import EXIT_DISK_FULL, UsageError
 from posfb.analysis.common.outputs import atomic_file, output_file, staged_folder
 from posfb.models.plant import DEFAULT_URDF
 
-SCENARIOS = Path(__file__).resolve().parent.parent / "analysis" / "scenarios"
+SCENARIOS = REPO / "analysis" / "scenarios"
 NOMINAL = str(SCENARIOS / "paper_nominal.yaml")
 THREE_LINK_URDF = str(DEFAULT_URDF.parent / "three_link_arm.urdf")
 
@@ -176,6 +177,7 @@ def test_compare_with_an_empty_controller_list_is_refused(capsys, tmp_path):
 # --- a real full disk ----------------------------------------------------------------------
 
 
+@pytest.mark.slow  # over 10 s on 2 cores (issue 45, item 4)
 def test_a_tuned_file_is_kept_whole_when_the_disk_fills(tmp_path, disk):
     """The issue's case: a full disk truncated an existing tuned file to partial YAML."""
     out = disk.folder / "tuned.yaml"

@@ -13,6 +13,7 @@ from pathlib import Path
 
 import pytest
 
+from helpers.paths import REPO
 from posfb.diagrams.resolve import load_scenario, resolve
 from posfb.models.design import bounds as bounds_module
 from posfb.models.design.bounds import resolve_bounds
@@ -25,9 +26,7 @@ from posfb.models.serial_bounds import model_norms
 from posfb.models.serial_model import SerialArmModel
 
 THREE_LINK = DEFAULT_URDF.with_name("three_link_arm.urdf")
-THREE_LINK_SCENARIO = (
-    Path(__file__).resolve().parent.parent / "analysis/scenarios/three_link_nominal.yaml"
-)
+THREE_LINK_SCENARIO = REPO / "analysis/scenarios/three_link_nominal.yaml"
 
 
 @pytest.fixture()

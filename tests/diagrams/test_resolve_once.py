@@ -6,17 +6,17 @@ the kept answer runs exactly as a fresh validation does."""
 from __future__ import annotations
 
 import copy
-from pathlib import Path
 
 import numpy as np
 import pytest
 
 import posfb
+from helpers.paths import REPO
 from posfb.diagrams import resolve as resolve_module
 from posfb.diagrams.resolve import LoadedScenario, resolve, run_resolved
 
 #: The shipped scenarios' folder.
-SHIPPED = Path(__file__).resolve().parent.parent / "analysis" / "scenarios"
+SHIPPED = REPO / "analysis" / "scenarios"
 
 
 @pytest.fixture

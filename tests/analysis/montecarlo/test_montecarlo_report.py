@@ -193,6 +193,7 @@ def test_sensitivity_ranks_the_one_parameter_that_matters_first(tmp_path):
         assert all(abs(rank.rho) < 0.35 for rank in entry.ranking[1:])
 
 
+@pytest.mark.slow  # over 10 s on 2 cores (issue 45, item 4)
 def test_a_saltelli_study_reports_sobol_indices_of_the_parameter_that_matters(tmp_path):
     from posfb.analysis.montecarlo.sensitivity import sensitivities
 
@@ -250,6 +251,7 @@ def test_a_study_where_no_run_finished_still_reports(tmp_path, samples):
         assert (tmp_path / "report" / f"{name}.png").is_file(), name
 
 
+@pytest.mark.slow  # over 10 s on 2 cores (issue 45, item 4)
 def test_a_report_on_too_few_runs_gives_no_interval_and_no_p_value(store, tmp_path, capsys):
     # The fixture's 4 samples are below MIN_INFERENCE_ROWS: the estimates are printed, no
     # bootstrap interval, no Spearman p-value, nothing in bold.

@@ -5,11 +5,11 @@ from __future__ import annotations
 import re
 import subprocess
 import sys
-from pathlib import Path
 
 import pytest
 
 from helpers.montecarlo_helpers import TINY_STUDY, write_study
+from helpers.paths import REPO
 from posfb.analysis.cli import main
 from posfb.analysis.uncertainty.study import (
     Deterministic,
@@ -23,7 +23,7 @@ from posfb.analysis.uncertainty.study import (
     with_overrides,
 )
 
-SHIPPED = Path(__file__).resolve().parent.parent / "analysis" / "studies" / "paper_uncertainty.yaml"
+SHIPPED = REPO / "analysis" / "studies" / "paper_uncertainty.yaml"
 
 
 def test_shipped_study_loads_with_the_documented_choices():

@@ -5,11 +5,11 @@ amplify round-off."""
 from __future__ import annotations
 
 import dataclasses
-from pathlib import Path
 
 import numpy as np
 import pytest
 
+from helpers.paths import REPO
 from posfb.diagrams.resolve import load_scenario, run_scenario
 from posfb.models.plant import (
     DEFAULT_URDF,
@@ -91,7 +91,7 @@ def test_bad_blocks_are_refused_by_name(value):
 def test_the_two_implementations_give_the_same_lin_lc_run():
     """Lin+LC's loop is stable and its encoder counts do not flip on round-off: 5 s of
     the paper's payload scenario agree to 1e-9 rad sample by sample."""
-    scenario = Path(__file__).parent.parent / "analysis" / "scenarios" / "paper_payload.yaml"
+    scenario = REPO / "analysis" / "scenarios" / "paper_payload.yaml"
     settings = ["controller.kind=lin_lc", "timing.duration=5"]
     runs = {
         blocks: run_scenario(

@@ -12,12 +12,12 @@ import re
 import shutil
 import subprocess
 import sys
-from pathlib import Path
 
 import numpy as np
 import pytest
 
 import posfb
+from helpers.paths import REPO
 from posfb.analysis.codegen.check import ROUND_OFF_FACTOR, TOLERANCE, check, log_inputs
 from posfb.analysis.codegen.package import CFLAGS, generate
 from posfb.analysis.common.shipped import shipped_files
@@ -508,7 +508,7 @@ def test_check_tolerance_is_validated(short_log, tolerance):
 def test_the_guide_quotes_the_default_tolerances():
     """docs/guide/codegen.md's table reads ``TOLERANCE``: its factor and each precision's
     value, as the module defines them."""
-    guide = (Path(__file__).resolve().parents[1] / "docs" / "guide" / "codegen.md").read_text()
+    guide = (REPO / "docs" / "guide" / "codegen.md").read_text()
     superscript = str.maketrans("0123456789", "⁰¹²³⁴⁵⁶⁷⁸⁹")
     factor = "2" + str(round(math.log2(ROUND_OFF_FACTOR))).translate(superscript)
     for precision, relative in TOLERANCE.items():

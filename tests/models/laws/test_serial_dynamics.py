@@ -6,21 +6,20 @@ LAPACK's SVD."""
 
 from __future__ import annotations
 
-from pathlib import Path
-
 import casadi as ca
 import numpy as np
 import pytest
 from pydrake.multibody.parsing import Parser
 from pydrake.multibody.plant import MultibodyPlant
 
+from helpers.paths import REPO
+from helpers.spatial_arm import spatial_arm_urdf
 from posfb.models.laws.nominal import UrdfModel
 from posfb.models.laws.serial_dynamics import SerialArmDynamics
 from posfb.models.laws.spectral_norm import spectral_norm
 from posfb.models.serial_model import SerialArmModel
-from tests.helpers.spatial_arm import spatial_arm_urdf
 
-URDF = Path(__file__).resolve().parent.parent / "urdf"
+URDF = REPO / "urdf"
 
 
 def _terms(model: UrdfModel, joints: int) -> ca.Function:

@@ -13,16 +13,17 @@ from pathlib import Path
 
 import pytest
 
+from helpers.paths import REPO
 from posfb.analysis.cli import main
 from posfb.models.controllers import design_checks, spec
 
-ROOT = Path(__file__).resolve().parent.parent
+ROOT = REPO
 CLI = [sys.executable, "-m", "posfb.analysis.cli"]
 
 
 def test_design_strict_exits_1_only_when_a_check_fails(capsys):
     # --no-sim here and below: the exit code of the checks is the property; the exact arm's
-    # run and its code are tests/test_cli_design.py's and test_configurations.py's
+    # run and its code are tests/analysis/cli/test_cli_design.py's and test_configurations.py's
     assert main(["design", "--no-sim"]) == 0  # the report is the result
     assert main(["design", "--strict", "--no-sim"]) == 1  # the paper's alpha* = 4 fails at 100 Hz
     assert main(["design", "--strict", "--alpha-star", "2.75", "--no-sim"]) == 0

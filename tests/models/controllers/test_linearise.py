@@ -8,13 +8,13 @@ paper's theta model and on a URDF arm."""
 from __future__ import annotations
 
 import sys
-from pathlib import Path
 
 import casadi as ca
 import numpy as np
 import pytest
 
 import posfb
+from helpers.paths import REPO
 from posfb.diagrams.resolve import resolve
 from posfb.models.controllers import (
     ControllerBuild,
@@ -34,7 +34,7 @@ from posfb.models.nominal import nominal_model
 SCENARIOS = ("paper_nominal", "three_link_nominal")
 
 #: The shipped scenarios' folder.
-SHIPPED = Path(__file__).resolve().parent.parent / "analysis" / "scenarios"
+SHIPPED = REPO / "analysis" / "scenarios"
 
 
 def _pid(build: ControllerBuild) -> DiscreteFilter:

@@ -308,7 +308,8 @@ def test_scenario_dump_and_check_on_the_command_line(tmp_path, capsys):
     assert dump_scenario(loaded) == dumped
     # The paper's proposed controller fails its sampled-data check at 100 Hz (exit 1);
     # Lin+LC passes its own checks; a bad key is bad input (exit 2). --no-sim: the checks'
-    # exit code is the property (tests/test_configurations.py checks the exact arm's run).
+    # exit code is the property (tests/models/design/test_configurations.py checks the exact
+    # arm's run).
     assert main(["scenario", "check", str(CASE_FILES["nominal"]), "--no-sim"]) == 1
     assert "fails sampled_data" in capsys.readouterr().out
     assert main(["scenario", "check", str(CASE_FILES["nominal"]), "--set", "controller.kind=lin_lc", "--no-sim"]) == 0  # noqa: E501

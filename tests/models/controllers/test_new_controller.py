@@ -107,7 +107,7 @@ parameters:
   link_mass: [!Uniform {{min: -0.2, max: 0.2, relative: true}}]
 """
 
-#: A small tuning (``tests/test_tuning.py``'s).
+#: A small tuning (``tests/analysis/design/test_tuning.py``'s).
 SMALL = ["--plants", "2", "--generations", "2", "--epsilon", "0.5", "--beta", "0.5",
          "--rounds", "1", "--accept-worse"]  # fmt: skip
 

@@ -8,11 +8,11 @@ import pytest
 from pydrake.multibody.tree import JointActuatorIndex
 
 import posfb
+from helpers.published import VOLTS, featured_description
 from posfb.analysis.design.scenario_init import InitOptions, write_scenario
 from posfb.models.description import Description, Drives, prepare_urdf
 from posfb.models.plant import DEFAULT_URDF, PlantConfig, build_arm_diagram
 from posfb.models.serial_model import SerialArmModel
-from tests.helpers.published import VOLTS, featured_description
 
 
 @pytest.fixture(scope="module")

@@ -128,6 +128,7 @@ def test_the_inside_outside_medians_contrast_with_their_boxes_and_lie_above_them
         assert min(m.get_zorder() for m in medians) > max(p.get_zorder() for p in boxes)
 
 
+@pytest.mark.slow  # over 10 s on 2 cores (issue 45, item 4)
 def test_the_radius_convergence_and_ecdf_figures_keep_their_legends_off_the_data(data, tmp_path):
     radius = {c: 0.5 + 0.6 * np.linspace(0.0, 1.0, SAMPLES) for c in CONTROLLERS}
     with_radius = replace(data, radius=radius)

@@ -11,11 +11,11 @@ import shutil
 import subprocess
 import sys
 import xml.etree.ElementTree as ET
-from pathlib import Path
 
 import pytest
 from matplotlib.image import imread
 
+from helpers.paths import REPO
 from helpers.slow import heavy
 from posfb.analysis.cli import main
 from posfb.analysis.paper.experiment import ResultsFile
@@ -109,8 +109,9 @@ def test_results_file_is_rewritten_after_every_entry(tmp_path):
     assert not list(tmp_path.glob("*.partial"))
 
 
+@pytest.mark.slow  # over 10 s on 2 cores (issue 45, item 4)
 def test_experiment_script_runs_directly(tmp_path):
-    script = Path(__file__).resolve().parent.parent / "analysis" / "paper" / "payload_experiment.py"
+    script = REPO / "analysis" / "paper" / "payload_experiment.py"
     result = subprocess.run(
         [sys.executable, str(script), "--out", str(tmp_path), "--duration", "0.5"],
         capture_output=True,

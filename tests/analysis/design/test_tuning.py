@@ -460,3 +460,29 @@ def test_a_design_whose_check_run_is_not_ok_gets_no_guarantee(tmp_path, capsys):
     assert all("none stated: its check run is lost (lost its path" in g for g in guarantees)
     assert not any("fresh i.i.d. plants" in g for g in guarantees)
     assert "warning: no guarantee stated: proposed: its check run is lost" in captured.err
+
+
+@pytest.mark.slow
+def test_progress_names_each_step_every_generation_and_the_budget_left():
+    """Issue 45, item 3: one line per step and per generation of the search, ending in the
+    budget left; none of it changes the result (the same design as without progress)."""
+    from posfb.analysis.design.tune import tune as tune_loaded
+    from posfb.diagrams.resolve import load_scenario
+
+    settings = posfb.TuneSettings(plants=2, generations=2, epsilon=0.5, beta=0.5, rounds=1)
+    lines: list[str] = []
+    shown = tune_loaded(load_scenario(PAPER), settings=settings, accept_worse=True,
+                        progress=lines.append)  # fmt: skip
+    silent = tune_loaded(load_scenario(PAPER), settings=settings, accept_worse=True)
+    assert shown.dump() == silent.dump()
+    for controller, entry in shown.controllers.items():
+        own = [line for line in lines if line.startswith(f"{controller}: ")]
+        searched = [line for line in own if " search, generation " in line]
+        assert [line.split("generation ")[1].split(",")[0] for line in searched] == [
+            f"{g}/{settings.generations}" for g in range(1, settings.generations + 1)
+        ]
+        assert any("drawing 2 design plants" in line for line in own)
+        assert any("verifying the design" in line for line in own)
+        assert any("check runs" in line for line in own)
+        assert entry.generations >= settings.generations
+    assert all(line.endswith(f"of the {settings.budget:g} s budget left") for line in lines)

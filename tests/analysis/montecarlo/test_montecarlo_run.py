@@ -21,6 +21,7 @@ from helpers.montecarlo_helpers import (
     fake_evaluate,
     write_study,
 )
+from helpers.paths import REPO
 from helpers.slow import heavy
 from posfb.analysis.cli import main
 from posfb.analysis.montecarlo import scheduler
@@ -31,7 +32,7 @@ from posfb.analysis.uncertainty.study import study_from_text
 from posfb.models.plant import build_arm_diagram
 
 CLI = [sys.executable, "-m", "posfb.analysis.cli"]
-ROOT = Path(__file__).resolve().parent.parent
+ROOT = REPO
 
 
 def _run(study_text: str, db: Path, workers: int) -> None:
@@ -106,6 +107,7 @@ def _count(db: Path) -> int:
         return 0
 
 
+@pytest.mark.slow  # over 10 s on 2 cores (issue 45, item 4)
 def test_killed_run_resumes_without_losing_or_repeating_samples(tmp_path, capsys):
     samples = 40
     study = write_study(tmp_path, TINY_STUDY.replace("samples: 4", f"samples: {samples}"))
