@@ -152,16 +152,15 @@ class MapAxis:
 @dataclass(frozen=True, eq=False)
 class MapSetup:
     """What every grid point shares: the scenario, its nominal model, the designed
-    ``loop`` drawn (a ``models.design.DESIGNED_LOOPS`` name) and the ``controller`` kind it
-    belongs to, the plants (each with the scenario's linear
-    effects, ``analysis.common.loop_effects``, and its ``M*(q)`` at the path's lightest
+    ``loop`` drawn (a ``models.design.DESIGNED_LOOPS`` name; ``controller``, the kind it
+    belongs to), the plants (each with the scenario's linear effects,
+    ``analysis.common.loop_effects``, and its ``M*(q)`` at the path's lightest
     and heaviest configurations), the margin, the nominal loop's effects and the
     nominal model's configuration set."""
 
     loaded: LoadedScenario
     nominal: NominalModel
     loop: str
-    controller: str
     plants: tuple[LinearPlant, ...]
     margin: float
     arm: str
@@ -170,6 +169,11 @@ class MapSetup:
     _held: dict[float, tuple[tuple[HeldPlant, ...], ...]] = field(default_factory=dict,
                                                                    repr=False)  # fmt: skip
     _nominal_held: dict[float, tuple[HeldPlant, ...]] = field(default_factory=dict, repr=False)
+
+    @property
+    def controller(self) -> str:
+        """The kind the drawn loop belongs to (``models.controllers.loop_kinds``)."""
+        return loop_kinds()[self.loop]
 
     @property
     def limit(self) -> float:
@@ -432,7 +436,6 @@ def map_setup(
             scenario_description(loaded.scenario, loaded.base_dir),
         ),
         loop=map_loop(relevant),
-        controller=loop_kinds()[map_loop(relevant)],
         plants=tuple(draw_plants(family, resolved, seed, plants, configurations=extremes)),
         margin=margin,
         arm=Path(resolved.config.plant.urdf).name,

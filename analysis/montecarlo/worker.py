@@ -214,8 +214,8 @@ class ClosedLoopEvaluator:
         plug-ins)."""
         radii, by_design = {}, {}
         for name, config in configs.items():
-            loop = config.spec.design_loop
-            if config.controller_settings is not None or loop is None:
+            loop = config.spec.design_loop  # None: PID, the plug-ins
+            if loop is None:
                 continue
             if config.design not in by_design:
                 angles = tuple(c.q for c in scenario_configurations(config).configurations)
