@@ -24,6 +24,7 @@ from posfb.models.controllers import (
     UserPlugin,
     controller_spec,
 )
+from posfb.models.design.loop_context import LoopContext
 from posfb.models.plant import ArmParameters, PlantConfig
 from posfb.models.trajectory import Trajectory, WaveTrajectory
 
@@ -48,8 +49,9 @@ class ClosedLoopConfig:
     """One closed-loop run, resolved and validated (``diagrams.scenario`` builds it
     from a scenario file; the defaults are the paper's settings).
 
-    ``design`` is everything the controller is built from, its sample time ``T_s``
-    included (the only one: ``sample_time`` reads it); ``controller_settings`` the
+    ``design`` is everything the controller is built from, the loop context included
+    (``context``: the nominal model and the sample time ``T_s``, held once,
+    ``models.design.loop_context``; ``sample_time`` reads it); ``controller_settings`` the
     settings of a plug-in kind's scenario entry or a user's plug-in
     (``models.controllers.plugin.UserPlugin``; ``None`` for the paper's three, whose
     inputs are all in ``design``); ``trajectory`` the desired path; ``timing``,
@@ -57,7 +59,7 @@ class ClosedLoopConfig:
     (``diagrams.sections``; copied, then read through the properties below):
     ``duration``, ``divergence_bound`` on ``|q~|`` in rad and Drake's integrator
     ``simulator`` (the runner caps ``max_step_size`` at ``T_s``: a step never spans more
-    than one control period; ``timing.sample_time`` must be the design's); per joint,
+    than one control period; ``duration`` must be a whole number of periods); per joint,
     ``encoder_counts`` per revolution (0: ideal; default and its justification in
     ``diagrams.encoder``), ``zero_offset`` (rad, added to the true position before
     quantisation), ``noise_std`` (rad, additive Gaussian noise after it, drawn from
@@ -108,7 +110,7 @@ class ClosedLoopConfig:
             **{f.name: getattr(self.timing.simulator, f.name) for f in SimulatorConfig.__fields__}
         )
         set_field("timing", dataclasses.replace(self.timing, simulator=simulator))
-        self.timing.check(self.design.sample_time)
+        self.timing.check(self.sample_time)
         if not callable(getattr(self.trajectory, "evaluate", None)):
             raise ValueError(f"trajectory = {self.trajectory!r} has no evaluate(t)")
         if self.trajectory.joints != self.joints:
@@ -213,9 +215,15 @@ class ClosedLoopConfig:
         return self.design.joints
 
     @property
+    def context(self) -> LoopContext:
+        """What every piece of the loop shares: the design's loop context."""
+        return self.design.context
+
+    @property
     def sample_time(self) -> float:
-        """``T_s`` (s): the controller's period, which the loggers and the sensor share."""
-        return self.design.sample_time
+        """``T_s`` (s): the loop context's, which the controller, the loggers and the
+        sensor share."""
+        return self.context.sample_time
 
     @property
     def samples(self) -> int:

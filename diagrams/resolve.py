@@ -53,7 +53,7 @@ from posfb.models.controllers import PluginError, UserPlugin, entry_build, make_
 from posfb.models.controllers.plugin import load_plugin, module_plugin
 from posfb.models.description import Description
 from posfb.models.design import ControllerConfig
-from posfb.models.design.settings import ArmInputs
+from posfb.models.design.loop_context import LoopContext
 from posfb.models.friction import law_spec, law_values, tag
 from posfb.models.gear import GearConfig, require_motor_inertia
 from posfb.models.identification.model_file import load_model
@@ -104,10 +104,10 @@ class LoadedScenario:
         loaded = LoadedScenario(self.scenario, self.base_dir, self.source)
         for setting in settings:
             if _indexes_left_out_list(loaded.scenario, setting):
-                loaded.scenario = with_arm_defaults(loaded.scenario, resolve(loaded).arm)
+                loaded.scenario = with_arm_defaults(loaded.scenario, resolve(loaded).context)
             loaded.scenario = apply_setting(loaded.scenario, setting, loaded.base_dir)
         resolved = resolve(loaded)
-        loaded.scenario = with_arm_defaults(loaded.scenario, resolved.arm)
+        loaded.scenario = with_arm_defaults(loaded.scenario, resolved.context)
         loaded.keep(resolved)
         return loaded
 
@@ -424,18 +424,18 @@ def load_python_controller(section: Python, base_dir: Path) -> UserPlugin:
 
 
 def controller_inputs(
-    section: object, nominal: NominalForm, sample_time: float, base_dir: Path
+    section: object, context: LoopContext, base_dir: Path
 ) -> tuple[str, ControllerConfig, object | None]:
     """``(kind, design inputs, settings)`` of the scenario's controller entry: the paper's
     three give their ``ControllerConfig`` (``models.design.settings``) and no settings; a
     plug-in gives its settings with ``ControllerConfig.without_design``. A plug-in is
     built once here, so a bad setting is refused now."""
     if isinstance(section, Python):
-        design = ControllerConfig.without_design(nominal, sample_time)
+        design = ControllerConfig.without_design(context)
         settings: object = load_python_controller(section, base_dir)
         kind = settings.kind
     else:
-        build = entry_build(copy.deepcopy(section), nominal, sample_time)
+        build = entry_build(copy.deepcopy(section), context)
         design, settings, kind = build.design, build.settings, controller_kind(section)
         if settings is None:
             return kind, design, None
@@ -443,18 +443,19 @@ def controller_inputs(
     return kind, design, settings
 
 
-def arm_inputs(scenario: Scenario, nominal: NominalForm) -> ArmInputs:
-    """What the scenario's controller entries derive the per-joint settings they leave
-    out from (``models.design.settings``): the nominal model, ``timing.sample_time``, the
-    wave trajectory's frequencies, ``sensor.encoder_counts`` and
-    ``actuator.voltage_limit`` (checked, per joint)."""
+def loop_context(scenario: Scenario, nominal: NominalForm) -> LoopContext:
+    """The scenario's loop context (``models.design.loop_context``), built once: the
+    nominal model, ``timing.sample_time``, the wave trajectory's frequencies,
+    ``sensor.encoder_counts`` and ``actuator.voltage_limit`` (checked, per joint). The
+    design, the controller and the closed loop hold it; the controller entries derive the
+    per-joint settings they leave out from it (``models.design.settings``)."""
     n = joint_count(nominal)
     trajectory = scenario.trajectory
     waves = trajectory.joints if isinstance(trajectory, Wave) else []
     limits = per_joint("actuator.voltage_limit", scenario.actuator.voltage_limit, n)
     for j, limit in enumerate(limits):
         require_positive(f"actuator.voltage_limit[{j}]", limit)
-    return ArmInputs(
+    return LoopContext(
         nominal=nominal,
         sample_time=float(scenario.timing.sample_time),
         frequencies=tuple(float(wave.frequency) for wave in waves),
@@ -463,13 +464,13 @@ def arm_inputs(scenario: Scenario, nominal: NominalForm) -> ArmInputs:
     )
 
 
-def _entry_with_arm_defaults(entry: object, arm: ArmInputs) -> object:
+def _entry_with_arm_defaults(entry: object, arm: LoopContext) -> object:
     """``entry`` with its left-out per-joint settings from ``arm`` (a plug-in's as it is)."""
     fill = getattr(entry, "with_arm_defaults", None)
     return entry if fill is None else fill(arm)
 
 
-def with_arm_defaults(scenario: Scenario, arm: ArmInputs) -> Scenario:
+def with_arm_defaults(scenario: Scenario, arm: LoopContext) -> Scenario:
     """A copy of ``scenario`` whose controller entries (``controller`` and every named one)
     hold the per-joint settings they left out, from ``arm`` (``models.design.settings``):
     what ``scenario dump`` shows and tuning starts from; ``arm`` is kept as its
@@ -489,11 +490,15 @@ def with_arm_defaults(scenario: Scenario, arm: ArmInputs) -> Scenario:
 @dataclass(frozen=True, eq=False)
 class ResolvedScenario:
     """A validated scenario: the closed-loop config, which carries the true plant's
-    payload and overrides (``ClosedLoopConfig.true_plant``), and what the controller
-    entries' left-out settings came from (``arm``)."""
+    payload and overrides (``ClosedLoopConfig.true_plant``) and the loop context
+    (``context``: what the controller entries' left-out settings came from too)."""
 
     config: ClosedLoopConfig
-    arm: ArmInputs
+
+    @property
+    def context(self) -> LoopContext:
+        """The scenario's loop context, resolved once (``loop_context``)."""
+        return self.config.context
 
     @property
     def payload_mass(self) -> float:
@@ -564,7 +569,7 @@ def _validated(loaded: LoadedScenario) -> ResolvedScenario:
     scenario, base = loaded.scenario, loaded.base_dir
     section = scenario.controller
     # The design takes the sample time; it is the timing section's.
-    require_positive("timing.sample_time", scenario.timing.sample_time)
+    require_positive("timing.sample_time", scenario.timing.sample_time)  # named by its key
     chain = scenario_chain(scenario, base)
     joints = len(chain.joints)
     try:
@@ -573,12 +578,12 @@ def _validated(loaded: LoadedScenario) -> ResolvedScenario:
         raise ValueError(f"nominal_model: {error}") from None
     if joint_count(nominal) != joints:
         raise ValueError(nominal_mismatch(scenario, joint_count(nominal), joints))
-    arm = arm_inputs(scenario, nominal)
-    require_encoder_resolution(arm.encoder_counts)
+    context = loop_context(scenario, nominal)
+    require_encoder_resolution(context.encoder_counts)
     require_dac_resolution(scenario.actuator.dac_bits)
     try:
         kind, design, controller_settings = controller_inputs(
-            _entry_with_arm_defaults(section, arm), nominal, scenario.timing.sample_time, base
+            _entry_with_arm_defaults(section, context), context, base
         )
     except PluginError:
         raise  # a plug-in's own message names its key and class
@@ -621,13 +626,13 @@ def _validated(loaded: LoadedScenario) -> ResolvedScenario:
         design=design,
         controller_settings=controller_settings,
         trajectory=trajectory,
-        timing=scenario.timing,
+        timing=scenario.timing.loop_timing(),
         sensor=scenario.sensor,
         actuator=scenario.actuator,
         plant=plant_config,
         true_plant=TruePlant(float(plant.payload_mass), tuple(overrides.items())),
     )
-    return ResolvedScenario(config, arm)
+    return ResolvedScenario(config)
 
 
 def _gear(plant: object, joints: int) -> GearConfig:

@@ -49,12 +49,13 @@ import yaml
 from pydrake.common.yaml import yaml_dump_typed, yaml_load_typed
 
 from posfb.diagrams.loop_config import ClosedLoopConfig
-from posfb.diagrams.sections import Actuator, Sensor, Timing
+from posfb.diagrams.sections import Actuator, Sensor, TimingSection
 from posfb.diagrams.yaml_schema import check_shape, parse, prepare
 from posfb.models.controllers import REGISTRY
 from posfb.models.controllers.registry import settings_kind
 from posfb.models.description import DRIVE_FIELDS, Description, Drives
-from posfb.models.design.settings import ArmInputs, default_of
+from posfb.models.design.loop_context import LoopContext
+from posfb.models.design.settings import default_of
 from posfb.models.friction import DEFAULT_LAW, LAW_SETTINGS
 from posfb.models.gear import GearConfig
 from posfb.models.lumped import TABLE1
@@ -332,7 +333,7 @@ class Scenario:
     plant: PlantSettings = field(default_factory=PlantSettings)
     nominal_model: NominalModel = field(default_factory=Table1)
     trajectory: TrajectorySettings = field(default_factory=Wave)
-    timing: Timing = field(default_factory=Timing)
+    timing: TimingSection = field(default_factory=TimingSection)
     sensor: Sensor = field(default_factory=Sensor)
     actuator: Actuator = field(default_factory=Actuator)
     controller: ControllerSection = field(default_factory=REGISTRY[DEFAULT_KIND].settings)
@@ -341,7 +342,7 @@ class Scenario:
     #: What the controller entries' left-out per-joint settings were taken from, set on
     #: a loaded scenario (``diagrams.resolve.with_arm_defaults``; not a key of the file):
     #: ``with_controller`` gives a new entry the same.
-    arm_defaults: typing.ClassVar[ArmInputs | None] = None
+    arm_defaults: typing.ClassVar[LoopContext | None] = None
 
 
 def controller_kind(section: object) -> str:

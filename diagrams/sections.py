@@ -8,7 +8,7 @@ checks its own values (``Timing.check``, ``Sensor.state``, ``Actuator.state`` an
 
 # No "from __future__ import annotations": Drake's YAML reads the field types at runtime.
 
-from dataclasses import dataclass, field
+from dataclasses import MISSING, Field, dataclass, field, fields, make_dataclass
 
 import numpy as np
 from pydrake.systems.analysis import GetIntegrationSchemes, SimulatorConfig
@@ -20,8 +20,8 @@ from posfb.diagrams.actuator import (
     require_time_constant,
 )
 from posfb.diagrams.encoder import DEFAULT_ENCODER_COUNTS, per_joint_counts
-from posfb.models.design import ControllerConfig
 from posfb.models.design.configurations import CONFIGURATION_SPACING
+from posfb.models.design.loop_context import LoopContext
 from posfb.models.design.settings import default_of
 from posfb.models.validation import (
     per_joint,
@@ -142,6 +142,13 @@ def require_dac_resolution(bits: int) -> None:
         )
 
 
+def _copied(entry: Field) -> Field:
+    """A new ``field`` with ``entry``'s default (or default factory)."""
+    if entry.default_factory is not MISSING:
+        return field(default_factory=entry.default_factory)
+    return field(default=entry.default)
+
+
 def default_simulator() -> SimulatorConfig:
     """Drake's RK3 with error control at accuracy 3e-3 (``diagrams.runner``)."""
     return SimulatorConfig(integration_scheme="runge_kutta3", accuracy=3e-3, use_error_control=True)
@@ -149,8 +156,9 @@ def default_simulator() -> SimulatorConfig:
 
 @dataclass
 class Timing:
-    """Sample time ``T_s`` (s) of the controller and the sensor, simulated ``duration``
-    (s, a whole number of periods), the ``|q~|`` (rad) beyond which a run is stopped
+    """How the loop is run and judged: simulated ``duration`` (s, a whole number of the
+    loop's sample periods ``T_s``, which the loop context holds,
+    ``models.design.loop_context``), the ``|q~|`` (rad) beyond which a run is stopped
     as diverged, the verdict's bounds on a run that finished (``lost_bound``: the largest
     RMS ``|q~|`` (rad) a joint may have over the run's second half; ``lost_fraction``: the
     largest such RMS as a fraction of the path's excursion (the largest half peak-to-peak
@@ -161,7 +169,6 @@ class Timing:
     settings, and the spacing (s) of the path's configurations at which the linear
     verdicts freeze ``M*(q)`` (``configuration_spacing``, ``models.design.configurations``)."""
 
-    sample_time: float = field(default_factory=default_of(ControllerConfig, "sample_time"))
     duration: float = DURATION
     divergence_bound: float = DIVERGENCE_BOUND
     lost_bound: float = LOST_BOUND
@@ -174,35 +181,22 @@ class Timing:
         """By value (Drake's ``SimulatorConfig`` itself compares by identity)."""
         if not isinstance(other, Timing):
             return NotImplemented
+        return _timing_values(self) == _timing_values(other)
 
-        def values(timing: Timing) -> tuple:
-            simulator = tuple(getattr(timing.simulator, f.name) for f in SimulatorConfig.__fields__)
-            bounds = (timing.divergence_bound, timing.lost_bound, timing.lost_fraction,
-                      timing.saturated_share)  # fmt: skip
-            spacing = timing.configuration_spacing
-            return timing.sample_time, timing.duration, bounds, simulator, spacing
-
-        return values(self) == values(other)
-
-    def check(self, design_sample_time: float) -> None:
-        """Refuse a sample time other than the design's ``design_sample_time`` (one sample
-        time), a duration that is not a whole number (>= 1, at most ``MAX_RUN_SAMPLES``)
-        of periods, bounds outside their ranges and integrator settings Drake's
-        ``Simulator`` would not run as posfb's runner expects."""
-        if self.sample_time != design_sample_time:
-            raise ValueError(
-                f"timing.sample_time = {self.sample_time!r}; the design's "
-                f"{design_sample_time!r} is required (one sample time)"
-            )
+    def check(self, sample_time: float) -> None:
+        """Refuse a duration that is not a whole number (>= 1, at most
+        ``MAX_RUN_SAMPLES``) of the loop's ``sample_time`` periods, bounds outside their
+        ranges and integrator settings Drake's ``Simulator`` would not run as posfb's
+        runner expects."""
         require_positive("timing.duration", self.duration)
-        samples = round(self.duration / self.sample_time)
+        samples = round(self.duration / sample_time)
         if (
-            self.duration < self.sample_time
-            or abs(samples * self.sample_time - self.duration) > 1e-9 * self.duration
+            self.duration < sample_time
+            or abs(samples * sample_time - self.duration) > 1e-9 * self.duration
         ):
             raise ValueError(
                 f"timing.duration = {self.duration!r} is not a whole number (>= 1) of "
-                f"timing.sample_time = {self.sample_time!r} periods"
+                f"timing.sample_time = {sample_time!r} periods"
             )
         require_run_samples(samples, "timing.duration / timing.sample_time")
         require_positive("timing.divergence_bound", self.divergence_bound)
@@ -331,3 +325,41 @@ class Actuator:
         bits = require_dac_bits("actuator.dac_bits", self.dac_bits)
         require_compute_delay("actuator.compute_delay", self.compute_delay, sample_time)
         return ActuatorState(checked, bits)
+
+
+def _timing_values(timing: object) -> tuple:
+    """A ``Timing``'s (or ``TimingSection``'s) values, its integrator settings by value."""
+    simulator = tuple(getattr(timing.simulator, f.name) for f in SimulatorConfig.__fields__)
+    return tuple(
+        simulator if f.name == "simulator" else getattr(timing, f.name) for f in fields(timing)
+    )
+
+
+def _loop_timing(section: object) -> Timing:
+    """The loop's ``Timing`` of this section: every key but ``sample_time``, which the
+    loop context holds (``diagrams.resolve``)."""
+    return Timing(**{f.name: getattr(section, f.name) for f in fields(Timing)})
+
+
+def _section_eq(self: object, other: object) -> bool:
+    if not isinstance(other, TimingSection):
+        return NotImplemented
+    return _timing_values(self) == _timing_values(other)
+
+
+#: The scenario's ``timing:`` section: ``sample_time``, the loop's sample time ``T_s`` (s)
+#: of the controller, the encoder's hold and the voltage command (resolved into the loop
+#: context, its one home, ``models.design.loop_context``), then ``Timing``'s keys (made
+#: from its fields, so each is written once; ``loop_timing()`` is the loop's ``Timing``).
+TimingSection = make_dataclass(
+    "TimingSection",
+    [("sample_time", float, field(default_factory=default_of(LoopContext, "sample_time")))]
+    + [(f.name, f.type, _copied(f)) for f in fields(Timing)],
+    namespace={
+        "__doc__": "``sample_time``, the loop's ``T_s`` (s) of the controller and the sensor, "
+        "then the run's timing and verdict bounds (``Timing``).",
+        "__module__": __name__,
+        "__eq__": _section_eq,
+        "loop_timing": _loop_timing,
+    },
+)

@@ -105,12 +105,11 @@ def entry_feedback(resolved: ResolvedScenario, controller: str, entry: object) -
     with the entry's settings); ``ValueError`` (one line) for settings the controller
     refuses."""
     config = resolved.config
-    nominal, sample_time = config.design.nominal, config.sample_time
     if isinstance(entry, Python):
         plugin = replace(config.controller_settings, settings=json.loads(entry.settings))
-        design = ControllerConfig.without_design(nominal, sample_time)
+        design = ControllerConfig.without_design(config.context)
         return linear_feedback(controller, design, settings=plugin)
-    build = entry_build(entry, nominal, sample_time)
+    build = entry_build(entry, config.context)
     return linear_feedback(controller, build.design, settings=build.settings)
 
 
@@ -188,16 +187,16 @@ class TuningProblem:
 
     def __post_init__(self) -> None:
         config = self.resolved.config
-        self.sample_time = config.sample_time
-        self.nominal = config.design.nominal
+        self.context = config.context
         self.tuning = tuning(self.controller, self.resolved)
         self.knobs = self.tuning.knobs(self.entry)
-        model = nominal_model(self.nominal)
+        model = nominal_model(self.context.nominal)
         self.effects = nominal_effects(self.resolved)
-        self.nominal_held = held_plant(model.M0(), model.B(), self.sample_time, self.effects)
+        sample_time = self.context.sample_time
+        self.nominal_held = held_plant(model.M0(), model.B(), sample_time, self.effects)
         masses = () if self.configurations is None else self.configurations.masses
         self.nominal_held_at = tuple(
-            held_plant(M, model.B(), self.sample_time, self.effects) for M in masses
+            held_plant(M, model.B(), sample_time, self.effects) for M in masses
         )
         times = np.arange(config.samples + 1) * config.sample_time
         needed = trajectory_voltages(model, config.trajectory, times)
@@ -218,7 +217,7 @@ class TuningProblem:
 
     def settings(self, x: np.ndarray) -> object:
         """The entry at the point ``x`` (log10 of each knob's value)."""
-        return self.tuning.apply(self.entry, np.power(10.0, x), self.sample_time)
+        return self.tuning.apply(self.entry, np.power(10.0, x), self.context.sample_time)
 
     def bounds(self) -> list[tuple[float, float]]:
         """The search box in log10."""

@@ -112,11 +112,11 @@ def settings_of(options: InitOptions) -> Settings:
         MIN_ENCODER_COUNTS,
         Actuator,
         Sensor,
-        Timing,
+        TimingSection,
         require_run_samples,
     )
 
-    timing, sensor, actuator = Timing(), Sensor(), Actuator()
+    timing, sensor, actuator = TimingSection(), Sensor(), Actuator()
     sample_time = _pick(options.sample_time, timing.sample_time)
     duration = _pick(options.duration, timing.duration)
     counts = int(_pick(options.encoder_counts, sensor.encoder_counts[0]))
@@ -389,6 +389,7 @@ def design_controllers(
         lqr_weights,
         pid_gains,
     )
+    from posfb.models.design.loop_context import LoopContext
     from posfb.models.design.synthesis import plant_spectral_radii
     from posfb.models.nominal import UrdfNominal, nominal_model
     from posfb.models.trajectory import WaveTrajectory
@@ -399,6 +400,7 @@ def design_controllers(
     filter_a = filter_pole(settings.sample_time)
     gamma = h_gamma([w.frequency for w in fitted.waves])
     nominal = UrdfNominal(str(settings.urdf), settings.description)
+    context = LoopContext(nominal, settings.sample_time)  # the rules' design inputs
     model = nominal_model(nominal)
     configurations = path_configurations(
         model, WaveTrajectory(fitted.waves), settings.duration, CONFIGURATION_SPACING
@@ -409,8 +411,7 @@ def design_controllers(
 
     def config_at(scale: float) -> ControllerConfig:
         return ControllerConfig(
-            nominal=nominal,
-            sample_time=settings.sample_time,
+            context=context,
             lqr=lqr_weights(facts.M0, settings.sample_time, scale).lqr(),
             nonlinear=NonlinearTorqueConfig(
                 A_zeta=-gamma * np.eye(n), B_zeta=gamma * np.eye(n), C_zeta=np.eye(n),
@@ -492,7 +493,7 @@ def build_scenario(settings: Settings, facts: ArmFacts, fitted: FittedTrajectory
         Wave,
         WaveJoint,
     )
-    from posfb.diagrams.sections import Actuator, Sensor, Timing
+    from posfb.diagrams.sections import Actuator, Sensor, TimingSection
     from posfb.models.controllers import kind_of
     from posfb.models.design.settings import DiagonalH, LinLc, Pid, Proposed
 
@@ -530,7 +531,7 @@ def build_scenario(settings: Settings, facts: ArmFacts, fitted: FittedTrajectory
                 for w in fitted.waves
             ]
         ),  # fmt: skip
-        timing=replace(Timing(), sample_time=settings.sample_time, duration=settings.duration),
+        timing=TimingSection(sample_time=settings.sample_time, duration=settings.duration),
         sensor=replace(
             sensor,
             encoder_counts=[settings.encoder_counts] * n,

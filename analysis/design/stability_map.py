@@ -56,6 +56,7 @@ from posfb.diagrams.resolve import (
     LoadedScenario,
     controller_inputs,
     load_scenario,
+    loop_context,
     make_nominal,
     resolve,
 )
@@ -394,7 +395,7 @@ def check_endpoints(loaded: LoadedScenario, axes: Sequence[MapAxis]) -> None:
                 setting = _setting(axis.key, value)
                 scenario = apply_setting(loaded.scenario, setting, loaded.base_dir)
                 controller_inputs(
-                    scenario.controller, nominal, scenario.timing.sample_time, loaded.base_dir
+                    scenario.controller, loop_context(scenario, nominal), loaded.base_dir
                 )
             except ValueError as error:
                 raise UsageError(f"--map-range for {axis.key}: {error}") from None
@@ -453,9 +454,8 @@ def _with(scenario: Scenario, setup: MapSetup, values: Mapping[str, float]) -> S
 def _design(setup: MapSetup, scenario: Scenario) -> Design | None:
     """The design of ``scenario``'s controller entry, ``None`` when refused."""
     try:
-        _, config, _ = controller_inputs(
-            scenario.controller, setup.nominal, scenario.timing.sample_time, setup.loaded.base_dir
-        )
+        context = loop_context(scenario, setup.nominal)
+        _, config, _ = controller_inputs(scenario.controller, context, setup.loaded.base_dir)
         require_design(setup.controller, config)  # the controller's own refusals
     except ValueError:
         return None

@@ -738,7 +738,7 @@ def _fold_scenario(study: Study, folder: Path) -> Study:
     loaded.scenario = copy.deepcopy(loaded.scenario)
     loaded.scenario.controllers = {**loaded.scenario.controllers, **study.entries}
     if study.entries:  # the study's own entries take what they leave out from the arm
-        loaded.scenario = with_arm_defaults(loaded.scenario, resolve(loaded).arm)
+        loaded.scenario = with_arm_defaults(loaded.scenario, resolve(loaded).context)
     return replace(study, scenario="", settings=[], base=self_contained(loaded), entries={})
 
 

@@ -34,9 +34,9 @@ from posfb.models.design import (
     cached_design,
     designed_feedback,
 )
+from posfb.models.design.loop_context import LoopContext
 from posfb.models.design.realisation import DiscreteFilter
 from posfb.models.laws.law import Law
-from posfb.models.nominal import NominalModel
 
 for _module in (pid, lin_lc, proposed, pd_gravity, adrc):
     register(_module.SPEC)
@@ -161,14 +161,14 @@ def linear_feedback(
     return law_feedback(controller_law(kind, config, settings=settings, linear_part=True))
 
 
-def entry_build(entry: object, nominal: NominalModel, sample_time: float) -> ControllerBuild:
-    """What a scenario's settings ``entry`` builds its controller from on ``nominal`` at
-    ``sample_time``: an entry that gives design inputs (``config``: the paper's three,
+def entry_build(entry: object, context: LoopContext) -> ControllerBuild:
+    """What a scenario's settings ``entry`` builds its controller from in ``context``: an
+    entry that gives design inputs (``config``: the paper's three,
     ``models.design.settings``) gives them and no settings; any other entry is the
     settings of a controller without a Sec. 3 design (``ControllerConfig.without_design``)."""
     if hasattr(entry, "config"):
-        return ControllerBuild(entry.config(nominal, sample_time), ())
-    return ControllerBuild(ControllerConfig.without_design(nominal, sample_time), (), entry)
+        return ControllerBuild(entry.config(context), ())
+    return ControllerBuild(ControllerConfig.without_design(context), (), entry)
 
 
 def make_controller(

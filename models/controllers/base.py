@@ -76,7 +76,7 @@ class SampledController(LeafSystem):
         self, sample_time: float, joints: int, internals: tuple[str, ...], memory_size: int
     ) -> None:
         super().__init__()
-        self.sample_time = require_positive("sample_time", sample_time)
+        require_positive("sample_time", sample_time)
         self.joints = joints
         self.internals_names = internals
         self.memory_size = memory_size
@@ -98,6 +98,12 @@ class SampledController(LeafSystem):
         self.DeclareVectorOutputPort("voltage", joints, self._calc_voltage, ticket)
         self.DeclareVectorOutputPort("internals", len(internals), self._calc_internals, ticket)
         self.DeclarePeriodicDiscreteUpdateEvent(sample_time, 0.0, self._update)
+
+    @property
+    def sample_time(self) -> float:
+        """``T_s`` (s): the period of the update event this system declared (Drake holds
+        it; the loop context gave it)."""
+        return self.GetUniquePeriodicDiscreteUpdateAttribute().period_sec()
 
     def _calc_step(self, context: Context, value: AbstractValue) -> None:
         q = self._q_port.Eval(context)

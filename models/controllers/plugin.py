@@ -11,7 +11,8 @@ only measurement is the held, quantised joint position (position-only is structu
 The contract, in the order posfb calls it:
 
 1. ``__init__(self, setup, **settings)``: ``setup`` is a ``ControllerSetup``
-   (``sample_time``, ``joints``, ``voltage_limit`` and the scenario's ``nominal`` model),
+   (``sample_time``, ``joints``, ``voltage_limit`` and the scenario's ``nominal`` model;
+   ``context`` is the loop context they are read from, ``models.design.loop_context``),
    ``settings`` the scenario's ``settings:`` map (numbers, lists, strings as written).
 2. ``memory_size`` (int) and ``internals`` (column names, each ending in its unit:
    ``d_hat_1_V``, ``v_est_2_rad_per_s``), read once after ``__init__``; class
@@ -64,6 +65,7 @@ import numpy as np
 
 from posfb.models.controllers.base import SampledController
 from posfb.models.controllers.registry import ControllerBuild, ControllerSpec
+from posfb.models.design.loop_context import LoopContext
 from posfb.models.lumped import LumpedModel
 from posfb.models.nominal import LinearPart, nominal_model
 from posfb.models.serial_model import SerialArmModel
@@ -183,13 +185,23 @@ class NominalDynamics:
 
 @dataclass(frozen=True)
 class ControllerSetup:
-    """What a controller is designed for: the sample time ``T_s`` (s), the number of
-    joints ``n``, the voltage limit per joint (V) and the nominal model."""
+    """What a controller is designed for: the loop it runs in (``context``,
+    ``models.design.loop_context``: its sample time ``T_s`` (s) and number of joints
+    ``n`` read it), the voltage limit per joint (V) and the nominal model's dynamics."""
 
-    sample_time: float
-    joints: int
+    context: LoopContext
     voltage_limit: tuple[float, ...]
     nominal: NominalDynamics
+
+    @property
+    def sample_time(self) -> float:
+        """``T_s`` (s): the loop's (``context.sample_time``)."""
+        return self.context.sample_time
+
+    @property
+    def joints(self) -> int:
+        """``n``: the nominal model's joint count."""
+        return self.context.joints
 
 
 class Controller:
@@ -348,7 +360,7 @@ def controller_setup(build: ControllerBuild) -> ControllerSetup:
     limit = build.voltage_limit or (math.inf,) * design.joints
     model = nominal_model(design.nominal)
     nominal = NominalDynamics(LinearPart(model) if build.linear_part else model)
-    return ControllerSetup(design.sample_time, design.joints, tuple(limit), nominal)
+    return ControllerSetup(design.context, tuple(limit), nominal)
 
 
 def plugin_law(controller: Controller) -> Law | None:

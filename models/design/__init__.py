@@ -13,6 +13,7 @@ from posfb.models.design.config import (
     UncertaintyBounds,
     diagonal,
 )
+from posfb.models.design.loop_context import LoopContext
 from posfb.models.design.synthesis import (
     DESIGNED_LOOPS,
     Check,
@@ -32,6 +33,7 @@ from posfb.models.design.synthesis import (
 cached_design = lru_cache(maxsize=32)(compute_design)
 
 __all__ = [
+    "LoopContext",
     "cached_design",
     "designed_feedback",
     "DESIGNED_LOOPS",

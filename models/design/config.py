@@ -16,8 +16,8 @@ from typing import ClassVar
 import numpy as np
 
 from posfb.models.design.discretise import DISCRETISATIONS
-from posfb.models.lumped import TABLE1
-from posfb.models.nominal import NominalModel, is_nominal_model, joint_count
+from posfb.models.design.loop_context import LoopContext
+from posfb.models.nominal import NominalModel
 from posfb.models.validation import (
     require_matrix,
     require_nonnegative,
@@ -230,16 +230,17 @@ class PidGains:
 class ControllerConfig:
     """Everything the three controllers are built from; defaults are the paper's.
 
-    ``nominal`` is the model the controllers use (``models.nominal``: Table 1 by
-    default, whose ``M0*`` is its q-independent part, reading note 5, or a nominal
-    URDF); its joint count ``n`` sizes every other part. ``sample_time`` the period ``T_s`` of
-    every controller, ``discretisation`` how the filters of Eq. 13, 20 and 25 are
-    sampled (``models.design.discretise.DISCRETISATIONS``; zero-order hold by
-    default: the exact discretisation of a filter driven by the held encoder reading).
+    ``context`` is the loop they run in (``models.design.loop_context``): its ``nominal``
+    model, the one the controllers use (``models.nominal``: Table 1 by default, whose
+    ``M0*`` is its q-independent part, reading note 5, or a nominal URDF), whose joint
+    count ``n`` sizes every other part, and its sample time ``T_s``, the period of every
+    controller (``nominal`` and ``sample_time`` read it). ``discretisation`` is how the
+    filters of Eq. 13, 20 and 25 are sampled (``models.design.discretise.DISCRETISATIONS``;
+    zero-order hold by default: the exact discretisation of a filter driven by the held
+    encoder reading).
     """
 
-    nominal: NominalModel = TABLE1
-    sample_time: float = 0.01
+    context: LoopContext = field(default_factory=LoopContext)
     lqr: LqrWeights = field(default_factory=LqrWeights)
     nonlinear: NonlinearTorqueConfig = field(default_factory=NonlinearTorqueConfig)
     bounds: UncertaintyBounds = field(default_factory=UncertaintyBounds)
@@ -247,16 +248,12 @@ class ControllerConfig:
     discretisation: str = "zoh"
 
     def __post_init__(self) -> None:
-        require_positive("sample_time", self.sample_time)
+        if not isinstance(self.context, LoopContext):
+            raise ValueError(f"context = {self.context!r} is not a LoopContext")
         if self.discretisation not in DISCRETISATIONS:
             raise ValueError(
                 f"discretisation = {self.discretisation!r}; one of "
                 f"{', '.join(DISCRETISATIONS)} is required"
-            )
-        if not is_nominal_model(self.nominal):
-            raise ValueError(
-                f"nominal = {self.nominal!r} is not a nominal model "
-                "(LumpedParameters or UrdfNominal)"
             )
         for name, kind in _part_types().items():
             if not isinstance(getattr(self, name), kind):
@@ -271,21 +268,30 @@ class ControllerConfig:
                 )
 
     @property
+    def nominal(self) -> NominalModel:
+        """The loop's nominal model (``context.nominal``)."""
+        return self.context.nominal
+
+    @property
+    def sample_time(self) -> float:
+        """The loop's sample time ``T_s`` (s; ``context.sample_time``)."""
+        return self.context.sample_time
+
+    @property
     def joints(self) -> int:
         """``n``: the nominal model's number of joints."""
-        return joint_count(self.nominal)
+        return self.context.joints
 
     @classmethod
-    def without_design(cls, nominal: NominalModel, sample_time: float) -> ControllerConfig:
+    def without_design(cls, context: LoopContext) -> ControllerConfig:
         """The config of a controller with no Sec. 3 design (a plug-in such as PD +
-        gravity or ADRC): ``nominal`` and ``sample_time`` are what it reads. The design
-        parts are unit placeholders sized to ``nominal`` (identity weights, ``lambda =
-        1``, ``H = diag(1 / (s + 1))``, unit PID gains), never used."""
-        n = joint_count(nominal)
+        gravity or ADRC): the ``context`` (nominal model, ``T_s``) is what it reads. The
+        design parts are unit placeholders sized to the nominal model (identity weights,
+        ``lambda = 1``, ``H = diag(1 / (s + 1))``, unit PID gains), never used."""
+        n = context.joints
         ones, identity = (1.0,) * n, diagonal((1.0,) * n)
         return cls(
-            nominal=nominal,
-            sample_time=sample_time,
+            context=context,
             lqr=LqrWeights(Q1=diagonal((1.0,) * 2 * n), Q2=identity, R=identity, lambdas=ones),
             nonlinear=NonlinearTorqueConfig(
                 A_zeta=diagonal((-1.0,) * n), B_zeta=identity, C_zeta=identity

@@ -101,11 +101,11 @@ import numpy as np
 import scipy.optimize
 
 from posfb.models.design.config import (
-    ControllerConfig,
     LqrWeights,
     NonlinearTorqueConfig,
     diagonal,
 )
+from posfb.models.design.loop_context import LoopContext
 from posfb.models.lumped import TABLE1, LumpedModel
 from posfb.models.trajectory import PAPER_TRAJECTORY, JointWave
 
@@ -202,7 +202,7 @@ def paper_reference(joint: int = 0) -> ReferenceLoop:
     m = float(LumpedModel(TABLE1).M0()[joint, joint])
     Qp, Rj = float(Q1[joint, joint]), float(R[joint, joint])
     return ReferenceLoop(
-        sample_time=float(_default(ControllerConfig, "sample_time")),
+        sample_time=float(_default(LoopContext, "sample_time")),
         m=m, Qp=Qp, Qv=float(Q1[n + joint, n + joint]), Qe=float(Q2[joint, joint]), R=Rj,
         lam=float(weights.lambdas[joint]), bandwidth=joint_bandwidth(Qp, Rj, m),
     )  # fmt: skip
@@ -302,7 +302,7 @@ def alpha_target(radius_lin_lc: float) -> float:
 def filter_pole(sample_time: float) -> float:
     """``a`` of ``G(s) = a / (s + a)``: ``a_ref max(1, T_ref / T_s)`` (module docstring)."""
     a_ref = float(_default(NonlinearTorqueConfig, "filter_a"))
-    t_ref = float(_default(ControllerConfig, "sample_time"))
+    t_ref = float(_default(LoopContext, "sample_time"))
     return rounded(a_ref * max(1.0, t_ref / sample_time))
 
 
@@ -310,7 +310,7 @@ def filter_pole_rule(sample_time: float) -> list[str]:
     """``filter_pole``'s rule in words at ``sample_time`` (``scenario init`` writes it
     above ``controller.filter_a``)."""
     a_ref = float(_default(NonlinearTorqueConfig, "filter_a"))
-    t_ref = float(_default(ControllerConfig, "sample_time"))
+    t_ref = float(_default(LoopContext, "sample_time"))
     a = filter_pole(sample_time)
     return [
         "G(s) = a/(s + a) needs a > ln 2 / T_s = "

@@ -27,8 +27,7 @@ from posfb.models.design.config import (
     PidGains,
     UncertaintyBounds,
 )
-from posfb.models.lumped import TABLE1
-from posfb.models.nominal import NominalModel, joint_count, nominal_model
+from posfb.models.design.loop_context import LoopContext
 from posfb.models.validation import per_joint
 
 #: What a flat ``controller:`` section's ``kind`` key says now (``yaml_schema.check_shape``).
@@ -69,48 +68,14 @@ Bounds = dataclasses.make_dataclass(
 )
 
 
-#: The joint count of the paper's arm (Table 1): an arm with this many joints gets the
-#: paper's Sec. 4.2 lists as its defaults (module docstring).
-PAPER_JOINTS = joint_count(TABLE1)
+def _h_gamma(context: LoopContext) -> float:
+    """``gamma`` of ``H(s)`` by ``scenario init``'s rule (``models.design.initial.
+    h_gamma``: the paper's ratio to the fastest wave frequency); the paper's ``gamma``
+    when no wave of the context has a frequency."""
+    from posfb.models.design.initial import h_gamma, paper_h_gamma
 
-
-@dataclass(frozen=True)
-class ArmInputs:
-    """What an entry's left-out per-joint settings are derived from (module docstring):
-    the ``nominal`` model (its joint count ``n`` and ``M0*``), the sample time ``T_s``
-    (s), the desired trajectory's wave ``frequencies`` (rad/s; empty for a trajectory
-    that is not a wave: ``H`` then gets the paper's ``gamma``), and per joint the
-    ``encoder_counts`` per revolution (0: ideal) and ``voltage_limit`` (V) that the PID
-    rule's quantisation bound reads (empty: ideal encoders, the sampling rule alone)."""
-
-    nominal: NominalModel
-    sample_time: float
-    frequencies: tuple[float, ...] = ()
-    encoder_counts: tuple[int, ...] = ()
-    voltage_limit: tuple[float, ...] = ()
-
-    @property
-    def joints(self) -> int:
-        """``n``: the nominal model's joint count."""
-        return joint_count(self.nominal)
-
-    @property
-    def paper_arm(self) -> bool:
-        """Whether the arm has the paper's two joints (its defaults are the paper's)."""
-        return self.joints == PAPER_JOINTS
-
-    def M0(self) -> np.ndarray:
-        """The nominal ``M0*`` (n x n, V s^2/rad)."""
-        return np.asarray(nominal_model(self.nominal).M0(), dtype=float)
-
-    def h_gamma(self) -> float:
-        """``gamma`` of ``H(s)`` by ``scenario init``'s rule (``models.design.initial.
-        h_gamma``: the paper's ratio to the fastest wave frequency); the paper's ``gamma``
-        when no wave has a frequency."""
-        from posfb.models.design.initial import h_gamma, paper_h_gamma
-
-        moving = [f for f in self.frequencies if f > 0.0]
-        return h_gamma(moving) if moving else paper_h_gamma()
+    moving = [f for f in context.frequencies if f > 0.0]
+    return h_gamma(moving) if moving else paper_h_gamma()
 
 
 def _paper(cls: type, name: str) -> object:
@@ -133,12 +98,12 @@ class DiagonalH:
 
     gamma: list[float] | None = None
 
-    def with_arm_defaults(self, arm: ArmInputs) -> "DiagonalH":
-        """This ``H`` with a left-out ``gamma`` from ``arm`` (module docstring)."""
-        if arm.paper_arm:
+    def with_arm_defaults(self, context: LoopContext) -> "DiagonalH":
+        """This ``H`` with a left-out ``gamma`` from ``context`` (module docstring)."""
+        if context.paper_arm:
             paper = [float(v) for v in np.diag(_paper(NonlinearTorqueConfig, "B_zeta"))]
             return _filled(self, {"gamma": lambda: paper})
-        return _filled(self, {"gamma": lambda: [arm.h_gamma()] * arm.joints})
+        return _filled(self, {"gamma": lambda: [_h_gamma(context)] * context.joints})
 
 
 @dataclass
@@ -150,12 +115,12 @@ class StateSpaceH:
     B_zeta: list[list[float]] | None = None
     C_zeta: list[list[float]] | None = None
 
-    def with_arm_defaults(self, arm: ArmInputs) -> "StateSpaceH":
-        """This ``H`` with its left-out matrices from ``arm`` (module docstring)."""
+    def with_arm_defaults(self, context: LoopContext) -> "StateSpaceH":
+        """This ``H`` with its left-out matrices from ``context`` (module docstring)."""
         names = ("A_zeta", "B_zeta", "C_zeta")
-        if arm.paper_arm:
+        if context.paper_arm:
             return _filled(self, {name: default_of(NonlinearTorqueConfig, name) for name in names})
-        gamma, identity = arm.h_gamma(), np.eye(arm.joints)
+        gamma, identity = _h_gamma(context), np.eye(context.joints)
         matrices = dict(zip(names, (-gamma * identity, gamma * identity, identity), strict=True))
         return _filled(self, {name: matrices[name].tolist for name in names})
 
@@ -183,7 +148,7 @@ def _rows(matrix: tuple[tuple[float, ...], ...]) -> list[list[float]]:
     return [list(row) for row in matrix]
 
 
-def _pid_rule(arm: ArmInputs) -> dict[str, list[float]]:
+def _pid_rule(context: LoopContext) -> dict[str, list[float]]:
     """``Kp``, ``Kv``, ``KI`` by ``scenario init``'s rule (``models.design.initial.
     pid_gains``), joint by joint with its own encoder counts and voltage limit. An ideal
     encoder (0 counts) has no count to chatter on: its joint gets the sampling rule
@@ -192,13 +157,13 @@ def _pid_rule(arm: ArmInputs) -> dict[str, list[float]]:
 
     from posfb.models.design.initial import pid_gains
 
-    n, M0 = arm.joints, arm.M0()
-    counts = per_joint("sensor.encoder_counts", list(arm.encoder_counts) or [0], n)
-    limits = per_joint("actuator.voltage_limit", list(arm.voltage_limit) or [math.inf], n)
+    n, M0 = context.joints, context.M0()
+    counts = per_joint("sensor.encoder_counts", list(context.encoder_counts) or [0], n)
+    limits = per_joint("actuator.voltage_limit", list(context.voltage_limit) or [math.inf], n)
     gains: dict[str, list[float]] = {"Kp": [], "Kv": [], "KI": []}
     for j in range(n):
         ideal = counts[j] == 0
-        joint = pid_gains(arm.sample_time, M0[j : j + 1, j : j + 1], 1 if ideal else counts[j],
+        joint = pid_gains(context.sample_time, M0[j : j + 1, j : j + 1], 1 if ideal else counts[j],
                           math.inf if ideal else limits[j])  # fmt: skip
         for name in gains:
             gains[name].append(getattr(joint, name)[0])
@@ -218,23 +183,22 @@ class Pid:
     Kv: list[float] | None = None
     KI: list[float] | None = None
 
-    def with_arm_defaults(self, arm: ArmInputs) -> "Pid":
-        """This entry with its left-out gains from ``arm`` (module docstring)."""
+    def with_arm_defaults(self, context: LoopContext) -> "Pid":
+        """This entry with its left-out gains from ``context`` (module docstring)."""
         names = ("Kp", "Kv", "KI")
-        if arm.paper_arm:
+        if context.paper_arm:
             return _filled(self, {name: default_of(PidGains, name) for name in names})
         if all(getattr(self, name) is not None for name in names):
             return self
-        rule = _pid_rule(arm)
+        rule = _pid_rule(context)
         return _filled(self, {name: (lambda name=name: rule[name]) for name in names})
 
-    def config(self, nominal: NominalModel, sample_time: float) -> ControllerConfig:
-        """The design inputs of this entry on ``nominal`` at ``sample_time`` (left-out
-        gains from ``ArmInputs(nominal, sample_time)``)."""
-        entry = self.with_arm_defaults(ArmInputs(nominal, sample_time))
-        n = joint_count(nominal)
+    def config(self, context: LoopContext) -> ControllerConfig:
+        """The design inputs of this entry in ``context`` (left-out gains from it)."""
+        entry = self.with_arm_defaults(context)
+        n = context.joints
         gains = PidGains(*(_vector(entry, name, n) for name in ("Kp", "Kv", "KI")))
-        return replace(ControllerConfig.without_design(nominal, sample_time), pid=gains)
+        return replace(ControllerConfig.without_design(context), pid=gains)
 
 
 @dataclass
@@ -253,17 +217,17 @@ class LinearTorqueInputs:
     R: list[list[float]] | None = None
     lambdas: list[float] | None = None
 
-    def with_arm_defaults(self, arm: ArmInputs) -> "LinearTorqueInputs":
-        """This entry with its left-out weights (and ``H``) from ``arm`` (module
+    def with_arm_defaults(self, context: LoopContext) -> "LinearTorqueInputs":
+        """This entry with its left-out weights (and ``H``) from ``context`` (module
         docstring)."""
         names = ("Q1", "Q2", "R", "lambdas")
-        if arm.paper_arm:
+        if context.paper_arm:
             return _filled(self, {name: default_of(LqrWeights, name) for name in names})
         if all(getattr(self, name) is not None for name in names):
             return self
         from posfb.models.design.initial import lqr_weights
 
-        rule = lqr_weights(arm.M0(), arm.sample_time).lqr()
+        rule = lqr_weights(context.M0(), context.sample_time).lqr()
         matrices = {name: _rows(getattr(rule, name)) for name in ("Q1", "Q2", "R")}
         matrices["lambdas"] = list(rule.lambdas)
         return _filled(self, {name: (lambda name=name: matrices[name]) for name in names})
@@ -273,13 +237,12 @@ class LinearTorqueInputs:
         lambdas = _vector(self, "lambdas", joints)
         return LqrWeights(Q1=self.Q1, Q2=self.Q2, R=self.R, lambdas=lambdas)
 
-    def config(self, nominal: NominalModel, sample_time: float) -> ControllerConfig:
-        """The design inputs of this entry on ``nominal`` at ``sample_time`` (left-out
-        settings from ``ArmInputs(nominal, sample_time)``)."""
-        entry = self.with_arm_defaults(ArmInputs(nominal, sample_time))
+    def config(self, context: LoopContext) -> ControllerConfig:
+        """The design inputs of this entry in ``context`` (left-out settings from it)."""
+        entry = self.with_arm_defaults(context)
         return replace(
-            ControllerConfig.without_design(nominal, sample_time),
-            lqr=entry.lqr(joint_count(nominal)),
+            ControllerConfig.without_design(context),
+            lqr=entry.lqr(context.joints),
             discretisation=entry.discretisation,
         )
 
@@ -303,24 +266,23 @@ class Proposed(LinearTorqueInputs):
     filter_a: float = field(default_factory=default_of(NonlinearTorqueConfig, "filter_a"))
     bounds: Bounds = field(default_factory=Bounds)
 
-    def with_arm_defaults(self, arm: ArmInputs) -> "Proposed":
-        """This entry with its left-out weights and ``H`` from ``arm`` (module docstring)."""
-        entry = super().with_arm_defaults(arm)
-        H = entry.H.with_arm_defaults(arm)
+    def with_arm_defaults(self, context: LoopContext) -> "Proposed":
+        """This entry with its left-out weights and ``H`` from ``context`` (module docstring)."""
+        entry = super().with_arm_defaults(context)
+        H = entry.H.with_arm_defaults(context)
         return entry if H is entry.H else replace(entry, H=H)
 
-    def config(self, nominal: NominalModel, sample_time: float) -> ControllerConfig:
-        """The design inputs of this entry on ``nominal`` at ``sample_time`` (left-out
-        settings from ``ArmInputs(nominal, sample_time)``)."""
-        entry = self.with_arm_defaults(ArmInputs(nominal, sample_time))
-        joints = joint_count(nominal)
+    def config(self, context: LoopContext) -> ControllerConfig:
+        """The design inputs of this entry in ``context`` (left-out settings from it)."""
+        entry = self.with_arm_defaults(context)
+        joints = context.joints
         A_zeta, B_zeta, C_zeta = h_matrices(entry.H, joints)
         nonlinear = NonlinearTorqueConfig(
             alpha_star=entry.alpha_star, K_alpha=entry.K_alpha, alpha0=entry.alpha0,
             A_zeta=A_zeta, B_zeta=B_zeta, C_zeta=C_zeta, filter_a=entry.filter_a,
         )  # fmt: skip
         return replace(
-            LinearTorqueInputs.config(entry, nominal, sample_time),
+            LinearTorqueInputs.config(entry, context),
             nonlinear=nonlinear,
             bounds=UncertaintyBounds(**dataclasses.asdict(entry.bounds)),
         )

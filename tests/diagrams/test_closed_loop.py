@@ -12,6 +12,7 @@ from helpers.loop_checks import assert_position_only
 from posfb.analysis.common.metrics import run_metrics
 from posfb.analysis.paper.experiment import case_parameters, payload_mass
 from posfb.diagrams.loop_config import ClosedLoopConfig
+from posfb.diagrams.resolve import load_scenario, resolve
 from posfb.diagrams.runner import ClosedLoopRunner
 from posfb.diagrams.sections import Actuator, Sensor, Timing
 from posfb.models.controllers import kinds
@@ -146,7 +147,6 @@ def test_payload_proposed_beats_lin_lc_on_joint_2(payload_runs):
         ({"timing": Timing(saturated_share=math.inf)}, "timing.saturated_share = inf"),
         ({"sensor": Sensor(noise_std=[-1.0])}, "sensor.noise_std[0] = -1.0"),
         ({"sensor": Sensor(delay_samples=1.5)}, "sensor.delay_samples = 1.5"),
-        ({"timing": Timing(sample_time=0.005)}, "timing.sample_time = 0.005; the design's"),
     ],
 )
 def test_config_errors_name_the_scenario_key(change, name):
@@ -155,6 +155,20 @@ def test_config_errors_name_the_scenario_key(change, name):
     with pytest.raises(ValueError) as error:
         ClosedLoopConfig(**change)
     assert str(error.value).startswith(name)
+
+
+def test_the_sample_time_has_one_home(tmp_path):
+    # Issue 44: a scenario's timing.sample_time is resolved into one LoopContext, which
+    # the design, the controller's Drake system and the loop read; no other section holds
+    # a copy that could disagree (the loop's Timing has no sample time at all).
+    assert "sample_time" not in {f.name for f in dataclasses.fields(Timing)}
+    path = tmp_path / "fast.yaml"
+    path.write_text("controller: !LinLc {}\ntiming: {sample_time: 0.005, duration: 0.1}\n")
+    config = resolve(load_scenario(path)).config
+    assert config.design.context is config.context
+    assert config.sample_time == config.design.sample_time == 0.005
+    runner = ClosedLoopRunner(config)
+    assert runner.loop.controller.sample_time == 0.005  # the period Drake's event holds
 
 
 def test_a_config_keeps_its_own_sections():

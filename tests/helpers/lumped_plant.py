@@ -20,6 +20,7 @@ from pydrake.systems.primitives import SymbolicVectorSystem, VectorLogSink
 from posfb.diagrams.wiring import hold_inputs
 from posfb.models.controllers import internals_names, make_controller
 from posfb.models.design import ControllerConfig, NonlinearTorqueConfig
+from posfb.models.design.loop_context import LoopContext
 from posfb.models.lumped import TABLE1, LumpedModel, LumpedParameters
 from posfb.models.trajectory import WaveTrajectory, desired, sampled_source
 
@@ -55,8 +56,7 @@ def exact_model_config(sample_time: float) -> ControllerConfig:
     """The paper's settings on the frictionless model, with ``a = 1/T_s`` (``abar = e^-1``
     as the paper's ``a T_s = 1``; the paper's ``a = 100`` is refused below 6.93 ms)."""
     return ControllerConfig(
-        nominal=FRICTIONLESS,
-        sample_time=sample_time,
+        context=LoopContext(FRICTIONLESS, sample_time),
         nonlinear=NonlinearTorqueConfig(filter_a=1.0 / sample_time),
     )
 

@@ -20,6 +20,7 @@ from posfb.diagrams.resolve import load_scenario, run_scenario
 from posfb.models.controllers import PAPER_CONTROLLERS
 from posfb.models.controllers.feedforward import nominal_torques
 from posfb.models.design import ControllerConfig, compute_design
+from posfb.models.design.loop_context import LoopContext
 from posfb.models.nominal import UrdfNominal
 from posfb.models.plant import (
     DEFAULT_URDF,
@@ -172,8 +173,8 @@ def test_the_urdf_nominal_model_of_the_paper_arm_equals_its_identified_theta():
         np.testing.assert_allclose(drake.desired(v, a), closed_form.desired(v, a), rtol=1e-9)
         assert drake.M1_norm(q) == pytest.approx(closed_form.M1_norm(q), rel=1e-9, abs=1e-14)
     ours, theirs = (
-        compute_design(ControllerConfig(nominal=urdf)),
-        compute_design(ControllerConfig(nominal=identified)),
+        compute_design(ControllerConfig(LoopContext(urdf))),
+        compute_design(ControllerConfig(LoopContext(identified))),
     )
     assert ours.sampled_data_spectral_radius == pytest.approx(
         theirs.sampled_data_spectral_radius, rel=1e-9

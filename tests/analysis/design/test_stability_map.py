@@ -58,7 +58,10 @@ def _config(sample_time: float, alpha_star: float, scenario=CASE_FILES["nominal"
     """The design inputs of ``scenario`` (the paper's) at ``(T_s, alpha*)``, built without
     the map's path (no scenario setting, no ``controller_inputs``)."""
     config = resolve(load_scenario(scenario)).config.design
-    return dataclasses.replace(config.with_alpha_star(alpha_star), sample_time=sample_time)
+    return dataclasses.replace(
+        config.with_alpha_star(alpha_star),
+        context=dataclasses.replace(config.context, sample_time=sample_time),
+    )
 
 
 def _plant_radii(design, plants) -> np.ndarray:

@@ -48,7 +48,8 @@ from posfb.analysis.uncertainty.plants import linear_plants, plant_family
 from posfb.diagrams.resolve import resolve
 from posfb.models.design import ControllerConfig, compute_design, design_loop
 from posfb.models.design.closed_loop import spectral_radius, stationary_deviations
-from posfb.models.design.settings import ArmInputs, LinLc, Proposed
+from posfb.models.design.loop_context import LoopContext
+from posfb.models.design.settings import LinLc, Proposed
 from posfb.models.lumped import TABLE1
 
 CLI = [sys.executable, "-m", "posfb.analysis.cli"]
@@ -143,7 +144,7 @@ def test_torque_bandwidth_of_a_sinusoid_is_its_frequency():
 
 
 def test_knobs_scale_the_weights_and_keep_them_valid():
-    entry = Proposed().with_arm_defaults(ArmInputs(TABLE1, 0.01))  # the paper's entry
+    entry = Proposed().with_arm_defaults(LoopContext(TABLE1, 0.01))  # the paper's entry
     assert [k.key for k in knobs("proposed", entry)][0] == "alpha_star"
     assert len(knobs("lin_lc", LinLc())) == 4
     tuned = tuning("proposed").apply(entry, np.array([2.0, 4.0, 9.0, 0.5, 3.0]), 0.005)
@@ -152,7 +153,8 @@ def test_knobs_scale_the_weights_and_keep_them_valid():
     assert tuned.alpha_star == 2.0 and tuned.lambdas == [30.0, 30.0]
     # the paper's filter_a = 100 is invalid at 5 ms: the rule replaces it with a valid one
     assert tuned.filter_a > math.log(2) / 0.005
-    assert compute_design(tuned.config(TABLE1, 0.005)).require_nonlinear_torque() is None
+    design = compute_design(tuned.config(LoopContext(TABLE1, 0.005)))
+    assert design.require_nonlinear_torque() is None
 
 
 @pytest.fixture(scope="module")

@@ -19,6 +19,7 @@ from posfb.analysis.cli import main
 from posfb.models.controllers import ControllerSetup, PluginError
 from posfb.models.controllers.adrc import AdrcController
 from posfb.models.controllers.plugin import NominalDynamics
+from posfb.models.design.loop_context import LoopContext
 from posfb.models.lumped import TABLE1, LumpedModel
 from posfb.models.nominal import UrdfNominal, nominal_model
 from posfb.models.plant import DEFAULT_URDF, PlantConfig, build_arm_diagram
@@ -179,7 +180,7 @@ def test_adrc_disturbance_estimate_converges_to_a_constant_torque():
     # integrator m_j qddot = u + d (V), simulated exactly with the held voltage.
     T_s, d = 0.01, np.array([0.7, -0.4])
     nominal = LumpedModel(TABLE1)
-    setup = ControllerSetup(T_s, 2, (24.0, 24.0), NominalDynamics(nominal))
+    setup = ControllerSetup(LoopContext(TABLE1, T_s), (24.0, 24.0), NominalDynamics(nominal))
     adrc = AdrcController(setup)
     m = np.diag(nominal.M0())
     q, v = np.zeros(2), np.zeros(2)

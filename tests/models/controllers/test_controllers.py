@@ -127,8 +127,7 @@ def closed_loop_run():
     """Exact-model closed loop at 2 ms from an initial error, alpha(0) = 1."""
     base = exact_model_config(0.002)
     config = ControllerConfig(
-        nominal=base.nominal,
-        sample_time=base.sample_time,
+        context=base.context,
         nonlinear=NonlinearTorqueConfig(filter_a=base.nonlinear.filter_a, alpha0=1.0),
     )
     return simulate("proposed", config, 2.0, initial_error=(0.05, -0.05))

@@ -19,7 +19,8 @@ from helpers.slow import heavy
 from posfb.diagrams.resolve import resolve
 from posfb.diagrams.scenario import with_controller
 from posfb.models.design import ControllerConfig
-from posfb.models.design.settings import ArmInputs, LinLc, Pid, Proposed
+from posfb.models.design.loop_context import LoopContext
+from posfb.models.design.settings import LinLc, Pid, Proposed
 from posfb.models.lumped import TABLE1
 from posfb.models.plant import DEFAULT_URDF
 
@@ -105,15 +106,16 @@ def test_the_paper_arm_keeps_the_papers_values_exactly(entry):
 
 def test_an_entry_on_its_own_is_the_papers_design_on_the_paper_arm():
     paper = ControllerConfig()
-    assert replace(Proposed().config(TABLE1, 0.01), pid=paper.pid) == paper  # no PID in it
-    assert LinLc().config(TABLE1, 0.01).lqr == ControllerConfig().lqr
-    assert Pid().config(TABLE1, 0.01).pid == ControllerConfig().pid
+    paper_context = LoopContext(TABLE1, 0.01)
+    assert replace(Proposed().config(paper_context), pid=paper.pid) == paper  # no PID in it
+    assert LinLc().config(LoopContext(TABLE1, 0.01)).lqr == ControllerConfig().lqr
+    assert Pid().config(LoopContext(TABLE1, 0.01)).pid == ControllerConfig().pid
 
 
 def test_an_ideal_encoder_gives_pid_the_sampling_rule_alone(initialised):
     nominal = resolve(posfb.load_scenario(initialised)).config.design.nominal
     sample_time = 0.01
-    gains = Pid().with_arm_defaults(ArmInputs(nominal, sample_time))
+    gains = Pid().with_arm_defaults(LoopContext(nominal, sample_time))
     omega = 2 * np.pi / (20 * sample_time)  # 20 samples per period of the bandwidth
     # (s + omega)^2 (s + omega / 10): Kp = 1.2 omega^2, Kv = 2.1 omega, KI = 0.1 omega^3
     np.testing.assert_allclose(gains.Kp, [1.2 * omega**2] * 3, rtol=1e-5)

@@ -20,6 +20,7 @@ from posfb.models.design import (
 from posfb.models.design.bounds import bound_filter_constants, coriolis_bound, resolve_bounds
 from posfb.models.design.closed_loop import continuous_closed_loop, spectral_radius
 from posfb.models.design.discretise import first_order_hold, zero_order_hold
+from posfb.models.design.loop_context import LoopContext
 from posfb.models.design.realisation import ContinuousFilter
 from posfb.models.design.spr import spr_certificate
 from posfb.models.lumped import TABLE1, LumpedModel
@@ -223,7 +224,7 @@ def test_sampled_data_radius_against_scipy_holds(paper):
     loop = np.block([[Pd + Gd @ Dc @ Cq, Gd @ Cc], [Bc @ Cq, Ac]])
     assert paper.sampled_data_spectral_radius == pytest.approx(spectral_radius(loop), rel=1e-10)
     # and sampling-free limit: the radius tends to exp(T max Re s) of the continuous loop
-    fine = compute_design(ControllerConfig(sample_time=1e-4))
+    fine = compute_design(ControllerConfig(LoopContext(sample_time=1e-4)))
     slowest = continuous_closed_loop(paper.M0, paper.B, nc, gain)
     limit = math.exp(1e-4 * np.linalg.eigvals(slowest).real.max())
     assert fine.sampled_data_spectral_radius == pytest.approx(limit, abs=1e-5)
@@ -236,7 +237,7 @@ def test_paper_settings_at_100_and_200_hz(paper):
     assert paper.sampled_data_spectral_radius_lin_lc < 1.0
     assert [c.name for c in paper.checks if not c.passed] == ["sampled_data"]
     assert "UNSTABLE" in paper.warnings[0]
-    at_200hz = compute_design(ControllerConfig(sample_time=0.005))
+    at_200hz = compute_design(ControllerConfig(LoopContext(sample_time=0.005)))
     assert at_200hz.sampled_data_spectral_radius < 1.0
     assert [c.name for c in at_200hz.checks if not c.passed] == ["bound_filter"]
     assert "filter_a = 100" in at_200hz.warnings[0]

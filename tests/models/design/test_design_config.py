@@ -14,6 +14,7 @@ from posfb.models.design import (
     UncertaintyBounds,
     diagonal,
 )
+from posfb.models.design.loop_context import LoopContext
 
 
 @pytest.mark.parametrize(
@@ -46,9 +47,9 @@ from posfb.models.design import (
         (lambda: UncertaintyBounds(delta_G=float("nan")), "delta_G"),
         (lambda: PidGains(Kp=(800.0, 0.0)), "Kp[1]"),
         (lambda: PidGains(KI=(1.0,)), "KI"),
-        (lambda: ControllerConfig(sample_time=0.0), "sample_time"),
-        (lambda: ControllerConfig(sample_time=-0.01), "sample_time"),
-        (lambda: ControllerConfig(sample_time=float("inf")), "sample_time"),
+        (lambda: ControllerConfig(LoopContext(sample_time=0.0)), "sample_time"),
+        (lambda: ControllerConfig(LoopContext(sample_time=-0.01)), "sample_time"),
+        (lambda: ControllerConfig(LoopContext(sample_time=float("inf"))), "sample_time"),
     ],
 )
 def test_bad_parameter_is_refused_by_name(build, name):
@@ -59,14 +60,16 @@ def test_bad_parameter_is_refused_by_name(build, name):
 def test_filter_pole_at_or_below_ln2_over_Ts_is_refused_by_the_proposed_controller():
     """``a = 100`` at 200 Hz: ``abar = 0.61 >= 1/2``. Only the controller that uses the
     bounds refuses it."""
-    config = ControllerConfig(sample_time=0.005)
+    config = ControllerConfig(LoopContext(sample_time=0.005))
     with pytest.raises(ValueError, match="filter_a = 100 is not above ln 2 / T_s"):
         make_controller("proposed", config)
     make_controller("lin_lc", config)
     make_controller("pid", config)
     boundary = NonlinearTorqueConfig(filter_a=0.6931471805599453 / 0.005)
     with pytest.raises(ValueError, match="filter_a"):
-        make_controller("proposed", ControllerConfig(sample_time=0.005, nonlinear=boundary))
+        make_controller(
+            "proposed", ControllerConfig(LoopContext(sample_time=0.005), nonlinear=boundary)
+        )
 
 
 def test_non_spr_filter_is_refused_by_the_proposed_controller():
