@@ -156,14 +156,13 @@ def default_simulator() -> SimulatorConfig:
 
 @dataclass
 class Timing:
-    """How the loop is run and judged: simulated ``duration`` (s, a whole number of the
-    loop's sample periods ``T_s``, which the loop context holds,
-    ``models.design.loop_context``), the ``|q~|`` (rad) beyond which a run is stopped
-    as diverged, the verdict's bounds on a run that finished (``lost_bound``: the largest
-    RMS ``|q~|`` (rad) a joint may have over the run's second half; ``lost_fraction``: the
-    largest such RMS as a fraction of the path's excursion (the largest half peak-to-peak
-    of a joint's ``q_d``, ``analysis.common.metrics.path_excursion``; the smaller of the
-    two bounds applies);
+    """How the loop is run and judged: simulated ``duration`` (s, a whole number of periods
+    ``T_s``; the loop context holds the sample time, ``models.design.loop_context``), the
+    ``|q~|`` (rad) beyond which a run is stopped as diverged, the verdict's bounds on a
+    run that finished (``lost_bound``: the largest RMS ``|q~|`` (rad) a joint may have
+    over the run's second half; ``lost_fraction``: the largest such RMS as a fraction of
+    the path's excursion (the largest half peak-to-peak of a joint's ``q_d``,
+    ``analysis.common.metrics.path_excursion``; the smaller of the two bounds applies);
     ``saturated_share``: the largest share of the second half's samples with a commanded
     voltage beyond the limit; ``analysis.common.metrics.run_verdict``), Drake's integrator
     settings, and the spacing (s) of the path's configurations at which the linear
@@ -356,7 +355,8 @@ TimingSection = make_dataclass(
     [("sample_time", float, field(default_factory=default_of(LoopContext, "sample_time")))]
     + [(f.name, f.type, _copied(f)) for f in fields(Timing)],
     namespace={
-        "__doc__": "``sample_time``, the loop's ``T_s`` (s) of the controller and the sensor, "
+        "__doc__": "``sample_time`` (s, the sample time ``T_s`` of the controller and the "
+        "sensor, which resolve hands to the loop context, ``models.design.loop_context``), "
         "then the run's timing and verdict bounds (``Timing``).",
         "__module__": __name__,
         "__eq__": _section_eq,

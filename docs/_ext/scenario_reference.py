@@ -45,7 +45,8 @@ from sphinx.util.nodes import nested_parse_with_titles
 #: Where a section's fields are documented besides its own docstring: the classes that
 #: consume them (a scenario section is turned into these, and their docstrings describe
 #: the same names), or the class a ``make_dataclass`` section is made from
-#: (``ParameterOverrides`` from ``ArmParameters``, ``Bounds`` from ``UncertaintyBounds``).
+#: (``ParameterOverrides`` from ``ArmParameters``, ``Bounds`` from ``UncertaintyBounds``,
+#: ``TimingSection`` from ``Timing``).
 #: Looked up by field name, so that a key added to either appears with its text.
 DOCUMENTED_BY = {
     "PlantSettings": ["posfb.models.plant:PlantConfig", "posfb.models.plant:ArmParameters",
@@ -56,6 +57,7 @@ DOCUMENTED_BY = {
                  "posfb.models.design.config:LqrWeights"],
     "LinLc": ["posfb.models.design.config:LqrWeights"],
     "Pid": ["posfb.models.design.config:PidGains"],
+    "TimingSection": ["posfb.diagrams.sections:Timing"],
 }  # fmt: skip
 
 #: Classes whose field units a table in the code gives (column-name suffixes).
