@@ -23,6 +23,7 @@ from posfb.models.serial_bounds import (
     MODEL_NORM_SAMPLES,
     MODEL_NORM_SEED,
     SEARCH_STEPS,
+    STARTS,
     model_norms,
 )
 from posfb.models.serial_model import SerialArmModel
@@ -142,6 +143,8 @@ def _serial_norms(
             "samples": MODEL_NORM_SAMPLES,
             "seed": MODEL_NORM_SEED,
             "steps": SEARCH_STEPS,
+            "starts": STARTS,
+            "search": "bfgs",
         },
         lambda: model_norms(model, MODEL_NORM_SAMPLES, MODEL_NORM_SEED),
     )
