@@ -731,6 +731,7 @@ def identify(
     stiction_velocity: float | None = None,
     window: float | None = None,
     set: Settings | None = None,  # noqa: A002
+    progress: bool = False,
 ) -> Identification:
     """Identify the scenario's arm from an encoder log, as ``posfb identify --log`` does
     (``analysis.identification``; the estimator is ``models.identification``).
@@ -754,6 +755,8 @@ def identify(
         error's window (s, default 1).
     set
         Scenario settings applied first, as in ``load_scenario``.
+    progress
+        Show each step (reading, fitting, checking, validating) on one line of stderr.
 
     Returns
     -------
@@ -779,13 +782,17 @@ def identify(
         if stiction_velocity is None
         else stiction_velocity,
     )
-    return identify_log(
-        load_scenario(scenario, set),
-        log,
-        validation_log=validate,
-        settings=settings,
-        window=DEFAULT_WINDOW if window is None else window,
-    )
+    from posfb.analysis.common.progress import status_line
+
+    with status_line("identify", progress) as say:
+        return identify_log(
+            load_scenario(scenario, set),
+            log,
+            validation_log=validate,
+            settings=settings,
+            window=DEFAULT_WINDOW if window is None else window,
+            progress=say,
+        )
 
 
 def plan_excitation(
@@ -798,6 +805,7 @@ def plan_excitation(
     excursion: float | None = None,
     velocity_limit: float | None = None,
     set: Settings | None = None,  # noqa: A002
+    progress: bool = False,
 ) -> PlannedExcitation:
     """An exciting trajectory for the scenario's arm, as ``posfb identify plan`` writes
     (finite Fourier series, Swevers et al. 1997; ``analysis.identification.plan``).
@@ -813,6 +821,8 @@ def plan_excitation(
     excursion, velocity_limit
         The largest excursion from rest (rad, default pi/2) and ``|q'|`` limit (rad/s,
         default: the URDF's, else 2).
+    progress
+        Show the search's start and iteration on one line of stderr (a terminal only).
 
     Returns
     -------
@@ -825,14 +835,17 @@ def plan_excitation(
     ValueError
         Limits the plan cannot meet, or a bad argument (one line).
     """
+    from posfb.analysis.common.progress import status_line
     from posfb.analysis.identification.plan import plan_for_scenario
 
-    return plan_for_scenario(
-        load_scenario(scenario, set),
-        duration=duration,
-        harmonics=harmonics,
-        period=period,
-        seed=seed,
-        excursion=excursion,
-        velocity_limit=velocity_limit,
-    )
+    with status_line("identify plan", progress) as say:
+        return plan_for_scenario(
+            load_scenario(scenario, set),
+            duration=duration,
+            harmonics=harmonics,
+            period=period,
+            seed=seed,
+            excursion=excursion,
+            velocity_limit=velocity_limit,
+            progress=say,
+        )

@@ -27,7 +27,7 @@ finds are then judged as the sampled ones are. Two steps:
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, replace
 
 import numpy as np
@@ -140,11 +140,14 @@ def worst_case(
     plants: int = DEFAULT_PLANTS,
     generations: int = DEFAULT_GENERATIONS,
     seed: int = DEFAULT_SEED,
+    progress: Callable[[str], None] | None = None,
 ) -> WorstCase:
     """The ``WorstCase`` of the scenario ``loaded``'s ``controller`` over ``study``'s box
     (module docstring). ``ValueError`` (one line): a study of another arm, one with a
     ``posterior:`` (no box), one that varies no arm parameter, or a controller without a
-    linear design, sizes beyond their ceilings (``check_search_size``)."""
+    linear design, sizes beyond their ceilings (``check_search_size``). ``progress`` gets
+    a line at each step and generation (it does not change the result)."""
+    say = progress or (lambda text: None)
     check_search_size(plants, generations)
     if study.posterior is not None:
         raise ValueError("the study draws the arm from a posterior:, which has no parameter "
@@ -173,16 +176,26 @@ def worst_case(
                      _where(everywhere, worst_radius), _where(active, worst_disk))  # fmt: skip
 
     drawn = [sample_plant(family, loops.nominal_parameters, i).parameters for i in range(plants)]
-    sampled = [describe(f"sampled {i}", p) for i, p in enumerate(drawn)]
+    sampled = []
+    for i, p in enumerate(drawn):
+        say(f"sampled plant {i + 1} of {plants}")
+        sampled.append(describe(f"sampled {i}", p))
     by_radius = max(range(plants), key=lambda i: sampled[i].radius)
     by_disk = min(range(plants), key=lambda i: sampled[i].disk_margin)
     bounds = [(a.low, a.high) for a in axes]
 
-    def search(objective, start: ArmParameters) -> np.ndarray:
+    def search(objective, start: ArmParameters, figure: str) -> np.ndarray:
         nonlocal count
+        generation = iter(range(1, generations + 1))
+
+        def step(*_: object, **__: object) -> None:  # scipy's old and new callback forms
+            say(f"{figure} search, generation {next(generation)} of {generations}")
+
+        say(f"{figure} search, first generation")
         found = scipy.optimize.differential_evolution(
             objective, bounds, x0=loops.unit_of(axes, start), maxiter=generations,
             popsize=POPULATION_PER_AXIS, init="latinhypercube", polish=False, seed=seed, tol=0.0,
+            callback=step,
         )  # fmt: skip
         count += found.nfev
         return found.x
@@ -193,8 +206,8 @@ def worst_case(
     def disk(u: np.ndarray) -> float:
         return min(_disk(loop) for loop in loops.loops_at(loops.parameters_at(axes, u), active))
 
-    worst_radius = loops.parameters_at(axes, search(negative_radius, drawn[by_radius]))
-    worst_disk = loops.parameters_at(axes, search(disk, drawn[by_disk]))
+    worst_radius = loops.parameters_at(axes, search(negative_radius, drawn[by_radius], "radius"))
+    worst_disk = loops.parameters_at(axes, search(disk, drawn[by_disk], "disk margin"))
     return WorstCase(
         controller=controller,
         axes=axes,

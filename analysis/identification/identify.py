@@ -14,6 +14,7 @@ comes from the log's counts where it gives them, else from the scenario's
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, replace
 from pathlib import Path
 
@@ -256,12 +257,15 @@ def identify_log(
     validation_log: str | Path | None = None,
     settings: FilterSettings | None = None,
     window: float = DEFAULT_WINDOW,
+    progress: Callable[[str], None] | None = None,
 ) -> Identification:
     """The scenario's arm from ``log`` (module docstring), validated on
-    ``validation_log`` when given."""
+    ``validation_log`` when given; ``progress`` gets a line at each step."""
+    say = progress or (lambda text: None)
     settings = settings or FilterSettings()
     config = resolve(loaded).config
     counts = tuple(config.sensor.encoder_counts)
+    say(f"reading {log}")
     record = read_log(log, joints=config.joints, counts_per_revolution=counts)
     step = record.quantisation_step
     if step is None and all(c > 0 for c in counts):
@@ -272,6 +276,7 @@ def identify_log(
         else read_log(validation_log, joints=config.joints, counts_per_revolution=counts)
     )
     nominal = config.design.nominal
+    say(f"fitting the model to {len(record.time)} samples")
     if isinstance(nominal, LumpedParameters):
         theta = identify_theta(
             record.time, record.q, record.u, l1=nominal.l1, g=nominal.g,
@@ -290,6 +295,7 @@ def identify_log(
         size = model.base.size
         regressor, target = model.columns, serial.torque
         described = (model.base.combine(model.nominal), model.torque)
+    say("checking the units against the nominal model")
     checked_units = unit_warning(
         record.time, record.q, record.u, regressor, described[0], described[1],
         replace(settings, cutoff_hz=result.estimate.cutoff_hz),
@@ -298,6 +304,7 @@ def identify_log(
     values = result.model_values if result.theta is not None else result.model_values[:size]
     if second is None:
         return result
+    say(f"validating on {validation_log}")
     checked = validate(
         second.time, second.q, second.u, regressor, values,
         target=target, window=window, nominal=described, quantisation_step=step,

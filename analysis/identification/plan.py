@@ -15,6 +15,7 @@ base-parameter regressor with the motor-constant ratio columns of the nominal vo
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -30,6 +31,7 @@ from posfb.models.identification.estimate import (
     planned_condition,
 )
 from posfb.models.identification.excitation import (
+    STARTS,
     ExcitationPlan,
     per_sample,
     plan_excitation,
@@ -152,8 +154,10 @@ def plan_for_scenario(
     seed: int = 0,
     excursion: float | None = None,
     velocity_limit: float | None = None,
+    progress: Callable[[str], None] | None = None,
 ) -> PlannedExcitation:
-    """The exciting trajectory for the scenario's arm (module docstring)."""
+    """The exciting trajectory for the scenario's arm (module docstring); ``progress``
+    gets a line at each start and iteration of the search."""
     config = resolve(loaded).config
     nominal = config.design.nominal
     if isinstance(nominal, LumpedParameters):
@@ -193,7 +197,10 @@ def plan_for_scenario(
         velocity_limit=velocity,
         voltage_limit=np.asarray(config.voltage_limit, dtype=float),
         seed=seed,
-    )
+        progress=None if progress is None else (
+            lambda start, done: progress(f"start {start + 1} of {STARTS}, SLSQP iteration {done}")
+        ),
+    )  # fmt: skip
     time = plan.sample_times()
     q, qdot, qddot = plan.trajectory.sample(time)
     if step is not None:

@@ -14,6 +14,7 @@ plants (``margins``), sensitivity (``sensitivity``) and whether N was enough
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -346,22 +347,31 @@ def markdown(
     return "\n".join(lines)
 
 
-def write_report(store: ResultStore, out: str | Path) -> Path:
+def write_report(
+    store: ResultStore, out: str | Path, progress: Callable[[str], None] | None = None
+) -> Path:
     """Write ``report.md`` and the figures (PNG and SVG) into ``out``; return the
-    report's path."""
+    report's path. ``progress`` gets a line at each step."""
+    say = progress or (lambda text: None)
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
+    say(f"reading {store.path}")
     data = load(store)
     if len(data.samples) == 0:
         raise ValueError(f"{store.path} holds no finished samples yet; nothing to report")
+    say(f"the statistics, radii and margins of {len(data.samples)} samples")
     found = answers(data)
-    plot_distributions(data, out)
-    plot_against_payload(data, out)
-    plot_inside_outside(data, out)
-    if found.loops:
-        stability.plot(data, found.loops, out)
-    sensitivity.plot(found.ranked, data.controllers, data.joints, out)
-    convergence.plot(data, out)
+    figures = [
+        lambda: plot_distributions(data, out),
+        lambda: plot_against_payload(data, out),
+        lambda: plot_inside_outside(data, out),
+        *([lambda: stability.plot(data, found.loops, out)] if found.loops else []),
+        lambda: sensitivity.plot(found.ranked, data.controllers, data.joints, out),
+        lambda: convergence.plot(data, out),
+    ]
+    for number, draw in enumerate(figures, start=1):
+        say(f"figure {number} of {len(figures)}")
+        draw()
     path = out / "report.md"
     path.write_text(markdown(data, found))
     return path

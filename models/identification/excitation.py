@@ -54,6 +54,7 @@ the whole run against the limits themselves, and shrunk towards rest if it fails
 from __future__ import annotations
 
 import functools
+import itertools
 import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
@@ -382,8 +383,11 @@ class _Problem:
         shrinking = rate < 0.0
         return float(np.min(self.linear_offset[shrinking] / -rate[shrinking], initial=np.inf))
 
-    def optimise(self, start: np.ndarray, max_iterations: int) -> tuple[np.ndarray, int, str]:
-        """SLSQP from ``start``: ``(x, iterations, message)``."""
+    def optimise(
+        self, start: np.ndarray, max_iterations: int, step: Callable[[], None] | None = None
+    ) -> tuple[np.ndarray, int, str]:
+        """SLSQP from ``start``: ``(x, iterations, message)``; ``step()`` after each
+        iteration."""
         constraints = [
             {
                 "type": "ineq",
@@ -403,6 +407,7 @@ class _Problem:
             method="SLSQP",
             constraints=constraints,
             options={"maxiter": max_iterations, "ftol": 1e-6},
+            callback=None if step is None else (lambda *_: step()),
         )
         return np.asarray(result.x, dtype=float), int(result.nit), str(result.message)
 
@@ -534,6 +539,7 @@ def plan_excitation(
     max_iterations: int = 100,
     starts: int = STARTS,
     margin: float = LIMIT_MARGIN,
+    progress: Callable[[int, int], None] | None = None,
 ) -> ExcitationPlan:
     """The Fourier excitation of ``harmonics`` harmonics per joint (module docstring)
     that minimises the scaled-column condition number of the stacked regressor, at rest
@@ -553,6 +559,8 @@ def plan_excitation(
     from ``numpy.random.default_rng(seed)``, each scaled towards rest until it meets the
     tightened limits on the grid, each optimised by SLSQP for at most ``max_iterations``
     iterations; the plan is the best that meets the limits at every sample time.
+    ``progress(start, iteration)`` (0-based start, iterations done) is called as the
+    search goes; it does not change the plan.
 
     Every argument is checked; limits that no motion meets (a rest outside the joint
     limits, a voltage limit below the voltage that holds the arm at rest) raise a
@@ -603,7 +611,7 @@ def plan_excitation(
     rng = np.random.default_rng(seed)
     plans = []
     with threadpool_limits(1):  # small matrices: one BLAS thread is faster, and repeatable
-        for _ in range(starts):
+        for index in range(starts):
             start = _feasible_start(problem, rng, limits)
             start_value = problem.evaluate(start)[0]
             if 10.0**start_value > MAX_START_CONDITION:
@@ -612,7 +620,9 @@ def plan_excitation(
                     f"start (above {MAX_START_CONDITION:g}): its columns are dependent; a "
                     "regressor of identifiable (base) parameters is required"
                 )
-            x, iterations, message = problem.optimise(start, max_iterations)
+            x, iterations, message = problem.optimise(
+                start, max_iterations, None if progress is None else _counted(progress, index)
+            )
             checked = _checked(problem, x, start, times, limits)
             plans.append(
                 ExcitationPlan(
@@ -626,6 +636,13 @@ def plan_excitation(
                 )
             )
     return max(plans, key=lambda plan: (plan.limits_met, -plan.condition))
+
+
+def _counted(progress: Callable[[int, int], None], start: int) -> Callable[[], None]:
+    """A step callback that tells ``progress(start, iterations done)``, beginning at 0."""
+    done = itertools.count(1)
+    progress(start, 0)
+    return lambda: progress(start, next(done))
 
 
 def _feasible_start(problem: _Problem, rng: np.random.Generator, limits: _Limits) -> np.ndarray:

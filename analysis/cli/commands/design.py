@@ -79,6 +79,10 @@ def configure(parser: argparse.ArgumentParser) -> None:
         help=f"--worst-case: generations of the search (default {DEFAULT_GENERATIONS})",
     )  # fmt: skip
     parser.add_argument(
+        "--no-progress", action="store_true",
+        help="--worst-case: no progress line on stderr (none with --json either)",
+    )  # fmt: skip
+    parser.add_argument(
         "--no-sim", action="store_true", help="skip the simulation of the scenario's arm "
         "that confirms the linear verdict (analysis/design/exact_arm.py)",
     )  # fmt: skip
@@ -236,6 +240,7 @@ def run(args: argparse.Namespace) -> int:
 def run_worst_case(args: argparse.Namespace) -> int:
     """``posfb design --worst-case --study STUDY``: print (or ``--json``) the worst plants
     of the study's box (``analysis.design.worst_case``)."""
+    from posfb.analysis.common import progress
     from posfb.analysis.design.worst_case import (
         DEFAULT_PLANTS,
         DEFAULT_SEED,
@@ -263,11 +268,13 @@ def run_worst_case(args: argparse.Namespace) -> int:
     config = resolve(loaded).config
     loop_design(resolve(loaded), "--worst-case")  # a plug-in is refused before any work
     try:
-        found = worst_case(
-            loaded, study, config.controller, plants=plants,
-            generations=generations,
-            seed=DEFAULT_SEED if args.seed is None else args.seed,
-        )  # fmt: skip
+        show = progress.wanted(args.no_progress or args.json)
+        with progress.status_line("worst case", show) as say:
+            found = worst_case(
+                loaded, study, config.controller, plants=plants,
+                generations=generations,
+                seed=DEFAULT_SEED if args.seed is None else args.seed, progress=say,
+            )  # fmt: skip
     except ValueError as error:
         raise UsageError(f"--worst-case: {error}") from None
     if args.json:

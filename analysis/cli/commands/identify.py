@@ -92,6 +92,8 @@ def configure(parser: argparse.ArgumentParser) -> None:
         "files, the command's own inputs included",
     )  # fmt: skip
     parser.add_argument("--json", action="store_true", help="print one JSON object")
+    parser.add_argument("--no-progress", action="store_true",
+                        help="no progress line on stderr (none with --json either)")  # fmt: skip
     parser.set_defaults(handler=run)
     actions = parser.add_subparsers(dest="action", parser_class=type(parser))
     plan = actions.add_parser(
@@ -123,6 +125,8 @@ def configure(parser: argparse.ArgumentParser) -> None:
     )
     plan.add_argument("--force", action="store_true", help="replace an existing --out file")
     plan.add_argument("--json", action="store_true", help="print one JSON object")
+    plan.add_argument("--no-progress", action="store_true",
+                      help="no progress line on stderr (none with --json either)")  # fmt: skip
     plan.set_defaults(handler=run_plan)  # fmt: skip
 
 
@@ -158,6 +162,7 @@ def run(args: argparse.Namespace) -> int:
     if args.figure is not None and args.validate is None:
         raise UsageError("--figure needs --validate (it draws the validation)")
     from posfb.analysis.api import identify
+    from posfb.analysis.common.progress import wanted
 
     scenario = scenario_from_args(args)
     _check_outputs(args, scenario)
@@ -168,6 +173,7 @@ def run(args: argparse.Namespace) -> int:
         cutoff_hz=args.cutoff,
         stiction_velocity=args.stiction_velocity,
         window=args.window,
+        progress=wanted(args.no_progress or args.json),
     )
     if args.out is not None:
         result.save(args.out)
@@ -235,6 +241,7 @@ def _check_outputs(args: argparse.Namespace, scenario) -> None:
 def run_plan(args: argparse.Namespace) -> int:
     from posfb.analysis.api import plan_excitation
     from posfb.analysis.common.outputs import output_file
+    from posfb.analysis.common.progress import wanted
 
     output_file("--out", args.out, (".csv",), args.force, _inputs(args))
     plan = plan_excitation(
@@ -245,6 +252,7 @@ def run_plan(args: argparse.Namespace) -> int:
         seed=args.seed,
         excursion=args.excursion,
         velocity_limit=args.velocity_limit,
+        progress=wanted(args.no_progress or args.json),
     )
     plan.save(args.out)
     if args.json:

@@ -85,6 +85,7 @@ def configure(parser: argparse.ArgumentParser) -> None:
     report = actions.add_parser("report", help="statistics, figures and Markdown from a store")
     report.add_argument("--db", required=True, help="SQLite results file")
     report.add_argument("--out", required=True, help="output folder")
+    report.add_argument("--no-progress", action="store_true", help="no progress line on stderr")
     report.set_defaults(handler=report_command)
 
     export = actions.add_parser(
@@ -210,12 +211,17 @@ def export_command(args: argparse.Namespace) -> int:
 
 
 def report_command(args: argparse.Namespace) -> int:
+    from posfb.analysis.common import progress
     from posfb.analysis.montecarlo.store import ResultStore
     from posfb.analysis.montecarlo.study_report import write_report
 
     out = output_folder("--out", args.out)
-    with ResultStore.open_existing(args.db) as store, staged_folder(out) as staged:
-        (path,) = staged.final([write_report(store, staged.path)])
+    with (
+        ResultStore.open_existing(args.db) as store,
+        staged_folder(out) as staged,
+        progress.status_line("montecarlo report", progress.wanted(args.no_progress)) as say,
+    ):
+        (path,) = staged.final([write_report(store, staged.path, say)])
         expected, finished = store.study().samples, len(store.finished())
     if finished < expected:
         sys.stderr.write(

@@ -243,8 +243,12 @@ def test_a_study_where_no_run_finished_still_reports(tmp_path, samples):
     with ResultStore.create_or_resume(tmp_path / "d.sqlite", study, "test") as store:
         for i in range(samples):
             store.write(make_result(i, status="diverged"), "test")
+    lines: list[str] = []  # issue 45, item 3: montecarlo report's progress line
     with ResultStore.open_existing(tmp_path / "d.sqlite") as store:
-        path = write_report(store, tmp_path / "report")
+        path = write_report(store, tmp_path / "report", progress=lines.append)
+    figures = [line for line in lines if line.startswith("figure ")]
+    assert figures == [f"figure {k} of {len(figures)}" for k in range(1, len(figures) + 1)]
+    assert len(figures) >= 5 and lines[0].startswith("reading ")
     counts = {**dict.fromkeys(STATUSES, 0), "diverged": samples}
     assert f"| proposed | {' | '.join(str(counts[s]) for s in STATUSES)} |" in path.read_text()
     for name in FIGURES:

@@ -99,6 +99,21 @@ def paper_worst(paper_study):
     return loaded, worst_case(loaded, paper_study, "lin_lc", plants=12, generations=2, seed=5)
 
 
+def test_the_worst_case_progress_names_each_plant_and_generation(paper_study, paper_worst):
+    # Issue 45, item 3: design --worst-case's progress line; the searches' callbacks only
+    # watch (the same result as the fixture's, found without progress).
+    loaded, found = paper_worst
+    lines: list[str] = []
+    shown = worst_case(loaded, paper_study, "lin_lc", plants=12, generations=2, seed=5,
+                       progress=lines.append)  # fmt: skip
+    assert shown == found
+    assert [line for line in lines if line.startswith("sampled plant ")] == [
+        f"sampled plant {i} of 12" for i in range(1, 13)
+    ]
+    for figure in ("radius", "disk margin"):
+        assert f"{figure} search, generation 2 of 2" in lines
+
+
 def test_worst_sampled_plant_is_tunes_worst(paper_study, paper_worst):
     """The worst sampled rho is the largest over the plants ``posfb tune`` draws with the
     same seed, each judged by the design's own held loop (``held_design_radius``) at its

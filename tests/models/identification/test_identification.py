@@ -219,6 +219,15 @@ def test_identify_end_to_end_writes_a_model_that_improves_the_controller(plan_cs
     assert max(data["validation"]["voltage_nrmse_percent"]) < 10.0
     assert max(data["validation"]["output_nrmse_percent"]) < 10.0
     assert load_model(model).names == names
+    # Issue 45, item 3: the progress line names each step and changes nothing (--json
+    # printed no line: stderr is no terminal, and --json is quiet anyway).
+    from posfb.analysis.identification.identify import identify_log
+
+    lines: list[str] = []
+    shown = identify_log(posfb.load_scenario(tmp_path / "first.yaml"), first,
+                         validation_log=second, progress=lines.append)  # fmt: skip
+    assert json.loads(json.dumps(shown.as_dict())) == data
+    assert [line.split()[0] for line in lines] == ["reading", "fitting", "checking", "validating"]
     runs = {}
     for form in (f"!Identified {{file: {model}}}", "!Table1 {}"):
         scenario = tmp_path / "run.yaml"

@@ -124,6 +124,18 @@ def test_the_optimised_condition_number_is_lower_and_the_limits_hold_at_every_sa
     assert min(plan.peak_velocity) > 0.5
 
 
+def test_progress_counts_each_start_and_iteration_and_changes_nothing(plan):
+    # Issue 45, item 3: identify plan's progress line; SLSQP's callback only watches.
+    calls: list[tuple[int, int]] = []
+    shown = plan_excitation(regressor, voltage, **settings(starts=2),
+                            progress=lambda start, done: calls.append((start, done)))  # fmt: skip
+    assert plan_excitation(regressor, voltage, **settings(starts=2)) == shown
+    for start in (0, 1):
+        done = [d for s, d in calls if s == start]
+        assert done == list(range(len(done))) and len(done) > 1  # 0, 1, 2, ... in order
+    assert [s for s, _ in calls] == sorted(s for s, _ in calls)
+
+
 def test_the_same_seed_gives_the_same_plan_and_another_seed_another(plan):
     assert plan_excitation(regressor, voltage, **settings()) == plan
     other = plan_excitation(regressor, voltage, **settings(seed=4, max_iterations=2))
