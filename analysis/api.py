@@ -279,9 +279,9 @@ class Run:
         return {
             "controller": config.controller,
             "scenario": self.scenario.source,
-            "duration": config.duration,
+            "duration": config.timing.duration,
             "sample_time": config.sample_time,
-            "encoder_counts": list(config.encoder_counts),
+            "encoder_counts": list(config.sensor_state.encoder_counts),
             **entry,
             "rms_measured_q": entry["rms_q_measured"],
         }
@@ -380,7 +380,7 @@ def simulate(
         from posfb.analysis.codegen.sil import compiled_controller
 
         compiled = compiled_controller(resolved, precision)
-    with progress_bars.run_progress(config.duration, config.spec.label, progress) as update:
+    with progress_bars.run_progress(config.timing.duration, config.spec.label, progress) as update:
         result = ClosedLoopRunner(config, controller=compiled).run(progress=update)
     run = Run(result, loaded)
     if run.status != "ok":

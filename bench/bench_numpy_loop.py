@@ -170,7 +170,7 @@ def load_variant(label: str, settings: tuple[str, ...]) -> Variant:
     config = resolved.config
     if not isinstance(config.trajectory, WaveTrajectory):
         raise SystemExit("the benchmark needs the Sec. 4.2 wave trajectory")
-    if config.noisy or config.delay_samples or any(config.zero_offset):
+    if config.noisy or config.sensor.delay_samples or any(config.sensor_state.zero_offset):
         raise SystemExit("the benchmark needs a sensor without noise, delay or offset")
     if resolved.overrides:
         raise SystemExit("the benchmark needs the URDF's own parameters")
@@ -266,7 +266,7 @@ def numpy_loop(variant: Variant, m: int = STEPS_PER_PERIOD, counts: int | None =
     T = config.sample_time
     h = T / m
     half, sixth = 0.5 * h, h / 6.0
-    counts1, counts2 = config.encoder_counts if counts is None else (counts, counts)
+    counts1, counts2 = config.sensor_state.encoder_counts if counts is None else (counts, counts)
     step1 = 2.0 * math.pi / counts1 if counts1 else 0.0
     step2 = 2.0 * math.pi / counts2 if counts2 else 0.0
     limit1, limit2 = config.voltage_limit
@@ -330,7 +330,7 @@ def numpy_array_loop(variant: Variant, m: int = STEPS_PER_PERIOD) -> LoopRun:
     trajectory = config.trajectory
     T = config.sample_time
     h = T / m
-    steps = np.array([2.0 * math.pi / c if c else 0.0 for c in config.encoder_counts])
+    steps = np.array([2.0 * math.pi / c if c else 0.0 for c in config.sensor_state.encoder_counts])
     quantised = steps > 0.0
     limit = np.array(config.voltage_limit)
     updates = variant.updates
@@ -581,7 +581,8 @@ class NumbaBound:
             [[getattr(wave, name) for wave in waves]
              for name in ("offset", "amplitude", "wave_amplitude", "frequency")]
         )  # fmt: skip
-        step = np.array([2.0 * math.pi / c if c else 0.0 for c in config.encoder_counts])
+        counts = config.sensor_state.encoder_counts
+        step = np.array([2.0 * math.pi / c if c else 0.0 for c in counts])
         limit = np.array(config.voltage_limit, dtype=float)
         gains = np.array([config.design.pid.Kp, config.design.pid.Kv, config.design.pid.KI])
         bounds = np.zeros(8)

@@ -54,7 +54,7 @@ def main() -> None:
     def configurations() -> object:  # uncached: what a scenario's first verdict pays
         model = nominal_model(config.design.nominal)
         spacing = config.timing.configuration_spacing
-        return path_configurations(model, config.trajectory, config.duration, spacing)
+        return path_configurations(model, config.trajectory, config.timing.duration, spacing)
 
     parts = {
         "configuration set": configurations,

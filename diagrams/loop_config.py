@@ -56,16 +56,18 @@ class ClosedLoopConfig:
     (``models.controllers.plugin.UserPlugin``; ``None`` for the paper's three, whose
     inputs are all in ``design``); ``trajectory`` the desired path; ``timing``,
     ``sensor`` and ``actuator`` the scenario's sections as they are
-    (``diagrams.sections``; copied, then read through the properties below):
-    ``duration``, ``divergence_bound`` on ``|q~|`` in rad and Drake's integrator
-    ``simulator`` (the runner caps ``max_step_size`` at ``T_s``: a step never spans more
-    than one control period; ``duration`` must be a whole number of periods); per joint,
-    ``encoder_counts`` per revolution (0: ideal; default and its justification in
-    ``diagrams.encoder``), ``zero_offset`` (rad, added to the true position before
-    quantisation), ``noise_std`` (rad, additive Gaussian noise after it, drawn from
-    ``noise_seed``), ``delay_samples`` (whole periods), ``voltage_limit`` (V),
-    ``electrical_time_constant`` (s), and ``dac_bits`` and ``compute_delay`` (s, at most
-    ``T_s``) for all joints (``diagrams.actuator``; 0 switches an effect off);
+    (``diagrams.sections``; copied, and read where they are used: ``timing.duration``,
+    ``timing.divergence_bound`` on ``|q~|`` in rad and Drake's integrator
+    ``timing.simulator`` (the runner caps ``max_step_size`` at ``T_s``: a step never spans
+    more than one control period; the duration must be a whole number of periods);
+    ``sensor.location``, ``sensor.delay_samples`` (whole periods), ``sensor.noise_seed``,
+    ``actuator.dac_bits`` and ``actuator.compute_delay`` (s, at most ``T_s``) for all
+    joints). What a section expands per joint is computed once and validated here:
+    ``sensor_state`` (``encoder_counts`` per revolution, 0: ideal, default and its
+    justification in ``diagrams.encoder``; ``zero_offset``, rad, added to the true position
+    before quantisation; ``noise_std``, rad, additive Gaussian noise after it),
+    ``actuator_state`` (``electrical_time_constant``, s; ``diagrams.actuator``; 0 switches
+    an effect off) and ``voltage_limit`` (V);
     ``true_plant`` the true arm's payload and parameter overrides
     (``ClosedLoopRunner.run`` applies them unless it is given other parameters, as a
     Monte-Carlo sample is). The number of joints
@@ -146,65 +148,6 @@ class ClosedLoopConfig:
         return self.actuator.voltage_limits(self.joints)
 
     @property
-    def duration(self) -> float:
-        """Simulated seconds (``timing.duration``)."""
-        return self.timing.duration
-
-    @property
-    def divergence_bound(self) -> float:
-        """``|q~|`` (rad) beyond which a run counts as diverged."""
-        return self.timing.divergence_bound
-
-    @property
-    def simulator(self) -> SimulatorConfig:
-        """Drake's integrator settings (``timing.simulator``)."""
-        return self.timing.simulator
-
-    @property
-    def encoder_counts(self) -> tuple[int, ...]:
-        """Counts per revolution, one per joint (``sensor.encoder_counts``)."""
-        return self.sensor_state.encoder_counts
-
-    @property
-    def zero_offset(self) -> tuple[float, ...]:
-        """Encoder zero offset (rad), one per joint."""
-        return self.sensor_state.zero_offset
-
-    @property
-    def noise_std(self) -> tuple[float, ...]:
-        """Encoder noise standard deviation (rad), one per joint."""
-        return self.sensor_state.noise_std
-
-    @property
-    def sensor_location(self) -> str:
-        """``link`` (the encoder reads ``q``) or ``motor`` (``theta_m``, ``models.gear``)."""
-        return self.sensor.location
-
-    @property
-    def noise_seed(self) -> int:
-        return self.sensor.noise_seed
-
-    @property
-    def delay_samples(self) -> int:
-        """The sensor delay in whole periods."""
-        return self.sensor.delay_samples
-
-    @property
-    def electrical_time_constant(self) -> tuple[float, ...]:
-        """Armature L/R (s), one per joint (0: static motor; ``diagrams.actuator``)."""
-        return self.actuator_state.electrical_time_constant
-
-    @property
-    def dac_bits(self) -> int:
-        """DAC resolution in bits (0: ideal)."""
-        return int(self.actuator.dac_bits)
-
-    @property
-    def compute_delay(self) -> float:
-        """The DSP's computation time (s): ``u_k`` applies from ``t_k + compute_delay``."""
-        return float(self.actuator.compute_delay)
-
-    @property
     def spec(self) -> ControllerSpec:
         """The controller's spec (label, style, checks, factory; ``models.controllers``)."""
         return controller_spec(self.controller, self.controller_settings)
@@ -228,9 +171,9 @@ class ClosedLoopConfig:
     @property
     def samples(self) -> int:
         """``N0 = duration / T_s``, the number of samples ``k = 1..N0`` the metrics use."""
-        return round(self.duration / self.sample_time)
+        return round(self.timing.duration / self.sample_time)
 
     @property
     def noisy(self) -> bool:
         """Whether the sensor adds noise (the diagram then has a noise source)."""
-        return any(std > 0.0 for std in self.noise_std)
+        return any(std > 0.0 for std in self.sensor_state.noise_std)

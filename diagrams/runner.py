@@ -17,7 +17,7 @@ and an integrator failure is caught. Any of these gives ``status = "diverged"``.
 check and, at a period of ``10 T_s``, event times one rounding error away from
 the controller's, i.e. extra integrator steps.)
 
-Integration: ``ClosedLoopConfig.simulator``, by default Drake's RK3 with error
+Integration: ``ClosedLoopConfig.timing.simulator``, by default Drake's RK3 with error
 control at accuracy 3e-3, steps capped at ``T_s``. Measured on 20 s runs (paper settings,
 nominal and payload) against RK3 at 1e-5: Lin+LC's and the proposed
 controller's RMS errors change by at most 2 % (joint 2) and 6 % (joint 1, where
@@ -276,7 +276,7 @@ class ClosedLoopRunner:
 
     def simulator_config(self) -> SimulatorConfig:
         """The config's integrator with steps capped at one sample period ``T_s``."""
-        settings = self.config.simulator
+        settings = self.config.timing.simulator
         values = {entry.name: getattr(settings, entry.name) for entry in SimulatorConfig.__fields__}
         values["max_step_size"] = min(settings.max_step_size, self.config.sample_time)
         return SimulatorConfig(**values)
@@ -289,10 +289,10 @@ class ClosedLoopRunner:
             return f"non-finite joint position {q.tolist()} at t = {context.get_time():g} s"
         q_desired = self.config.trajectory.evaluate(context.get_time())[0]
         error = float(np.max(np.abs(q - q_desired)))
-        if error > self.config.divergence_bound:
+        if error > self.config.timing.divergence_bound:
             return (
                 f"|q~| = {error:.3g} rad exceeds divergence_bound = "
-                f"{self.config.divergence_bound:g} rad at t = {context.get_time():g} s"
+                f"{self.config.timing.divergence_bound:g} rad at t = {context.get_time():g} s"
             )
         return ""
 
@@ -301,10 +301,10 @@ class ClosedLoopRunner:
         if not np.all(np.isfinite(q_error)):
             return "diverged", "non-finite joint position in the log"
         worst = float(np.max(np.abs(q_error))) if q_error.size else 0.0
-        if worst > self.config.divergence_bound:
+        if worst > self.config.timing.divergence_bound:
             return "diverged", (
                 f"|q~| = {worst:.3g} rad exceeds divergence_bound = "
-                f"{self.config.divergence_bound:g} rad"
+                f"{self.config.timing.divergence_bound:g} rad"
             )
         return "ok", ""
 

@@ -118,8 +118,8 @@ def _add_sensor(
 ) -> tuple[Encoder, OutputPort, DiscreteTimeDelay | None, RandomSource | None]:
     """true q -> encoder (offset, quantiser, noise) -> delay: the measured-position port."""
     n = arm.size
-    encoder = builder.AddSystem(Encoder(n, config.encoder_counts, noisy=config.noisy))
-    builder.Connect(arm.position_output_port(config.sensor_location), encoder.GetInputPort("q"))
+    encoder = builder.AddSystem(Encoder(n, config.sensor_state.encoder_counts, noisy=config.noisy))
+    builder.Connect(arm.position_output_port(config.sensor.location), encoder.GetInputPort("q"))
     noise_source = None
     if config.noisy:
         noise_source = builder.AddSystem(
@@ -129,10 +129,10 @@ def _add_sensor(
         builder.Connect(noise_source.get_output_port(0), encoder.GetInputPort("unit_noise"))
     measured = encoder.GetOutputPort("q_measured")
     delay = None
-    if config.delay_samples > 0:
+    if config.sensor.delay_samples > 0:
         delay = builder.AddSystem(
             # Read at t_k before its own update, a delay of n steps lags n + 1 periods.
-            DiscreteTimeDelay(config.sample_time, config.delay_samples - 1, n)
+            DiscreteTimeDelay(config.sample_time, config.sensor.delay_samples - 1, n)
         )
         delay.set_name("sensor_delay")
         builder.Connect(measured, delay.get_input_port())
@@ -198,9 +198,9 @@ def build_closed_loop(
         controller.GetOutputPort("voltage"),
         limits=config.voltage_limit,
         sample_time=config.sample_time,
-        compute_delay=config.compute_delay,
-        dac_bits=config.dac_bits,
-        electrical_time_constant=config.electrical_time_constant,
+        compute_delay=config.actuator.compute_delay,
+        dac_bits=config.actuator.dac_bits,
+        electrical_time_constant=config.actuator_state.electrical_time_constant,
     )
     saturation = actuator.saturation
 

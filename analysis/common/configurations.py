@@ -18,7 +18,7 @@ def scenario_configurations(config: ClosedLoopConfig) -> ConfigurationSet:
     ``timing.duration`` every ``timing.configuration_spacing`` seconds, plus the extremes
     of ``M0*^-1 M*(q)`` along it, on the nominal model the controllers are designed on
     (kept for the last few scenarios: a study's samples share their base's)."""
-    key = (config.design.nominal, config.trajectory, config.duration,
+    key = (config.design.nominal, config.trajectory, config.timing.duration,
            config.timing.configuration_spacing)  # fmt: skip
     try:
         hash(key)

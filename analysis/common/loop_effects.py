@@ -38,12 +38,12 @@ def loop_effects(config: ClosedLoopConfig, parameters: ArmParameters | None) -> 
             stiffness=tuple(float(v) for v in k / kappa),
             damping=tuple(float(v) for v in c / kappa),
             motor_inertia=tuple(float(v) for v in np.asarray(parameters.rotor_inertia) / kappa),
-            motor_sensor=config.sensor_location == "motor",
+            motor_sensor=config.sensor.location == "motor",
         )
     return LoopEffects(
-        delay_samples=config.delay_samples,
-        compute_delay=config.compute_delay,
-        electrical_time_constant=config.electrical_time_constant,
+        delay_samples=config.sensor.delay_samples,
+        compute_delay=config.actuator.compute_delay,
+        electrical_time_constant=config.actuator_state.electrical_time_constant,
         gear=gear,
     )
 
@@ -69,15 +69,16 @@ def left_out(config: ClosedLoopConfig) -> list[str]:
     """The scenario's nonlinear settings, away from their defaults, that the sampled-loop
     analyses leave out (``key = value`` each)."""
     found = []
-    if config.dac_bits > 0:
-        found.append(f"actuator.dac_bits = {config.dac_bits}")
+    if config.actuator.dac_bits > 0:
+        found.append(f"actuator.dac_bits = {config.actuator.dac_bits}")
     backlash = config.plant.gear.values(config.joints, prefix="plant.")[2]
     if np.any(backlash > 0.0):
         found.append(f"plant.backlash = {backlash.tolist()}")
     if type(config.plant.friction) is not DEFAULT_LAW:
         found.append(f"plant.friction = !{type(config.plant.friction).__name__}")
-    if any(count not in (0, DEFAULT_ENCODER_COUNTS) for count in config.encoder_counts):
-        found.append(f"sensor.encoder_counts = {list(config.encoder_counts)}")
+    counts = config.sensor_state.encoder_counts
+    if any(count not in (0, DEFAULT_ENCODER_COUNTS) for count in counts):
+        found.append(f"sensor.encoder_counts = {list(counts)}")
     return found
 
 

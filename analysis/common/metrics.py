@@ -255,6 +255,6 @@ def run_verdict(result: ClosedLoopResult) -> Verdict:
         result.q_error[1:],
         result.u_commanded[1:],
         config.voltage_limit,
-        path_excursion(config.trajectory, config.duration),
+        path_excursion(config.trajectory, config.timing.duration),
         config.timing,
     )

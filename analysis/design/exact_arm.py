@@ -44,8 +44,8 @@ def exact_arm_run(resolved: ResolvedScenario) -> ExactArmRun:
     try:
         result = ClosedLoopRunner(config).run()
     except ValueError as error:
-        return ExactArmRun(Verdict(REFUSED, str(error)), 0.0, config.duration)
-    return ExactArmRun(run_verdict(result), float(result.times[-1]), config.duration)
+        return ExactArmRun(Verdict(REFUSED, str(error)), 0.0, config.timing.duration)
+    return ExactArmRun(run_verdict(result), float(result.times[-1]), config.timing.duration)
 
 
 def agreement(linear_passed: bool, run: ExactArmRun) -> str:

@@ -210,9 +210,9 @@ class TuningProblem:
         else:
             self.disturbance_std, self.disturbance_bandwidth = np.zeros(len(needed[0])), 0.0
         self.disturbance_pole = math.exp(-self.disturbance_bandwidth * config.sample_time)
-        counts = np.asarray(config.encoder_counts, dtype=float)
+        counts = np.asarray(config.sensor_state.encoder_counts, dtype=float)
         step = np.divide(2.0 * math.pi, counts, out=np.zeros_like(counts), where=counts > 0)
-        noise = np.asarray(config.noise_std, dtype=float)
+        noise = np.asarray(config.sensor_state.noise_std, dtype=float)
         self.noise_std = np.sqrt(step**2 / 12.0 + noise**2)
 
     def settings(self, x: np.ndarray) -> object:

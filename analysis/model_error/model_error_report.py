@@ -61,7 +61,7 @@ def _desired_path(spec: ModelErrorSpec) -> tuple[DesiredPath, np.ndarray]:
     """The Table 3 experiment's path, and the scenario model's theta (Table 1)."""
     config = resolve(scenario_from_file(spec.study.scenario, spec.study.settings)).config
     nominal = config.design.nominal
-    samples = round((spec.study.duration or config.duration) / config.sample_time)
+    samples = round((spec.study.duration or config.timing.duration) / config.sample_time)
     path = DesiredPath.of_trajectory(
         config.trajectory, config.sample_time, samples, nominal.l1, nominal.g
     )

@@ -145,12 +145,12 @@ class Reproduction:
                 ),
                 "settings": {
                     "sample_time": self.base.sample_time,
-                    "duration": self.base.duration,
-                    "encoder_counts": list(self.base.encoder_counts),
+                    "duration": self.base.timing.duration,
+                    "encoder_counts": list(self.base.sensor_state.encoder_counts),
                     "voltage_limit": list(self.base.voltage_limit),
-                    "divergence_bound": self.base.divergence_bound,
-                    "integration_scheme": self.base.simulator.integration_scheme,
-                    "integrator_accuracy": self.base.simulator.accuracy,
+                    "divergence_bound": self.base.timing.divergence_bound,
+                    "integration_scheme": self.base.timing.simulator.integration_scheme,
+                    "integrator_accuracy": self.base.timing.simulator.accuracy,
                 },
             },
         )
@@ -294,7 +294,7 @@ class Reproduction:
         return chosen
 
     def _evidence(self) -> None:
-        T, duration = self.base.sample_time, self.base.duration
+        T, duration = self.base.sample_time, self.base.timing.duration
         self.results.set(
             ("evidence", "pid_mismatch_prediction"),
             {

@@ -177,4 +177,5 @@ def test_a_config_keeps_its_own_sections():
     sensor = Sensor(encoder_counts=[4096])
     config = ClosedLoopConfig(controller="lin_lc", sensor=sensor)
     sensor.encoder_counts[0] = 7
-    assert config.sensor.encoder_counts == [4096] and config.encoder_counts == (4096, 4096)
+    assert config.sensor.encoder_counts == [4096]
+    assert config.sensor_state.encoder_counts == (4096, 4096)

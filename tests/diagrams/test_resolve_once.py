@@ -45,7 +45,7 @@ def test_simulate_validates_a_loaded_scenario_once(validations):
 def test_an_edit_is_validated_again(validations):
     loaded = posfb.load_scenario(set={"timing.duration": 0.1})
     loaded.scenario.timing.duration = 0.2
-    assert resolve(loaded).config.duration == 0.2 and len(validations) == 2
+    assert resolve(loaded).config.timing.duration == 0.2 and len(validations) == 2
     loaded.scenario.timing.sample_time = -1.0
     with pytest.raises(ValueError, match="timing.sample_time"):
         resolve(loaded)

@@ -171,8 +171,8 @@ def test_a_csv_header_without_the_arms_columns_is_refused_naming_them(tmp_path, 
 def test_a_yaml_scalar_for_a_per_joint_key_means_every_joint(tmp_path):
     text = "sensor: {encoder_counts: 4096, noise_std: 1e-4}\nactuator: {voltage_limit: 12}\n"
     config = resolve(load_scenario(_write(tmp_path, text))).config
-    assert config.encoder_counts == (4096, 4096)
-    assert config.noise_std == (1e-4, 1e-4) and config.voltage_limit == (12.0, 12.0)
+    assert config.sensor_state.encoder_counts == (4096, 4096)
+    assert config.sensor_state.noise_std == (1e-4, 1e-4) and config.voltage_limit == (12.0, 12.0)
 
 
 def test_each_documented_set_changes_the_run(tmp_path, capsys):
@@ -181,11 +181,11 @@ def test_each_documented_set_changes_the_run(tmp_path, capsys):
     assert main(["simulate", *base, "--set", "timing.sample_time=0.005", "--out", str(out)]) == 0
     assert np.allclose(np.diff(pd.read_parquet(out)["time_s"]), 0.005)
     loaded = load_scenario(None, ["sensor.encoder_counts=4096"])
-    assert resolve(loaded).config.encoder_counts == (4096, 4096)
+    assert resolve(loaded).config.sensor_state.encoder_counts == (4096, 4096)
     result = run_scenario(load_scenario(None, ["sensor.encoder_counts=4096", "timing.duration=1"]))
     np.testing.assert_allclose(result.q_measured, quantise(result.q_true, 4096), atol=1e-12)
     mixed = resolve(load_scenario(None, ["sensor.encoder_counts=[4096, 2048]"])).config
-    assert mixed.encoder_counts == (4096, 2048)
+    assert mixed.sensor_state.encoder_counts == (4096, 2048)
     resolved = resolve(load_scenario(None, ["plant.payload_mass=0.5"]))
     runner = ClosedLoopRunner(ClosedLoopConfig(timing=Timing(duration=0.1)))
     assert resolved.true_parameters(runner.arm.default_parameters).payload_mass == 0.5

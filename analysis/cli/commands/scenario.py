@@ -98,7 +98,7 @@ def run_check(args: argparse.Namespace) -> int:
     resolved = resolve(loaded)
     config = resolved.config
     print(f"{args.file}: valid; controller {config.controller}, T_s = {config.sample_time:g} s, "
-          f"{config.duration:g} s")  # fmt: skip
+          f"{config.timing.duration:g} s")  # fmt: skip
     for warning in trajectory_warnings(resolved):
         print(f"warning: {warning}")
     if not design_checks(config.controller):  # PID or a plug-in (built once by resolve)

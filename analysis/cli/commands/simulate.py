@@ -73,7 +73,7 @@ def run(args: argparse.Namespace) -> int:
 
 def _print_summary(run: object, written: object) -> None:
     config, m = run.result.config, run.metrics
-    print(f"{run.label}, {run.scenario.source}, {config.duration:g} s: {run.status}")
+    print(f"{run.label}, {run.scenario.source}, {config.timing.duration:g} s: {run.status}")
     if run.message:
         print(f"  {run.message}")
     rms_q = ", ".join(f"{v:.5f}" for v in m.rms_q)
@@ -83,7 +83,7 @@ def _print_summary(run: object, written: object) -> None:
     print(f"  RMS(q_m - q_d) = ({measured}) rad, as the encoder reads it")
     print(f"  RMS(u)  = ({rms_u}) V applied")
     print(f"  saturated: {100 * m.saturated_fraction:.1f} % of the samples")
-    rate = config.duration / m.wall_time_s
+    rate = config.timing.duration / m.wall_time_s
     print(f"  wall time {m.wall_time_s:.2f} s ({rate:.1f} simulated s per wall s)")
     if written:
         print(f"  time series: {written}")

@@ -206,7 +206,7 @@ def test_a_weak_shoulder_motor_under_the_divergence_bound_is_lost(weak_shoulder)
     # Issue 27, item 5: the runner finishes (its error stays under the divergence bound),
     # the shoulder hangs far from its path; a nominal run stays ok.
     weak = _run(weak_shoulder, "timing.duration=4")
-    assert weak.status == "ok" and np.abs(weak.q_error).max() < weak.config.divergence_bound
+    assert weak.status == "ok" and np.abs(weak.q_error).max() < weak.config.timing.divergence_bound
     second_half = weak.q_error[1:][weak.config.samples // 2 :, 0]
     assert rms(second_half) > weak.config.timing.lost_bound
     assert run_verdict(weak).status == "lost"

@@ -164,7 +164,7 @@ def test_light_gear_unstable_configuration_is_found_and_the_arm_grows(light_gear
     # diverges before its end
     run = posfb.simulate(light_gear)
     assert run.status == "diverged", run.message
-    assert run.result.times[-1] < resolved.config.duration
+    assert run.result.times[-1] < resolved.config.timing.duration
 
 
 def test_paper_arm_verdicts_barely_move():
