@@ -10,7 +10,8 @@ the ``voltage_limit`` (V) (empty: ideal encoders and no limit known, as for a de
 made outside a scenario). The design inputs (``ControllerConfig.context``), an entry's
 left-out per-joint settings (``models.design.settings``), a plug-in's setup
 (``ControllerSetup``) and the closed loop (``ClosedLoopConfig``) hold this value; none
-keeps a copy of what it holds, so no two places can disagree on the sample time.
+keeps its own copy of the sample time or the nominal model, so no two places can
+disagree on them.
 """
 
 from __future__ import annotations
