@@ -42,7 +42,7 @@ from __future__ import annotations
 import json
 import math
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, replace
 
 import numpy as np
@@ -60,6 +60,7 @@ from posfb.models.design.closed_loop import (
     held_loop,
     held_plant,
     held_transition,
+    spectral_radii,
     spectral_radius,
     stationary_deviations,
 )
@@ -116,6 +117,14 @@ def entry_feedback(resolved: ResolvedScenario, controller: str, entry: object) -
 def feedback_radius(feedback: DiscreteFilter, plant: HeldPlant) -> float:
     """The spectral radius of ``feedback`` closed around the held ``plant``."""
     return spectral_radius(held_transition(plant, feedback, np.eye(plant.Gamma.shape[1])))
+
+
+def feedback_radii(feedback: DiscreteFilter, plants: Sequence[HeldPlant]) -> np.ndarray:
+    """``feedback_radius`` around each of ``plants`` (held alike: one size of loop), in
+    one batched eigenvalue call (a tuner asks for hundreds per candidate)."""
+    return spectral_radii(
+        [held_transition(plant, feedback, np.eye(plant.Gamma.shape[1])) for plant in plants]
+    )
 
 
 def torque_bandwidth(series: list[np.ndarray], step: float) -> float:
@@ -239,14 +248,8 @@ class TuningProblem:
             feedback = self.feedback(entry)  # the controller's own refusals
         except ValueError as error:
             return Evaluation(math.inf, math.inf, math.inf, (), math.inf, False, str(error))
-        nominal_radius = max(
-            [feedback_radius(feedback, self.nominal_held)]
-            + [
-                feedback_radius(feedback, self.nominal_held_at[c])
-                for owner, c in self.active
-                if owner == NOMINAL
-            ]  # fmt: skip
-        )
+        active = [self.nominal_held_at[c] for owner, c in self.active if owner == NOMINAL]
+        nominal_radius = float(feedback_radii(feedback, [self.nominal_held, *active]).max())
         worst = max(self.radii(feedback, self.plants), default=math.nan)
         if nominal_radius >= 1.0:
             return Evaluation(math.inf, nominal_radius, worst, (), math.inf, False)
@@ -272,7 +275,7 @@ class TuningProblem:
         """The spectral radius of the controller's loop around each of ``plants``, the
         worst of its ``M0*`` and its ``active`` configurations (``everywhere``: all of
         them) (``BudgetError`` once ``deadline`` has passed)."""
-        found = []
+        held, starts = [], []
         for index, plant in enumerate(plants):
             if self.deadline is not None and self.deadline.passed():
                 raise self.deadline.error(
@@ -280,8 +283,11 @@ class TuningProblem:
                 )
             frozen = plant.held_at if everywhere else [
                 plant.held_at[c] for owner, c in self.active if owner == index]  # fmt: skip
-            found.append(max(feedback_radius(feedback, h) for h in (plant.held, *frozen)))
-        return found
+            starts.append(len(held))
+            held += [plant.held, *frozen]
+        if not held:
+            return []
+        return [float(r) for r in np.maximum.reduceat(feedback_radii(feedback, held), starts)]
 
     def violated(self, entry: object) -> tuple[tuple[int, int], ...]:
         """The pairs (plant, configuration) where ``entry``'s loop breaks ``rho <= 1 -
@@ -296,7 +302,7 @@ class TuningProblem:
             (index, plant.held_at) for index, plant in enumerate(self.plants)]  # fmt: skip
         found = []
         for owner, held_at in owners:
-            radii = [feedback_radius(feedback, held) for held in held_at]
+            radii = feedback_radii(feedback, held_at)
             pair = (owner, int(np.argmax(radii)))
             if radii[pair[1]] > limit and pair not in self.active:
                 found.append(pair)
@@ -311,8 +317,7 @@ class TuningProblem:
                     if c.role in ("lightest", "heaviest")]  # fmt: skip
         try:
             feedback = self.feedback(self.entry)
-            radii = [feedback_radius(feedback, held) for held in self.nominal_held_at]
-            extremes.append(int(np.argmax(radii)))
+            extremes.append(int(np.argmax(feedback_radii(feedback, self.nominal_held_at))))
         except ValueError:
             pass  # an entry the design refuses: its search starts from the extremes
         return tuple((NOMINAL, c) for c in dict.fromkeys(extremes))

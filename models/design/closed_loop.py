@@ -37,6 +37,7 @@ The model error ``w`` acts on the link, held from ``t_k`` (neither lagged nor de
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -418,3 +419,11 @@ def stationary_deviations(
 def spectral_radius(matrix: np.ndarray) -> float:
     """Largest eigenvalue modulus (``< 1``: the discrete loop is asymptotically stable)."""
     return float(np.max(np.abs(np.linalg.eigvals(matrix))))
+
+
+def spectral_radii(matrices: Sequence[np.ndarray]) -> np.ndarray:
+    """``spectral_radius`` of each of ``matrices`` (all of one size): one batched LAPACK
+    call, the same numbers as one call each (numpy runs the same routine on each matrix)."""
+    if not matrices:
+        return np.zeros(0)
+    return np.max(np.abs(np.linalg.eigvals(np.stack(matrices))), axis=-1)
