@@ -78,7 +78,7 @@ DIFFERENCE_STEP = 1e-7
 
 #: The maxima that do not depend on the first joint angle: ``M(q)`` and so ``M1`` and the
 #: Christoffel symbols are the same after the whole arm turns about (or slides along) its
-#: base joint, whose axis is fixed in the world (``tests/models/test_serial_model.py``).
+#: base joint, whose axis is fixed in the world (``tests/models/test_serial_bounds.py``).
 LEADING_INVARIANT = ("delta_M1", "delta_C")
 
 
