@@ -61,7 +61,6 @@ from posfb.models.design.closed_loop import (
     held_plant,
     held_transition,
     spectral_radii,
-    spectral_radius,
     stationary_deviations,
 )
 from posfb.models.design.configurations import ConfigurationSet
@@ -116,12 +115,13 @@ def entry_feedback(resolved: ResolvedScenario, controller: str, entry: object) -
 
 def feedback_radius(feedback: DiscreteFilter, plant: HeldPlant) -> float:
     """The spectral radius of ``feedback`` closed around the held ``plant``."""
-    return spectral_radius(held_transition(plant, feedback, np.eye(plant.Gamma.shape[1])))
+    return float(feedback_radii(feedback, [plant])[0])
 
 
 def feedback_radii(feedback: DiscreteFilter, plants: Sequence[HeldPlant]) -> np.ndarray:
-    """``feedback_radius`` around each of ``plants`` (held alike: one size of loop), in
-    one batched eigenvalue call (a tuner asks for hundreds per candidate)."""
+    """The spectral radius of ``feedback`` closed around each of ``plants`` (held alike:
+    one size of loop), in one batched eigenvalue call (a tuner asks for hundreds per
+    candidate)."""
     return spectral_radii(
         [held_transition(plant, feedback, np.eye(plant.Gamma.shape[1])) for plant in plants]
     )
