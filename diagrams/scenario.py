@@ -99,7 +99,10 @@ def _rows(matrix: tuple[tuple[float, ...], ...]) -> list[list[float]]:
 ParameterOverrides = dataclasses.make_dataclass(
     "ParameterOverrides",
     [(name, list[float] | None, field(default=None)) for name in JOINT_PARAMETERS],
-    namespace={"__doc__": "Absolute per-joint values that replace the URDF's (SI units)."},
+    namespace={
+        "__module__": __name__,  # pickled by name (a tuning's processes)
+        "__doc__": "Absolute per-joint values that replace the URDF's (SI units).",
+    },
 )
 
 

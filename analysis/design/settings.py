@@ -40,7 +40,10 @@ class TuneSettings:
     ``budget``: wall-clock seconds the whole tuning may take (drawing, search,
     verification and check runs, checked inside each: ``analysis.design.budget``).
     ``generations``: the optimiser's fixed schedule. The plants these imply are held to
-    ``MAX_DESIGN_PLANTS`` and ``MAX_VERIFICATION_PLANTS`` here, before any work."""
+    ``MAX_DESIGN_PLANTS`` and ``MAX_VERIFICATION_PLANTS`` here, before any work.
+    ``workers``: processes that tune the controllers side by side (``None``: one per
+    tuned controller, at most the cores available; 1: one after the other in this
+    process); the result is the same whatever their number."""
 
     margin: float = DEFAULT_MARGIN
     plants: int = 50
@@ -50,6 +53,7 @@ class TuneSettings:
     budget: float = 600.0
     generations: int = 30
     rounds: int = 2
+    workers: int | None = None
 
     def __post_init__(self) -> None:
         checks = (
@@ -62,6 +66,8 @@ class TuneSettings:
             ("generations", isinstance(self.generations, int) and self.generations >= 1,
              "an integer >= 1"),
             ("rounds", isinstance(self.rounds, int) and self.rounds >= 1, "an integer >= 1"),
+            ("workers", self.workers is None or (isinstance(self.workers, int)
+                                                 and self.workers >= 1), "an integer >= 1"),
         )  # fmt: skip
         for name, ok, allowed in checks:
             if not ok:

@@ -2,7 +2,8 @@
 may vary, ``models.controllers.tunable``: the paper's controller and Lin+LC) for a
 scenario's arm, with a stated probabilistic guarantee (issue 20).
 
-For each of ``tuned_kinds`` in turn:
+For each of ``tuned_kinds`` (side by side, one process each, up to the cores available:
+``TuneSettings.workers``; the same result as one after the other):
 
 1. draw ``plants`` design plants from the family (``analysis.uncertainty.plants``, seed
    ``seed``) and search the entry's settings (``analysis.design.problem``,
@@ -56,6 +57,7 @@ import numpy as np
 from posfb.analysis.common.configurations import scenario_configurations
 from posfb.analysis.common.loop_effects import left_out
 from posfb.analysis.common.metrics import RUN_STATUSES, run_metrics, run_verdict
+from posfb.analysis.common.side_by_side import Call, available_cores, side_by_side
 from posfb.analysis.design.budget import PROBE_PLANTS, REMEDY, Deadline, TuneError
 from posfb.analysis.design.guarantee import (
     Guarantee,
@@ -70,11 +72,12 @@ from posfb.analysis.design.problem import (
     entry_feedback,
     judging_seconds,
     knobs,
+    tuning,
 )
 from posfb.analysis.design.search import SearchResult, population, search
 from posfb.analysis.design.settings import TuneSettings
 from posfb.analysis.uncertainty.plants import LinearPlant, draw_plants, plant_family
-from posfb.analysis.uncertainty.study import Study
+from posfb.analysis.uncertainty.study import Study, canonical_text, study_from_text
 from posfb.diagrams.resolve import (
     LoadedScenario,
     ResolvedScenario,
@@ -88,6 +91,7 @@ from posfb.diagrams.scenario import (
     dump_scenario,
     with_controller,
 )
+from posfb.diagrams.yaml_schema import load_typed
 from posfb.models.controllers import REGISTRY, PluginError
 from posfb.models.controllers.tunable import Tuning
 from posfb.models.design.margins import LoopMargins
@@ -633,6 +637,48 @@ def _tune_controller(
     )
 
 
+def _tuned(
+    loaded: LoadedScenario, resolved: ResolvedScenario, family: Study, settings: TuneSettings,
+    deadline: Deadline, progress: Callable[[str], None] | None,
+) -> list[TunedController]:  # fmt: skip
+    """Each of ``tuned_kinds`` tuned (``_tune_controller``), in order: one after the other
+    in this process, or side by side in ``settings.workers`` processes
+    (``analysis.common.side_by_side``: the same work on the same inputs, so the same
+    result; the first controller in order that fails raises, as in a loop)."""
+    kinds = tuned_kinds(resolved)
+    workers = min(len(kinds), available_cores() if settings.workers is None else settings.workers)
+    if workers == 1:
+        return [_tune_controller(loaded, resolved, family, controller, settings, deadline,
+                                 progress) for controller in kinds]  # fmt: skip
+    for controller in kinds:  # a plug-in's own error, with its frames, from this process
+        _require_plugin_feedback(resolved, controller, _entry(loaded.scenario, controller))
+    inputs = (dump_scenario(loaded.scenario), loaded.base_dir, loaded.source,
+              canonical_text(family))  # fmt: skip
+    calls = [Call(controller, _tune_in_process,
+                  (*inputs, controller, settings, deadline, progress is not None))
+             for controller in kinds]  # fmt: skip
+    found = side_by_side(calls, workers, preload=[__name__], say=progress)
+    return [replace(entry, tuning=tuning(entry.controller, resolved)) for entry in found]
+
+
+def _tune_in_process(
+    scenario_text: str, base_dir: Path, source: str, family_text: str, controller: str,
+    settings: TuneSettings, deadline: Deadline, show_progress: bool,
+    say: Callable[[str], None],
+) -> TunedController:  # fmt: skip
+    """``_tune_controller`` in a worker process, from the scenario and the family as
+    text; its ``tuning`` (which holds functions) is left out, for the parent to put back."""
+    from threadpoolctl import threadpool_limits
+
+    loaded = LoadedScenario(load_typed(Scenario, scenario_text, source), base_dir, source)
+    loaded = loaded.with_settings(())
+    family = study_from_text(family_text, source="the tuning's plant family")
+    with threadpool_limits(1):
+        entry = _tune_controller(loaded, resolve(loaded), family, controller, settings,
+                                 deadline, say if show_progress else None)  # fmt: skip
+    return replace(entry, tuning=None)
+
+
 def tune(
     loaded: LoadedScenario,
     study: Study | None = None,
@@ -670,11 +716,9 @@ def tune(
     )
     tuned: dict[str, object] = {}
     with threadpool_limits(1):
-        for controller in tuned_kinds(resolved):
-            entry = _tune_controller(loaded, resolved, family, controller, settings, deadline,
-                                     progress)  # fmt: skip
-            result.controllers[controller] = entry
-            tuned[controller] = entry.after
+        for entry in _tuned(loaded, resolved, family, settings, deadline, progress):
+            result.controllers[entry.controller] = entry
+            tuned[entry.controller] = entry.after
     result.scenario = _tuned_scenario(loaded, tuned, out)
     result.wall_time_s = time.monotonic() - began
     if result.worse and not accept_worse:

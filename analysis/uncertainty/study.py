@@ -180,6 +180,7 @@ ParameterDistributions = dataclasses.make_dataclass(
         ("payload_mass", Distribution, field(default_factory=Deterministic)),
     ],  # fmt: skip
     namespace={
+        "__module__": __name__,
         "__doc__": "A distribution per physical parameter of ArmParameters.",
         "for_joint": _for_joint,
     },

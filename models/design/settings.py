@@ -64,7 +64,10 @@ Bounds = dataclasses.make_dataclass(
         )
         for entry in fields(UncertaintyBounds)
     ],  # fmt: skip
-    namespace={"__doc__": "Assumption 1's bounds and k_C1 (UncertaintyBounds' fields)."},
+    namespace={
+        "__module__": __name__,  # pickled by name (a tuning's processes)
+        "__doc__": "Assumption 1's bounds and k_C1 (UncertaintyBounds' fields).",
+    },
 )
 
 

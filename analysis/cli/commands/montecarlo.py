@@ -13,7 +13,6 @@ animations (``analysis.montecarlo.replay``).
 from __future__ import annotations
 
 import argparse
-import os
 import sys
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -21,6 +20,7 @@ from typing import TYPE_CHECKING
 from posfb.analysis.common.errors import EXIT_WORKER_DIED, UsageError
 from posfb.analysis.common.outputs import output_file, output_folder, staged_folder
 from posfb.analysis.common.shipped import shipped_files, study_argument
+from posfb.analysis.common.side_by_side import available_cores
 
 if TYPE_CHECKING:
     from posfb.analysis.uncertainty.study import Study
@@ -110,14 +110,6 @@ def configure(parser: argparse.ArgumentParser) -> None:
         "--animate", action="store_true", help="also an HTML animation per controller"
     )
     replay.set_defaults(handler=replay_command)
-
-
-def available_cores() -> int:
-    """The cores this process may run on (its CPU affinity, else the machine's count)."""
-    try:
-        return len(os.sched_getaffinity(0))
-    except AttributeError:  # not on Linux
-        return os.cpu_count() or 1
 
 
 def run_command(args: argparse.Namespace) -> int:

@@ -37,6 +37,8 @@ SETTING_OPTIONS = {
     "beta": (float, "1 - confidence of the verified bound"),
     "generations": (int, "generations of the search's fixed schedule"),
     "rounds": (int, "design-and-verify rounds at most (each on twice the plants)"),
+    "workers": (int, "processes tuning the controllers side by side (default: one per "
+                "controller, at most the cores available; the result is the same)"),
 }
 
 
@@ -65,8 +67,9 @@ def configure(parser: argparse.ArgumentParser) -> None:
 
     defaults = TuneSettings()
     for name, (kind, text) in SETTING_OPTIONS.items():
+        default = getattr(defaults, name)  # None: the help text says what it means
         parser.add_argument(
-            f"--{name}", type=kind, help=f"{text} (default: {getattr(defaults, name)})"
+            f"--{name}", type=kind, help=text if default is None else f"{text} (default: {default})"
         )
     parser.add_argument(
         "--accept-worse", action="store_true",

@@ -633,6 +633,10 @@ CASES = {
         ("tune", str(SCENARIOS / "paper_nominal.yaml"), "--plants", "0", "--out",
          "{tmp}/t.yaml"), "--plants = 0; an integer >= 1 is required",
     ),  # fmt: skip
+    "tune zero workers": Case(
+        ("tune", str(SCENARIOS / "paper_nominal.yaml"), "--workers", "0", "--out",
+         "{tmp}/t.yaml"), "--workers = 0; an integer >= 1 is required",
+    ),  # fmt: skip
     # A tune worse than its start (exit 1, one line) is test_tuning's low-voltage case: a
     # start over the voltage limit no longer makes a feasible tuned design "worse" by its
     # predicted error (issue 40), so no short case here reaches the refusal reliably.

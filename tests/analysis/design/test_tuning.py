@@ -236,6 +236,18 @@ def test_tuning_is_a_pure_function_of_scenario_study_and_seed():
     assert runs[0] != runs[2]
 
 
+@pytest.mark.slow
+def test_tuning_side_by_side_is_the_tuning_one_after_the_other():
+    # Issue 45: the controllers tuned in processes of their own (the default where more
+    # than one core is free) give the result of tuning them in turn in this process.
+    small = {"plants": 4, "generations": 2, "epsilon": 0.5, "beta": 0.5, "rounds": 1}
+    runs = [posfb.tune(None, settings=posfb.TuneSettings(workers=workers, **small)).dump()
+            for workers in (1, 2)]  # fmt: skip
+    assert runs[0] == runs[1]
+    with pytest.raises(ValueError, match="workers = 0; an integer >= 1 is required"):
+        posfb.TuneSettings(workers=0)
+
+
 #: The smallest tuning the command runs: 2 design plants, 2 generations, one round.
 SMALL = ("--plants", "2", "--generations", "2", "--epsilon", "0.5", "--beta", "0.5",
          "--rounds", "1")  # fmt: skip
