@@ -221,12 +221,21 @@ def save(
     an interrupted write leaves the previous file). The SVG carries no date and fixed
     element ids, so re-running on the same data rewrites identical files."""
     paths = [directory / f"{stem}.png", directory / f"{stem}.svg"]
-    bbox = "tight" if tight else None
+    # Lay the figure out once for both files (each savefig would run its layout engine
+    # and measure its tight box again): matplotlib's idiom, a draw without rendering, the
+    # tight box of that layout, and the layout engine off, the positions kept.
+    figure.draw_without_rendering()
+    pad = matplotlib.rcParams["savefig.pad_inches"]
+    bbox = figure.get_tightbbox().padded(pad) if tight else None
+    engine = figure.get_layout_engine()
+    figure.set_layout_engine("none")
     with matplotlib.rc_context({"svg.hashsalt": "posfb"}):
         with atomic_file(paths[0]) as png:
             figure.savefig(png, dpi=dpi, bbox_inches=bbox)
         with atomic_file(paths[1]) as svg:
             figure.savefig(svg, bbox_inches=bbox, metadata={"Date": None})
+    if engine is not None:
+        figure.set_layout_engine(engine)  # the caller's figure as it was
     return paths
 
 

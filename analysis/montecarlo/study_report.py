@@ -15,7 +15,7 @@ plants (``margins``), sensitivity (``sensitivity``) and whether N was enough
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
@@ -210,12 +210,14 @@ class Answers:
     settled: list[convergence.Convergence]
 
 
-def answers(data: StudyData) -> Answers:
+def answers(data: StudyData, with_margins: bool = True) -> Answers:
+    """What the report computes (without ``with_margins``, no margins: the report
+    computes them beside its figures, ``margins.margin_summaries_beside``)."""
     stats = joint_stats(data)
     return Answers(
         stats=stats,
         loops=stability.loop_stability(data),
-        margins=margins.margin_summaries(data),
+        margins=margins.margin_summaries(data) if with_margins else [],
         ranked=sensitivity.sensitivities(data),
         settled=convergence.convergence(data, stats),
     )
@@ -360,7 +362,8 @@ def write_report(
     if len(data.samples) == 0:
         raise ValueError(f"{store.path} holds no finished samples yet; nothing to report")
     say(f"the statistics, radii and margins of {len(data.samples)} samples")
-    found = answers(data)
+    margin_summaries = margins.margin_summaries_beside(data)
+    found = answers(data, with_margins=False)
     figures = [
         lambda: plot_distributions(data, out),
         lambda: plot_against_payload(data, out),
@@ -372,6 +375,8 @@ def write_report(
     for number, draw in enumerate(figures, start=1):
         say(f"figure {number} of {len(figures)}")
         draw()
+    say("the margins over the sampled plants")
+    found = replace(found, margins=margin_summaries())
     path = out / "report.md"
     path.write_text(markdown(data, found))
     return path

@@ -19,6 +19,8 @@ from helpers.montecarlo_helpers import run_into_store
 from posfb.analysis.common.configurations import scenario_configurations
 from posfb.analysis.common.shipped import shipped_files
 from posfb.analysis.design.worst_case import format_worst_case, worst_case
+from posfb.analysis.montecarlo.margins import margin_summaries, margin_summaries_beside
+from posfb.analysis.montecarlo.results import load
 from posfb.analysis.montecarlo.store import ResultStore
 from posfb.analysis.montecarlo.study_report import write_report
 from posfb.analysis.uncertainty.loops import StudyLoops
@@ -91,6 +93,17 @@ def test_report_gives_the_margins_over_the_plants(tmp_path):
         found = (disk.pop(), delay.pop())
         assert any(found == (pytest.approx(d, rel=2e-3), pytest.approx(t, rel=2e-3))
                    for d, t in figures), (found, figures)  # fmt: skip
+
+
+def test_the_report_margins_computed_beside_are_those_computed_here(tmp_path):
+    """Issue 45: the report computes its margins in a process of its own while it draws
+    its figures; the same work on the same inputs gives the same summaries."""
+    study = "seed: 5\nsamples: 2\nduration: 0.3\ncontrollers: [lin_lc, pid]\n"
+    with ResultStore.open_existing(run_into_store(tmp_path / "mc.sqlite", study)) as store:
+        data = load(store)
+    here = margin_summaries(data)
+    assert [s.controller for s in here] == ["lin_lc", "pid"]
+    assert margin_summaries_beside(data)() == here
 
 
 @pytest.fixture(scope="module")
