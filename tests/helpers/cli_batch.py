@@ -6,8 +6,12 @@ those once, then forks a child per command; the child runs ``python -m
 posfb.analysis.cli`` (``runpy``, as ``-m`` does) in the command's folder and environment,
 with its own stdout and stderr (file descriptors, so that a C library's output is
 caught too), and exits as the interpreter would: ``SystemExit``'s code, or a traceback
-on stderr and 1 for an uncaught exception. A child is a fresh process in every way a
-command can see but one: its modules were imported before its arguments were read (a
+on stderr and 1 for an uncaught exception, after the command's threads and ``atexit``
+functions, but without the interpreter's teardown (``os._exit``: freeing every object
+the server imported made the kernel copy its pages, most of a refused command's time).
+The server imports what the commands import when they run, then freezes its objects out
+of the garbage collector's reach (``gc.freeze``). A child is a fresh process in every way
+a command can see but one: its modules were imported before its arguments were read (a
 failure at import time would show in every command and in the suite's subprocess tests).
 """
 
@@ -24,10 +28,21 @@ from pathlib import Path
 
 #: The server: imports, then one forked child per job, ``workers`` at a time.
 _SERVER = r"""
-import json, os, runpy, signal, sys, traceback
+import atexit, gc, json, os, runpy, signal, sys, threading, traceback
 
 import posfb.analysis.cli  # the parser
 import posfb.diagrams.resolve  # the scenario loader with Drake and SciPy: most commands'
+# what the commands import when they run (each child would import them again)
+import posfb.analysis.api, posfb.analysis.codegen.package
+import posfb.analysis.design.design_report, posfb.analysis.design.margins_report
+import posfb.analysis.design.stability_map, posfb.analysis.design.tune
+import posfb.analysis.design.worst_case
+import posfb.analysis.identification.identify, posfb.analysis.identification.plan
+import posfb.analysis.model_error.run, posfb.analysis.model_error.spec
+import posfb.analysis.montecarlo.replay, posfb.analysis.montecarlo.scheduler
+import posfb.analysis.montecarlo.store, posfb.analysis.montecarlo.study_report
+import posfb.analysis.montecarlo.worker
+import posfb.analysis.realism.run, posfb.analysis.realism.spec
 
 jobs, workers = json.loads(sys.stdin.read()), int(sys.argv[1])
 running, codes = {}, {}
@@ -50,11 +65,30 @@ def run_child(job):
     except BaseException:
         traceback.print_exc()
         code = 1
-    sys.stdout.flush()
-    sys.stderr.flush()
     return code
 
 
+def exit_as_the_interpreter(code):
+    # End the child as the interpreter ends, without its teardown: the status of
+    # SystemExit(code) (a text printed on stderr, then 1), after the non-daemon threads
+    # and the atexit functions the command left (as Py_FinalizeEx runs them). The
+    # teardown (every module and object freed) is what a child would spend most on: it
+    # touches every page the server imported and makes the kernel copy it.
+    if code is None:
+        status = 0
+    elif isinstance(code, int):
+        status = code
+    else:
+        print(code, file=sys.stderr)
+        status = 1
+    threading._shutdown()
+    atexit._run_exitfuncs()
+    sys.stdout.flush()
+    sys.stderr.flush()
+    os._exit(status & 0xFF)
+
+
+gc.freeze()  # the server's objects: no child's collection walks (and copies) them
 for index, job in enumerate(jobs):
     while len(running) >= workers:
         pid, status = os.wait()
@@ -62,8 +96,8 @@ for index, job in enumerate(jobs):
     sys.stdout.flush()
     sys.stderr.flush()
     pid = os.fork()
-    if pid == 0:  # the child ends as the interpreter does, through SystemExit
-        raise SystemExit(run_child(job))
+    if pid == 0:
+        exit_as_the_interpreter(run_child(job))
     running[pid] = index
 while running:
     pid, status = os.wait()
