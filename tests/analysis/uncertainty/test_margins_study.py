@@ -16,6 +16,7 @@ import scipy.optimize
 
 import posfb
 from helpers.montecarlo_helpers import run_into_store
+from helpers.slow import heavy
 from posfb.analysis.common.configurations import scenario_configurations
 from posfb.analysis.common.shipped import shipped_files
 from posfb.analysis.design.worst_case import format_worst_case, worst_case
@@ -107,6 +108,7 @@ def test_the_report_margins_computed_beside_are_those_computed_here(tmp_path):
 
 
 @pytest.fixture(scope="module")
+@heavy  # 6 s, and the progress test's own 7 s on top (issue 45, item 4)
 def paper_worst(paper_study):
     loaded = posfb.load_scenario()
     return loaded, worst_case(loaded, paper_study, "lin_lc", plants=12, generations=2, seed=5)
