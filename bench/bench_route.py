@@ -14,7 +14,7 @@ scenario init`` (its own step, ``init``).
 The steps, each one ``posfb`` command in a fresh process, timed from start to exit:
 ``init`` (panda), ``check`` (``scenario check``, with its run of the exact arm),
 ``margins`` (``design --margins``), ``tune`` (at its defaults), ``compare`` (five
-controllers, 20 s), ``montecarlo`` (10 samples of 5 s, one worker per core) and
+controllers, 20 s), ``montecarlo`` (20 samples of 5 s, one worker per core) and
 ``report`` (``montecarlo report`` of them), ``plan`` (``identify plan``, 60 s) and
 ``identify`` (``identify --log`` of a 60 s Lin+LC log of the scenario's own trajectory
 at 1 kHz, simulated first and not timed). ``--quick`` shrinks tune, compare, the study and the
@@ -156,7 +156,7 @@ def prepare(arm: str, folder: Path, quick: bool, env: dict[str, str]) -> tuple[s
         scenario = "arm.yaml"
     else:
         raise SystemExit(f"--arms: {arm!r}; six_joint or panda is required")
-    samples, duration = (2, 1) if quick else (10, 5)
+    samples, duration = (2, 1) if quick else (20, 5)  # the report target: 20 samples
     (folder / "study.yaml").write_text(STUDY.format(scenario=scenario, samples=samples,
                                                     duration=duration))  # fmt: skip
     return scenario, timed

@@ -8,6 +8,7 @@ checks its own values (``Timing.check``, ``Sensor.state``, ``Actuator.state`` an
 
 # No "from __future__ import annotations": Drake's YAML reads the field types at runtime.
 
+import copyreg
 from dataclasses import MISSING, Field, dataclass, field, fields, make_dataclass
 
 import numpy as np
@@ -147,6 +148,17 @@ def _copied(entry: Field) -> Field:
     if entry.default_factory is not MISSING:
         return field(default_factory=entry.default_factory)
     return field(default=entry.default)
+
+
+def _simulator_config(values: dict[str, object]) -> SimulatorConfig:
+    """The ``SimulatorConfig`` of ``values`` (its pickled form: the ``copyreg`` below)."""
+    return SimulatorConfig(**values)
+
+
+# Drake's SimulatorConfig does not pickle: a scenario crosses to a worker process (a
+# report's figures) field by field.
+copyreg.pickle(SimulatorConfig, lambda config: (
+    _simulator_config, ({f.name: getattr(config, f.name) for f in SimulatorConfig.__fields__},)))
 
 
 def default_simulator() -> SimulatorConfig:

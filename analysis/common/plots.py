@@ -224,6 +224,8 @@ def save(
     # Lay the figure out once for both files (each savefig would run its layout engine
     # and measure its tight box again): matplotlib's idiom, a draw without rendering, the
     # tight box of that layout, and the layout engine off, the positions kept.
+    shown_dpi = figure.get_dpi()
+    figure.set_dpi(dpi)  # laid out at the PNG's resolution, as its savefig would
     figure.draw_without_rendering()
     pad = matplotlib.rcParams["savefig.pad_inches"]
     bbox = figure.get_tightbbox().padded(pad) if tight else None
@@ -234,8 +236,9 @@ def save(
             figure.savefig(png, dpi=dpi, bbox_inches=bbox)
         with atomic_file(paths[1]) as svg:
             figure.savefig(svg, bbox_inches=bbox, metadata={"Date": None})
+    figure.set_dpi(shown_dpi)  # the caller's figure as it was
     if engine is not None:
-        figure.set_layout_engine(engine)  # the caller's figure as it was
+        figure.set_layout_engine(engine)
     return paths
 
 

@@ -25,6 +25,7 @@ import multiprocessing
 import os
 import pickle
 import queue
+import threading
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
@@ -142,3 +143,40 @@ def _collect_dead(
         ended[index] = (False, RuntimeError(
             f"the process of {calls[index].name} ended (exit code {process.exitcode}) before "
             "it sent its result"))  # fmt: skip
+
+
+def beside(
+    calls: Sequence[Call], workers: int, preload: Sequence[str] = ()
+) -> Callable[[], list[object]]:
+    """``side_by_side(calls, workers, preload)`` started in a thread, while the caller goes
+    on with work of its own (a report draws figures meanwhile): a function that waits for
+    the results and returns them, or raises the error ``side_by_side`` raised."""
+    answer: dict[str, object] = {}
+
+    def work() -> None:
+        try:
+            answer["results"] = side_by_side(calls, workers, preload)
+        except BaseException as error:  # noqa: BLE001 - handed to the caller
+            answer["error"] = error
+
+    thread = threading.Thread(target=work, name="posfb side by side", daemon=True)
+    thread.start()
+
+    def results() -> list[object]:
+        thread.join()
+        if "error" in answer:
+            raise answer["error"]
+        return answer["results"]
+
+    return results
+
+
+def _nothing(say: Callable[[str], None]) -> None:
+    """A call that does nothing (``start_forkserver``'s)."""
+
+
+def start_forkserver(preload: Sequence[str]) -> None:
+    """Start the workers' forkserver now, in a thread: it imports ``preload`` while the
+    caller imports its own modules (a command that will run calls side by side), and
+    the first ``side_by_side`` forks its workers at once."""
+    beside([Call("the forkserver's start", _nothing, ())], 1, preload)

@@ -59,7 +59,7 @@ from posfb.models.design.closed_loop import (
     HeldPlant,
     held_loop,
     held_plant,
-    held_transition,
+    held_transitions,
     spectral_radii,
     stationary_deviations,
 )
@@ -122,9 +122,9 @@ def feedback_radii(feedback: DiscreteFilter, plants: Sequence[HeldPlant]) -> np.
     """The spectral radius of ``feedback`` closed around each of ``plants`` (held alike:
     one size of loop), in one batched eigenvalue call (a tuner asks for hundreds per
     candidate)."""
-    return spectral_radii(
-        [held_transition(plant, feedback, np.eye(plant.Gamma.shape[1])) for plant in plants]
-    )
+    if not plants:
+        return np.zeros(0)
+    return spectral_radii(held_transitions(plants, feedback, np.eye(plants[0].Gamma.shape[1])))
 
 
 def torque_bandwidth(series: list[np.ndarray], step: float) -> float:

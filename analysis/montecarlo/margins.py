@@ -14,13 +14,11 @@ plant whose loop is unstable (``rho >= 1``) has margin 0.
 
 from __future__ import annotations
 
-import threading
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
 
-from posfb.analysis.common.side_by_side import Call, side_by_side
 from posfb.analysis.montecarlo.results import StudyData
 from posfb.analysis.uncertainty.loops import StudyLoops
 from posfb.analysis.uncertainty.study import Study, canonical_text, study_from_text
@@ -52,40 +50,19 @@ def margin_summaries(data: StudyData) -> list[MarginSummary]:
     return _summaries(data.study, data.controllers, data.samples)
 
 
-def margin_summaries_beside(data: StudyData) -> Callable[[], list[MarginSummary]]:
-    """``margin_summaries(data)`` computed in a process of its own while the caller goes
-    on (the report draws its figures meanwhile: issue 45): a function that waits for the
-    answer and returns it (or raises the error it met). The same work on the same
-    inputs, so the same figures."""
-    arguments = (canonical_text(data.study), tuple(data.controllers),
-                 tuple(int(i) for i in data.samples))  # fmt: skip
-    answer: dict[str, object] = {}
-
-    def work() -> None:
-        try:
-            calls = [Call("the margins over the sampled plants", _summaries_in_process,
-                          arguments)]  # fmt: skip
-            answer["summaries"] = side_by_side(calls, workers=1, preload=[__name__])[0]
-        except BaseException as error:  # noqa: BLE001 - handed to the caller
-            answer["error"] = error
-
-    thread = threading.Thread(target=work, name="posfb report margins", daemon=True)
-    thread.start()
-
-    def summaries() -> list[MarginSummary]:
-        thread.join()
-        if "error" in answer:
-            raise answer["error"]
-        return answer["summaries"]
-
-    return summaries
+def margin_inputs(data: StudyData) -> tuple[str, tuple[str, ...], tuple[int, ...]]:
+    """What ``summaries_in_process`` takes for ``data``: the study as canonical YAML, the
+    controllers and the sample indices (the report computes its margins in a process of
+    its own while it draws its figures: issue 45)."""
+    return (canonical_text(data.study), tuple(data.controllers),
+            tuple(int(i) for i in data.samples))  # fmt: skip
 
 
-def _summaries_in_process(
+def summaries_in_process(
     study_text: str, controllers: tuple[str, ...], samples: tuple[int, ...], say: object
 ) -> list[MarginSummary]:
-    """``_summaries`` in a worker process, from the study as canonical YAML (one BLAS
-    thread: the caller draws on the other core)."""
+    """``margin_summaries`` in a worker process (``analysis.common.side_by_side``), from
+    ``margin_inputs`` (one BLAS thread: the report draws on the other core)."""
     from threadpoolctl import threadpool_limits
 
     with threadpool_limits(1):

@@ -29,6 +29,7 @@ from posfb.analysis.common.plots import (
     save_report_figure,
     thinned,
 )
+from posfb.analysis.common.side_by_side import Call, available_cores, beside
 from posfb.analysis.montecarlo import convergence, margins, sensitivity, stability
 from posfb.analysis.montecarlo.records import FINISHED, STATUSES
 from posfb.analysis.montecarlo.results import (
@@ -349,11 +350,22 @@ def markdown(
     return "\n".join(lines)
 
 
+def draw_figure(plot: Callable[..., object], arguments: tuple[object, ...], say: object) -> None:
+    """``plot(*arguments)`` in a worker process (``analysis.common.side_by_side``): a
+    figure written to its folder, nothing sent back."""
+    plot(*arguments)
+
+
 def write_report(
     store: ResultStore, out: str | Path, progress: Callable[[str], None] | None = None
 ) -> Path:
     """Write ``report.md`` and the figures (PNG and SVG) into ``out``; return the
-    report's path. ``progress`` gets a line at each step."""
+    report's path. ``progress`` gets a line at each step.
+
+    The margins over the sampled plants and the sensitivity figure (a panel per
+    controller and joint) are computed in processes of their own
+    (``analysis.common.side_by_side.beside``, one per core) while this one draws the
+    others: the same work on the same inputs, so the same report (issue 45)."""
     say = progress or (lambda text: None)
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
@@ -362,21 +374,29 @@ def write_report(
     if len(data.samples) == 0:
         raise ValueError(f"{store.path} holds no finished samples yet; nothing to report")
     say(f"the statistics, radii and margins of {len(data.samples)} samples")
-    margin_summaries = margins.margin_summaries_beside(data)
     found = answers(data, with_margins=False)
+    pending = beside(
+        [
+            Call("the margins over the sampled plants", margins.summaries_in_process,
+                 margins.margin_inputs(data)),
+            Call("the sensitivity figure", draw_figure,
+                 (sensitivity.plot, (found.ranked, data.controllers, data.joints, out))),
+        ],
+        available_cores(),
+        preload=[__name__],
+    )  # fmt: skip
     figures = [
         lambda: plot_distributions(data, out),
         lambda: plot_against_payload(data, out),
         lambda: plot_inside_outside(data, out),
         *([lambda: stability.plot(data, found.loops, out)] if found.loops else []),
-        lambda: sensitivity.plot(found.ranked, data.controllers, data.joints, out),
         lambda: convergence.plot(data, out),
     ]
     for number, draw in enumerate(figures, start=1):
         say(f"figure {number} of {len(figures)}")
         draw()
-    say("the margins over the sampled plants")
-    found = replace(found, margins=margin_summaries())
+    say("the margins and the sensitivity figure")
+    found = replace(found, margins=pending()[0])
     path = out / "report.md"
     path.write_text(markdown(data, found))
     return path

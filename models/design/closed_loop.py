@@ -308,26 +308,37 @@ def held_transition(
 ) -> np.ndarray:
     """The one-period transition matrix of the held plant and the discrete filter, state
     ``[xi_k, u_(k-1), y_(k-1) .. y_(k-d), s_k]`` (``HeldPlant``; the middle blocks only
-    with a compute delay, a sensor delay), assembled in place (a tuner asks for
-    thousands)."""
-    size, previous, delayed, total = _layout(plant, controller)
-    n = plant.Gamma.shape[1]
-    R = _reading(plant, controller)
+    with a compute delay, a sensor delay): ``held_transitions`` of the one plant."""
+    return held_transitions([plant], controller, output_gain)[0]
+
+
+def held_transitions(
+    plants: Sequence[HeldPlant], controller: DiscreteFilter, output_gain: np.ndarray
+) -> np.ndarray:
+    """``held_transition`` of each of ``plants`` (held alike: one layout of the loop
+    state), stacked, assembled in place on the stack (a tuner asks for thousands): each
+    block is the product it is for one plant, one matrix of the stack at a time."""
+    size, previous, delayed, total = _layout(plants[0], controller)
+    if any(_layout(plant, controller) != (size, previous, delayed, total) for plant in plants):
+        raise ValueError("plants are held differently (loop states of another layout); "
+                         "plants held alike are required")  # fmt: skip
+    n = plants[0].Gamma.shape[1]
+    R = np.stack([_reading(plant, controller) for plant in plants])
     states = size + previous + delayed
     voltage = output_gain @ controller.D @ R  # u_k = voltage X_k + gain C s_k
-    voltage[:, states:] += output_gain @ controller.C
-    A = np.zeros((total, total))
-    A[:size, :size] = plant.Phi
-    A[:size] += plant.Gamma @ voltage
+    voltage[:, :, states:] += output_gain @ controller.C
+    A = np.zeros((len(plants), total, total))
+    A[:, :size, :size] = np.stack([plant.Phi for plant in plants])
+    A[:, :size] += np.stack([plant.Gamma for plant in plants]) @ voltage
     if previous:
-        A[:size, size : size + n] += plant.previous
-        A[size : size + n] = voltage
+        A[:, :size, size : size + n] += np.stack([plant.previous for plant in plants])
+        A[:, size : size + n] = voltage
     if delayed:
         start = size + previous
-        A[start : start + n, :size] = plant.C_y
-        A[start + n : states, start : states - n] = np.eye(delayed - n)
-    A[states:] = controller.B @ R
-    A[states:, states:] += controller.A
+        A[:, start : start + n, :size] = np.stack([plant.C_y for plant in plants])
+        A[:, start + n : states, start : states - n] = np.eye(delayed - n)
+    A[:, states:] = controller.B @ R
+    A[:, states:, states:] += controller.A
     return A
 
 
@@ -424,6 +435,6 @@ def spectral_radius(matrix: np.ndarray) -> float:
 def spectral_radii(matrices: Sequence[np.ndarray]) -> np.ndarray:
     """``spectral_radius`` of each of ``matrices`` (all of one size): one batched LAPACK
     call, the same numbers as one call each (numpy runs the same routine on each matrix)."""
-    if not matrices:
+    if len(matrices) == 0:
         return np.zeros(0)
     return np.max(np.abs(np.linalg.eigvals(np.stack(matrices))), axis=-1)

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import json
 import math
+import pickle
 
 import numpy as np
 import pandas as pd
@@ -365,3 +366,14 @@ def test_switching_kinds_keeps_the_shared_settings_and_finds_named_entries(tmp_p
     path = _write(tmp_path, dump_scenario(alone))
     assert "Kp" not in path.read_text()
     assert resolve(load_scenario(path)).config.controller == "lin_lc"
+
+
+def test_a_scenario_pickles_with_its_integrator_settings():
+    # Issue 45: a report's worker gets the study's scenario by pickle, Drake's
+    # SimulatorConfig field by field (diagrams.sections registers how).
+    scenario = load_scenario(settings=["timing.simulator.accuracy=1e-5",
+                                       "timing.simulator.max_step_size=0.002"]).scenario
+    copy = pickle.loads(pickle.dumps(scenario))
+    assert copy == scenario and dump_scenario(copy) == dump_scenario(scenario)
+    assert copy.timing.simulator.accuracy == 1e-5
+    assert copy.timing.simulator.max_step_size == 0.002

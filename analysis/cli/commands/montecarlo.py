@@ -202,8 +202,17 @@ def export_command(args: argparse.Namespace) -> int:
     return 0
 
 
+#: The module that writes the report (``analysis.montecarlo.study_report``), by name: its
+#: workers' forkserver imports it.
+REPORT_MODULE = "posfb.analysis.montecarlo.study_report"
+
+
 def report_command(args: argparse.Namespace) -> int:
     from posfb.analysis.common import progress
+    from posfb.analysis.common.side_by_side import start_forkserver
+
+    # the report's workers (its margins, a figure) import it while this process does
+    start_forkserver([REPORT_MODULE])
     from posfb.analysis.montecarlo.store import ResultStore
     from posfb.analysis.montecarlo.study_report import write_report
 

@@ -8,7 +8,7 @@ import time
 
 import pytest
 
-from posfb.analysis.common.side_by_side import Call, side_by_side
+from posfb.analysis.common.side_by_side import Call, beside, side_by_side, start_forkserver
 
 
 def _square(value: int, say) -> int:
@@ -66,3 +66,12 @@ def test_a_process_that_dies_and_an_error_that_cannot_travel_are_named():
 def test_workers_must_be_a_positive_integer(workers):
     with pytest.raises(ValueError, match=rf"workers = {workers!r}; an integer >= 1 is required"):
         side_by_side([Call("square", _square, (1,))], workers=workers)
+
+
+def test_beside_hands_back_the_results_or_the_error_when_asked():
+    start_forkserver([])  # the first call then forks at once; nothing else changes
+    pending = beside([Call(f"square {v}", _square, (v,)) for v in (5, 6)], workers=2)
+    assert pending() == [25, 36]
+    failing = beside([Call("fails", _fail_after, (0.0, "late"))], workers=1)
+    with pytest.raises(ValueError, match="^late$"):
+        failing()

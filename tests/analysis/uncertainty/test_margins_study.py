@@ -19,11 +19,17 @@ from helpers.montecarlo_helpers import run_into_store
 from helpers.slow import heavy
 from posfb.analysis.common.configurations import scenario_configurations
 from posfb.analysis.common.shipped import shipped_files
+from posfb.analysis.common.side_by_side import Call, side_by_side
 from posfb.analysis.design.worst_case import format_worst_case, worst_case
-from posfb.analysis.montecarlo.margins import margin_summaries, margin_summaries_beside
+from posfb.analysis.montecarlo import sensitivity
+from posfb.analysis.montecarlo.margins import (
+    margin_inputs,
+    margin_summaries,
+    summaries_in_process,
+)
 from posfb.analysis.montecarlo.results import load
 from posfb.analysis.montecarlo.store import ResultStore
-from posfb.analysis.montecarlo.study_report import write_report
+from posfb.analysis.montecarlo.study_report import draw_figure, write_report
 from posfb.analysis.uncertainty.loops import StudyLoops
 from posfb.analysis.uncertainty.plants import draw_plants, plant_family
 from posfb.analysis.uncertainty.study import load_study
@@ -96,15 +102,27 @@ def test_report_gives_the_margins_over_the_plants(tmp_path):
                    for d, t in figures), (found, figures)  # fmt: skip
 
 
-def test_the_report_margins_computed_beside_are_those_computed_here(tmp_path):
-    """Issue 45: the report computes its margins in a process of its own while it draws
-    its figures; the same work on the same inputs gives the same summaries."""
+def test_the_reports_work_in_a_process_of_its_own_is_the_work_done_here(tmp_path):
+    """Issue 45: the report computes its margins and draws its sensitivity figure in
+    processes of their own while it draws the other figures; the same work on the same
+    inputs gives the same summaries and the same files."""
     study = "seed: 5\nsamples: 2\nduration: 0.3\ncontrollers: [lin_lc, pid]\n"
     with ResultStore.open_existing(run_into_store(tmp_path / "mc.sqlite", study)) as store:
         data = load(store)
     here = margin_summaries(data)
     assert [s.controller for s in here] == ["lin_lc", "pid"]
-    assert margin_summaries_beside(data)() == here
+    ranked = sensitivity.sensitivities(data)
+    (tmp_path / "here").mkdir()
+    (tmp_path / "there").mkdir()
+    sensitivity.plot(ranked, data.controllers, data.joints, tmp_path / "here")
+    there = side_by_side([
+        Call("margins", summaries_in_process, margin_inputs(data)),
+        Call("figure", draw_figure,
+             (sensitivity.plot, (ranked, data.controllers, data.joints, tmp_path / "there"))),
+    ], workers=2)  # fmt: skip
+    assert there[0] == here
+    for name in ("sensitivity.png", "sensitivity.svg"):
+        assert (tmp_path / "there" / name).read_bytes() == (tmp_path / "here" / name).read_bytes()
 
 
 @pytest.fixture(scope="module")
