@@ -50,11 +50,15 @@ def margin_summaries(data: StudyData) -> list[MarginSummary]:
     return _summaries(data.study, data.controllers, data.samples)
 
 
-def margin_inputs(data: StudyData) -> tuple[str, tuple[str, ...], tuple[int, ...]]:
-    """What ``summaries_in_process`` takes for ``data``: the study as canonical YAML, the
-    controllers and the sample indices (the report computes its margins in a process of
-    its own while it draws its figures: issue 45)."""
-    return (canonical_text(data.study), tuple(data.controllers),
+def margin_inputs(
+    data: StudyData, controllers: Sequence[str] | None = None
+) -> tuple[str, tuple[str, ...], tuple[int, ...]]:
+    """What ``summaries_in_process`` takes for ``data``'s ``controllers`` (default all):
+    the study as canonical YAML, the controllers and the sample indices (the report
+    computes its margins in processes of their own, one per controller, while it draws
+    its figures: issue 45)."""
+    chosen = data.controllers if controllers is None else controllers
+    return (canonical_text(data.study), tuple(chosen),
             tuple(int(i) for i in data.samples))  # fmt: skip
 
 

@@ -213,7 +213,7 @@ class Answers:
 
 def answers(data: StudyData, with_margins: bool = True) -> Answers:
     """What the report computes (without ``with_margins``, no margins: the report
-    computes them beside its figures, ``margins.margin_summaries_beside``)."""
+    computes them beside its figures, ``write_report``)."""
     stats = joint_stats(data)
     return Answers(
         stats=stats,
@@ -362,8 +362,8 @@ def write_report(
     """Write ``report.md`` and the figures (PNG and SVG) into ``out``; return the
     report's path. ``progress`` gets a line at each step.
 
-    The margins over the sampled plants and the sensitivity figure (a panel per
-    controller and joint) are computed in processes of their own
+    The sensitivity figure (a panel per controller and joint) and each controller's
+    margins over the sampled plants are computed in processes of their own
     (``analysis.common.side_by_side.beside``, one per core) while this one draws the
     others: the same work on the same inputs, so the same report (issue 45)."""
     say = progress or (lambda text: None)
@@ -377,10 +377,11 @@ def write_report(
     found = answers(data, with_margins=False)
     pending = beside(
         [
-            Call("the margins over the sampled plants", margins.summaries_in_process,
-                 margins.margin_inputs(data)),
             Call("the sensitivity figure", draw_figure,
                  (sensitivity.plot, (found.ranked, data.controllers, data.joints, out))),
+            *(Call(f"the margins of {controller} over the sampled plants",
+                   margins.summaries_in_process, margins.margin_inputs(data, [controller]))
+              for controller in data.controllers),
         ],
         available_cores(),
         preload=[__name__],
@@ -396,7 +397,7 @@ def write_report(
         say(f"figure {number} of {len(figures)}")
         draw()
     say("the margins and the sensitivity figure")
-    found = replace(found, margins=pending()[0])
+    found = replace(found, margins=[summary for each in pending()[1:] for summary in each])
     path = out / "report.md"
     path.write_text(markdown(data, found))
     return path
