@@ -113,8 +113,10 @@ def side_by_side(
                 if say is not None:
                     say(value)
                 continue
-            ended[index] = (kind == "done", value)
-            running.pop(index).join()
+            ended[index] = (kind == "done", value)  # a late result outranks "died"
+            process = running.pop(index, None)
+            if process is not None:
+                process.join()
     finally:
         for process in running.values():
             process.terminate()
