@@ -173,12 +173,12 @@ def beside(
     return results
 
 
-def _nothing(say: Callable[[str], None]) -> None:
-    """A call that does nothing (``start_forkserver``'s)."""
-
-
 def start_forkserver(preload: Sequence[str]) -> None:
-    """Start the workers' forkserver now, in a thread: it imports ``preload`` while the
-    caller imports its own modules (a command that will run calls side by side), and
-    the first ``side_by_side`` forks its workers at once."""
-    beside([Call("the forkserver's start", _nothing, ())], 1, preload)
+    """Start the workers' forkserver now: it imports ``preload`` while the caller imports
+    its own modules (a command that will run calls side by side), and the first
+    ``side_by_side`` forks its workers at once. Only the server starts (no call, no
+    queue), so a command that then stops on bad input leaves nothing behind."""
+    from multiprocessing import forkserver
+
+    multiprocessing.get_context("forkserver").set_forkserver_preload([FORKSERVER_INIT, *preload])
+    forkserver.ensure_running()

@@ -14,6 +14,7 @@ plants (``margins``), sensitivity (``sensitivity``) and whether N was enough
 
 from __future__ import annotations
 
+import contextlib
 from collections.abc import Callable
 from dataclasses import dataclass, replace
 from pathlib import Path
@@ -393,9 +394,14 @@ def write_report(
         *([lambda: stability.plot(data, found.loops, out)] if found.loops else []),
         lambda: convergence.plot(data, out),
     ]
-    for number, draw in enumerate(figures, start=1):
-        say(f"figure {number} of {len(figures)}")
-        draw()
+    try:
+        for number, draw in enumerate(figures, start=1):
+            say(f"figure {number} of {len(figures)}")
+            draw()
+    except Exception:
+        with contextlib.suppress(Exception):  # the work beside ends before the error leaves
+            pending()
+        raise
     say("the margins and the sensitivity figure")
     found = replace(found, margins=[summary for each in pending()[1:] for summary in each])
     path = out / "report.md"
