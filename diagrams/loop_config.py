@@ -24,7 +24,7 @@ from posfb.models.controllers import (
     UserPlugin,
     controller_spec,
 )
-from posfb.models.design.loop_context import LoopContext
+from posfb.models.design.loop_context import InLoopContext, LoopContext
 from posfb.models.plant import ArmParameters, PlantConfig
 from posfb.models.trajectory import Trajectory, WaveTrajectory
 
@@ -45,7 +45,7 @@ class TruePlant:
 
 
 @dataclass(frozen=True, eq=False)
-class ClosedLoopConfig:
+class ClosedLoopConfig(InLoopContext):
     """One closed-loop run, resolved and validated (``diagrams.scenario`` builds it
     from a scenario file; the defaults are the paper's settings).
 
@@ -153,20 +153,9 @@ class ClosedLoopConfig:
         return controller_spec(self.controller, self.controller_settings)
 
     @property
-    def joints(self) -> int:
-        """``n``: the number of joints (the design's nominal model's)."""
-        return self.design.joints
-
-    @property
     def context(self) -> LoopContext:
         """What every piece of the loop shares: the design's loop context."""
         return self.design.context
-
-    @property
-    def sample_time(self) -> float:
-        """``T_s`` (s): the loop context's, which the controller, the loggers and the
-        sensor share."""
-        return self.context.sample_time
 
     @property
     def samples(self) -> int:

@@ -50,16 +50,13 @@ def margin_summaries(data: StudyData) -> list[MarginSummary]:
     return _summaries(data.study, data.controllers, data.samples)
 
 
-def margin_inputs(
-    data: StudyData, controllers: Sequence[str] | None = None
-) -> tuple[str, tuple[str, ...], tuple[int, ...]]:
-    """What ``summaries_in_process`` takes for ``data``'s ``controllers`` (default all):
-    the study as canonical YAML, the controllers and the sample indices (the report
+def margin_inputs(data: StudyData) -> list[tuple[str, tuple[str, ...], tuple[int, ...]]]:
+    """What ``summaries_in_process`` takes for each controller of ``data``: the study as
+    canonical YAML (written once), the controller and the sample indices (the report
     computes its margins in processes of their own, one per controller, while it draws
     its figures: issue 45)."""
-    chosen = data.controllers if controllers is None else controllers
-    return (canonical_text(data.study), tuple(chosen),
-            tuple(int(i) for i in data.samples))  # fmt: skip
+    text, samples = canonical_text(data.study), tuple(int(i) for i in data.samples)
+    return [(text, (controller,), samples) for controller in data.controllers]
 
 
 def summaries_in_process(

@@ -380,9 +380,9 @@ def write_report(
         [
             Call("the sensitivity figure", draw_figure,
                  (sensitivity.plot, (found.ranked, data.controllers, data.joints, out))),
-            *(Call(f"the margins of {controller} over the sampled plants",
-                   margins.summaries_in_process, margins.margin_inputs(data, [controller]))
-              for controller in data.controllers),
+            *(Call(f"the margins of {inputs[1][0]} over the sampled plants",
+                   margins.summaries_in_process, inputs)
+              for inputs in margins.margin_inputs(data)),
         ],
         available_cores(),
         preload=[__name__],

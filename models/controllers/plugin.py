@@ -65,7 +65,7 @@ import numpy as np
 
 from posfb.models.controllers.base import SampledController
 from posfb.models.controllers.registry import ControllerBuild, ControllerSpec
-from posfb.models.design.loop_context import LoopContext
+from posfb.models.design.loop_context import InLoopContext, LoopContext
 from posfb.models.lumped import LumpedModel
 from posfb.models.nominal import LinearPart, nominal_model
 from posfb.models.serial_model import SerialArmModel
@@ -184,7 +184,7 @@ class NominalDynamics:
 
 
 @dataclass(frozen=True)
-class ControllerSetup:
+class ControllerSetup(InLoopContext):
     """What a controller is designed for: the loop it runs in (``context``,
     ``models.design.loop_context``: its sample time ``T_s`` (s) and number of joints
     ``n`` read it), the voltage limit per joint (V) and the nominal model's dynamics."""
@@ -192,16 +192,6 @@ class ControllerSetup:
     context: LoopContext
     voltage_limit: tuple[float, ...]
     nominal: NominalDynamics
-
-    @property
-    def sample_time(self) -> float:
-        """``T_s`` (s): the loop's (``context.sample_time``)."""
-        return self.context.sample_time
-
-    @property
-    def joints(self) -> int:
-        """``n``: the nominal model's joint count."""
-        return self.context.joints
 
 
 class Controller:

@@ -16,7 +16,7 @@ from typing import ClassVar
 import numpy as np
 
 from posfb.models.design.discretise import DISCRETISATIONS
-from posfb.models.design.loop_context import LoopContext
+from posfb.models.design.loop_context import InLoopContext, LoopContext
 from posfb.models.nominal import NominalModel
 from posfb.models.validation import (
     require_matrix,
@@ -227,7 +227,7 @@ class PidGains:
 
 
 @dataclass(frozen=True)
-class ControllerConfig:
+class ControllerConfig(InLoopContext):
     """Everything the three controllers are built from; defaults are the paper's.
 
     ``context`` is the loop they run in (``models.design.loop_context``): its ``nominal``
@@ -272,15 +272,6 @@ class ControllerConfig:
         """The loop's nominal model (``context.nominal``)."""
         return self.context.nominal
 
-    @property
-    def sample_time(self) -> float:
-        """The loop's sample time ``T_s`` (s; ``context.sample_time``)."""
-        return self.context.sample_time
-
-    @property
-    def joints(self) -> int:
-        """``n``: the nominal model's number of joints."""
-        return self.context.joints
 
     @classmethod
     def without_design(cls, context: LoopContext) -> ControllerConfig:

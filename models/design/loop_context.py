@@ -68,3 +68,20 @@ class LoopContext:
     def M0(self) -> np.ndarray:
         """The nominal ``M0*`` (n x n, V s^2/rad)."""
         return np.asarray(nominal_model(self.nominal).M0(), dtype=float)
+
+
+class InLoopContext:
+    """A part of the loop (a design, a plug-in's setup, the closed loop): its sample time
+    and joint count are its loop context's (``self.context``), read here, the one place
+    each is forwarded."""
+
+    @property
+    def sample_time(self) -> float:
+        """``T_s`` (s): the loop context's, which the controller, the loggers and the
+        sensor share."""
+        return self.context.sample_time
+
+    @property
+    def joints(self) -> int:
+        """``n``: the nominal model's joint count (the loop context's)."""
+        return self.context.joints
