@@ -39,7 +39,7 @@ from collections.abc import Sequence
 from pathlib import Path
 
 import numpy as np
-from pydrake.autodiffutils import InitializeAutoDiff
+from pydrake.autodiffutils import ExtractGradient, InitializeAutoDiff
 from pydrake.multibody.parsing import Parser
 from pydrake.multibody.plant import MultibodyPlant
 from pydrake.systems.framework import Context
@@ -191,10 +191,9 @@ class SerialArmModel:
         seeded = InitializeAutoDiff(positions)
         plant.SetPositions(context, seeded)
         mass = plant.CalcMassMatrix(context)[np.ix_(self._v_index, self._v_index)]
-        derivatives = np.array(
-            [[entry.derivatives()[self._q_index] for entry in row] for row in mass]
-        )
-        return self._scale[:, None, None] * derivatives
+        size = len(mass)  # ExtractGradient's rows are the entries in column-major order
+        gradient = ExtractGradient(mass)[:, self._q_index].reshape(size, size, -1)
+        return self._scale[:, None, None] * gradient.transpose(1, 0, 2)
 
     def christoffel(self, q: np.ndarray) -> np.ndarray:
         """``[i, j, k] = c_ijk / kappa_i`` with the Christoffel symbols of the physical

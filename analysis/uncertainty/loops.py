@@ -20,7 +20,6 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
-import scipy.stats
 
 from posfb.analysis.common.configurations import scenario_configurations
 from posfb.analysis.common.loop_effects import loop_effects, rigid_plant
@@ -204,4 +203,6 @@ def _cdf(distribution: Distribution, x: float) -> float:
     high = np.inf if distribution.max is None else distribution.max
     a = (low - distribution.mean) / distribution.stddev
     b = (high - distribution.mean) / distribution.stddev
+    import scipy.stats  # on use: a check that does not sample pays nothing for it
+
     return float(scipy.stats.truncnorm.cdf((x - distribution.mean) / distribution.stddev, a, b))

@@ -27,8 +27,6 @@ import functools
 from dataclasses import dataclass
 
 import numpy as np
-import scipy.stats
-from scipy.stats import qmc
 
 from posfb.analysis.uncertainty.statistics import saltelli_unit_design
 from posfb.analysis.uncertainty.study import (
@@ -61,6 +59,8 @@ def _power_of_two_at_least(count: int) -> int:
 def _design(sampling: str, seed: int, samples: int, dimensions: int) -> np.ndarray:
     """The ``(rows, dimensions)`` unit design of a study, at least ``samples`` rows. The
     Sobol' and Saltelli designs are prefix stable (more rows keep the first ones)."""
+    from scipy.stats import qmc  # on use: a command that samples nothing pays nothing for it
+
     rng = np.random.default_rng(np.random.SeedSequence(seed, spawn_key=_DESIGN_STREAM))
     if sampling == "latin_hypercube":
         return qmc.LatinHypercube(dimensions, rng=rng).random(samples)
@@ -93,6 +93,8 @@ def _inverse_cdf(distribution: Distribution, u: float) -> float:
     high = np.inf if distribution.max is None else distribution.max
     a = (low - distribution.mean) / distribution.stddev
     b = (high - distribution.mean) / distribution.stddev
+    import scipy.stats  # on use (see _design)
+
     return float(distribution.mean + distribution.stddev * scipy.stats.truncnorm.ppf(u, a, b))
 
 

@@ -41,7 +41,15 @@ from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import ArrayLike
-from scipy import stats
+
+
+def _stats():
+    """``scipy.stats``, imported on first use: it takes a third of a second, and commands
+    that import this module without computing statistics (``scenario check``) skip it."""
+    from scipy import stats
+
+    return stats
+
 
 #: Largest number of array elements one bootstrap batch holds (resamples x sample size).
 _BATCH_ELEMENTS = 1 << 20
@@ -140,7 +148,7 @@ def quantile_interval(
     def statistic(sample: np.ndarray, axis: int) -> np.ndarray:
         return np.quantile(sample, q, axis=axis)
 
-    result = stats.bootstrap(
+    result = _stats().bootstrap(
         (finite,),
         statistic,
         n_resamples=resamples,
@@ -191,7 +199,7 @@ def proportion_interval(
         raise ValueError(f"method = {method!r}; {allowed} is required")
     if trials == 0:
         return Interval(np.nan, 0.0, 1.0, confidence)
-    interval = stats.binomtest(successes, trials).proportion_ci(
+    interval = _stats().binomtest(successes, trials).proportion_ci(
         confidence_level=confidence, method=_PROPORTION_METHODS[method]
     )
     return Interval(successes / trials, float(interval.low), float(interval.high), confidence)
@@ -237,7 +245,7 @@ def spearman_ranking(
         xs, ys = x[rows], y[rows]
         if xs.size < 3 or np.ptp(xs) == 0 or np.ptp(ys) == 0:
             continue
-        result = stats.spearmanr(xs, ys)
+        result = _stats().spearmanr(xs, ys)
         if xs.size <= BOOTSTRAP_ROWS:
             low, high = _bootstrap_spearman(xs, ys, confidence, resamples, seed)
         else:
@@ -402,14 +410,14 @@ def _bootstrap_spearman(
 def _fisher_spearman(rho: float, rows: int, confidence: float) -> tuple[float, float]:
     """Fisher-z interval of Spearman's rho with Bonett & Wright's (2000) standard error."""
     z = float(np.arctanh(np.clip(rho, -1.0 + 1e-15, 1.0 - 1e-15)))
-    half = stats.norm.ppf(0.5 + confidence / 2.0) * np.sqrt((1.0 + rho * rho / 2.0) / (rows - 3))
+    half = _stats().norm.ppf(0.5 + confidence / 2.0) * np.sqrt((1.0 + rho * rho / 2.0) / (rows - 3))
     return float(np.tanh(z - half)), float(np.tanh(z + half))
 
 
 def _rank_correlation(x: np.ndarray, y: np.ndarray) -> np.ndarray:
     """Spearman's rho along the last axis (Pearson's r of mid-ranks); NaN where one is constant."""
-    rx = stats.rankdata(x, axis=-1)
-    ry = stats.rankdata(y, axis=-1)
+    rx = _stats().rankdata(x, axis=-1)
+    ry = _stats().rankdata(y, axis=-1)
     rx -= rx.mean(axis=-1, keepdims=True)
     ry -= ry.mean(axis=-1, keepdims=True)
     covariance = np.sum(rx * ry, axis=-1)

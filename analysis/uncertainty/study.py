@@ -68,7 +68,6 @@ from pathlib import Path
 from typing import ClassVar
 
 import numpy as np
-import scipy.stats
 from pydrake.common.yaml import yaml_dump_typed
 
 from posfb.diagrams.arm import ArmIdentity, arm_identity
@@ -421,6 +420,8 @@ def _support(key: str, distribution: Distribution) -> tuple[float, float]:
                 f"{key}: mean = {distribution.mean!r} lies outside [min, max] with stddev = 0",
             )
         else:
+            import scipy.stats  # on use: a command that reads no study pays nothing for it
+
             norm = scipy.stats.norm(distribution.mean, distribution.stddev)
             kept = norm.cdf(high) - norm.cdf(low)
             _require(

@@ -229,7 +229,7 @@ def loop_at_a_time(F: np.ndarray, channel: int) -> np.ndarray:
     """``l_j`` of the loop ``F`` (frequencies x n x n) opened at ``channel`` alone."""
     n = F.shape[1]
     if n == 1:
-        return F[:, 0, 0]
+        return F[:, 0, 0].copy()
     others = [i for i in range(n) if i != channel]
     closed = np.eye(n - 1) + F[:, others][:, :, others]
     through = np.linalg.solve(closed, F[:, others, channel][:, :, None])[:, :, 0]
@@ -360,8 +360,12 @@ def break_margins(
         np.linalg.norm(eye - S, 2, axis=(1, 2)), omega,
         lambda w: float(np.linalg.norm(eye - sensitivity(np.array([w]))[0], 2)),
     )  # fmt: skip
+    def on_grid_once(w: np.ndarray) -> np.ndarray:  # the grid's response is F, not recomputed
+        return F if w is omega else loop(w)
+
     per_channel = tuple(
-        channel_margins(lambda w, j=j: loop_at_a_time(loop(w), j), omega) for j in range(n)
+        channel_margins(lambda w, j=j: loop_at_a_time(on_grid_once(w), j), omega)
+        for j in range(n)
     ) if channels else ()  # fmt: skip
     return BreakMargins(
         where=where,
