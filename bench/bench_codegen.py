@@ -6,7 +6,9 @@ For each controller with generated code, on the paper's arm (its theta model) an
 shipped six-joint arm (its URDF model): the C (``cc -O2`` with the flags the code is
 written for) called ``--steps`` times in a loop on a changing position, wall nanoseconds
 per ``NAME_step`` (best of 3), beside the simulated controller's Python step (the
-``Stepper`` the diagram calls, best of 3 x 10000 calls).
+``Stepper`` the diagram calls, best of 3 x 10000 calls). The paper's controller is also
+timed, as its own labelled row, with ``bounds.M1_norm = frobenius`` (Eq. 18's
+``||M1*(q)||`` by the Frobenius norm, an upper bound of the paper's spectral norm).
 """
 
 from __future__ import annotations
@@ -56,14 +58,20 @@ int main(int argc, char **argv) {{
 ARMS = {"paper": "paper_nominal", "six-joint": "six_joint_nominal"}
 
 
-def package_of(arm: str, kind: str, precision: str) -> Package:
+#: The labelled variants timed beside the controllers' own settings: name, kind, settings.
+VARIANTS = (("proposed, M1_norm = frobenius", "proposed", {"controller.bounds.M1_norm":
+                                                          "frobenius"}),)  # fmt: skip
+
+
+def package_of(arm: str, kind: str, precision: str, extra: dict | None = None) -> Package:
     scenario = posfb.load_scenario(shipped_files("scenario")[ARMS[arm]],
-                                   set={"controller.kind": kind})  # fmt: skip
+                                   set={"controller.kind": kind, **(extra or {})})  # fmt: skip
     return generate(resolve(scenario), None, precision)
 
 
-def c_nanoseconds(arm: str, kind: str, precision: str, steps: int) -> float:
-    package = package_of(arm, kind, precision)
+def c_nanoseconds(arm: str, kind: str, precision: str, steps: int,
+                  extra: dict | None = None) -> float:  # fmt: skip
+    package = package_of(arm, kind, precision, extra)
     with tempfile.TemporaryDirectory() as folder:
         path = Path(folder)
         for name, text in package.files.items():
@@ -78,8 +86,8 @@ def c_nanoseconds(arm: str, kind: str, precision: str, steps: int) -> float:
     return min(float(r.split()[0]) for r in runs)
 
 
-def python_nanoseconds(arm: str, kind: str) -> float:
-    package = package_of(arm, kind, "double")
+def python_nanoseconds(arm: str, kind: str, extra: dict | None = None) -> float:
+    package = package_of(arm, kind, "double", extra)
     stepper = Stepper(package.law)
     q, desired = np.zeros(package.law.joints), np.zeros(3 * package.law.joints)
     memory = stepper.start(q, desired)
@@ -99,12 +107,12 @@ def main() -> None:
     print("| arm | controller | C double, ns/step | C float, ns/step | Python Stepper, ns/step |")
     print("|---|---|---:|---:|---:|")
     for arm in ARMS:
-        for kind, spec in REGISTRY.items():
-            if spec.law is None:
-                continue
-            double, single = (c_nanoseconds(arm, kind, p, args.steps) for p in ("double", "float"))
-            python = python_nanoseconds(arm, kind)
-            print(f"| {arm} | {kind} | {double:.1f} | {single:.1f} | {python:.0f} |", flush=True)
+        rows = [(kind, kind, None) for kind, spec in REGISTRY.items() if spec.law is not None]
+        for name, kind, extra in [*rows, *VARIANTS]:
+            double, single = (c_nanoseconds(arm, kind, p, args.steps, extra)
+                              for p in ("double", "float"))  # fmt: skip
+            python = python_nanoseconds(arm, kind, extra)
+            print(f"| {arm} | {name} | {double:.1f} | {single:.1f} | {python:.0f} |", flush=True)
 
 
 if __name__ == "__main__":

@@ -74,7 +74,8 @@ def proposed_law(design: Design, model: SymbolicModel) -> Law:
         U1 = ca.sqrt(ca.sumsqr(p_max)) / c
         U2 = ca.sqrt(ca.sumsqr(pbar_max)) / c**2
         delta_bar = design.bounds.delta_bar(
-            model.M1_norm(q), U1, U2, ca.sqrt(ca.sumsqr(qd_dot)), ca.sqrt(ca.sumsqr(qd_ddot))
+            model.M1_norm(q, design.config.bounds.M1_norm), U1, U2, ca.sqrt(ca.sumsqr(qd_dot)),
+            ca.sqrt(ca.sumsqr(qd_ddot)),
         )
         U_x = ca.sqrt(ca.sumsqr(error) + U1 * U1 + ca.sumsqr(eta))
         y = memory[-1]

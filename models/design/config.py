@@ -171,6 +171,11 @@ class NonlinearTorqueConfig:
         return len(self.A_zeta)
 
 
+#: The norms Eq. 18's ``||M1*(q)||`` may be evaluated by (``UncertaintyBounds.M1_norm``;
+#: their expressions: ``models.laws.spectral_norm.NORMS``).
+M1_NORMS = ("spectral", "frobenius")
+
+
 @dataclass(frozen=True)
 class UncertaintyBounds:
     """The bounds of Assumption 1 and ``k_C1`` of the Remark of Sec. 2 (Eq. 17-18).
@@ -184,6 +189,13 @@ class UncertaintyBounds:
     The bounds only enter ``delta_bar`` (Eq. 18), i.e. how fast Eq. 21 drives
     ``alpha`` to ``alpha*``. ``k_C1 = None`` computes the smallest constant of
     ``||C*(q, x) y|| <= k_C1 ||x|| ||y||`` from theta_3 and theta_8.
+
+    ``M1_norm`` is how the controller evaluates Eq. 18's ``||M1*(q)||`` each sample
+    (``M1_NORMS``): ``spectral``, the paper's norm, or ``frobenius``, an upper bound of it
+    (at most ``sqrt(n)`` times larger), which keeps ``delta_bar`` a bound and costs a
+    fraction of the spectral norm in generated C (``posfb codegen``), but raises
+    ``delta_bar`` and so changes the paper's controller (its runs are labelled as own
+    settings).
     """
 
     relative: float = 0.5
@@ -194,12 +206,17 @@ class UncertaintyBounds:
     delta_B: float | None = None
     delta_F: float | None = None
     k_C1: float | None = None
+    M1_norm: str = "spectral"
 
     def __post_init__(self) -> None:
         for entry in fields(self):
             value = getattr(self, entry.name)
-            if value is not None:
+            if value is not None and entry.name != "M1_norm":
                 require_nonnegative(entry.name, value)
+        if self.M1_norm not in M1_NORMS:
+            raise ValueError(
+                f"M1_norm = {self.M1_norm!r}; one of {', '.join(M1_NORMS)} is required"
+            )
 
 
 @dataclass(frozen=True)

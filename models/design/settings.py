@@ -284,8 +284,9 @@ class Proposed(LinearTorqueInputs):
             alpha_star=entry.alpha_star, K_alpha=entry.K_alpha, alpha0=entry.alpha0,
             A_zeta=A_zeta, B_zeta=B_zeta, C_zeta=C_zeta, filter_a=entry.filter_a,
         )  # fmt: skip
-        return replace(
-            LinearTorqueInputs.config(entry, context),
-            nonlinear=nonlinear,
-            bounds=UncertaintyBounds(**dataclasses.asdict(entry.bounds)),
-        )
+        try:
+            bounds = UncertaintyBounds(**dataclasses.asdict(entry.bounds))
+        except ValueError as error:  # named in its place: controller.bounds.<field>
+            raise ValueError(f"bounds.{error}") from None
+        return replace(LinearTorqueInputs.config(entry, context), nonlinear=nonlinear,
+                       bounds=bounds)  # fmt: skip

@@ -23,7 +23,7 @@ import casadi as ca
 import numpy as np
 
 from posfb.models.laws.serial_dynamics import SerialArmDynamics
-from posfb.models.laws.spectral_norm import spectral_norm
+from posfb.models.laws.spectral_norm import NORMS
 from posfb.models.lumped import LumpedModel, LumpedParameters
 from posfb.models.nominal import LinearPart, NominalModel, nominal_model
 from posfb.models.serial_model import SerialArmModel
@@ -69,11 +69,12 @@ class ThetaModel:
         p = self.parameters
         return ca.vertcat(2.0 * p.theta3 * c2 * a[0] + p.theta3 * c2 * a[1], p.theta8 * c2 * a[0])
 
-    def M1_norm(self, q: Symbolic) -> Symbolic:
-        """``||M1*(q)||_2`` (Eq. 18) of ``M1* = cos q2 [[2 theta3, theta3], [theta8, 0]]``."""
+    def M1_norm(self, q: Symbolic, norm: str = "spectral") -> Symbolic:
+        """``||M1*(q)||`` (Eq. 18; ``norm`` one of ``NORMS``, the spectral norm by default)
+        of ``M1* = cos q2 [[2 theta3, theta3], [theta8, 0]]``."""
         p, c2 = self.parameters, ca.cos(q[1])
-        return spectral_norm(ca.blockcat([[2.0 * p.theta3 * c2, p.theta3 * c2],
-                                          [p.theta8 * c2, ca.SX(0.0)]]))  # fmt: skip
+        return NORMS[norm](ca.blockcat([[2.0 * p.theta3 * c2, p.theta3 * c2],
+                                        [p.theta8 * c2, ca.SX(0.0)]]))  # fmt: skip
 
     def linearization(self, q: Symbolic, qd_dot: Symbolic, qd_ddot: Symbolic) -> Symbolic:
         """Eq. 4 at the measured ``q``."""
@@ -115,10 +116,11 @@ class UrdfModel:
         rigid = self._scale * self._dynamics.torques(q, v, a)
         return rigid + ca.mtimes(ca.DM(self.B), v) + self._friction(v)
 
-    def M1_norm(self, q: Symbolic) -> Symbolic:
-        """``||M*(q) - M0*||_2`` (Eq. 18)."""
+    def M1_norm(self, q: Symbolic, norm: str = "spectral") -> Symbolic:
+        """``||M*(q) - M0*||`` (Eq. 18; ``norm`` one of ``NORMS``, the spectral norm by
+        default)."""
         mass = self._scale * self._dynamics.mass_matrix(q)  # row j divided by kappa_j
-        return spectral_norm(mass - ca.DM(self.M0))
+        return NORMS[norm](mass - ca.DM(self.M0))
 
     def gravity(self, q: Symbolic) -> Symbolic:
         """``G*(q)``."""
@@ -142,8 +144,8 @@ class LinearModel:
         """``M0* a + B* v``."""
         return desired_torque(self.M0, self.B, v, a)
 
-    def M1_norm(self, q: Symbolic) -> Symbolic:
-        """0: ``M*(q) = M0*``."""
+    def M1_norm(self, q: Symbolic, norm: str = "spectral") -> Symbolic:
+        """0 in any norm: ``M*(q) = M0*``."""
         return ca.SX(0.0)
 
     def gravity(self, q: Symbolic) -> Symbolic:

@@ -58,6 +58,20 @@ class _Body:
     inertia: np.ndarray  # about the centre of mass, in the body frame
 
 
+@dataclass(frozen=True)
+class _Placement:
+    """A body's placement in the world at ``q`` (``SX``): its frame ``C``'s rotation and
+    origin; its parent's origin, the joint's frames' origins ``F`` (on the parent) and
+    ``M`` (on the child) and, for a revolute joint, its axis in the world."""
+
+    R_WC: ca.SX
+    p_WC: ca.SX
+    p_WP: ca.SX | None = None
+    p_WF: ca.SX | None = None
+    axis: ca.SX | None = None
+    p_WM: ca.SX | None = None
+
+
 def _pose(frame, context: Context) -> tuple[np.ndarray, np.ndarray]:
     """A frame's fixed pose in its body, ``(R, p)``."""
     X = frame.CalcPoseInBodyFrame(context)
@@ -135,35 +149,47 @@ class SerialArmDynamics:
         return _Body(parent, R_PF, p_PF, axis, index, R_FM, p_FM, R_MC, -R_MC @ p_CM,
                      float(inertia.get_mass()), com, about_com)  # fmt: skip
 
+    def _placements(self, q: ca.SX) -> list[_Placement]:
+        """Each body's placement at ``q`` in the world (``_Placement``), base first: the
+        forward pass's positions, shared by ``torques`` and ``mass_matrix`` (the same
+        expressions, so ``casadi.cse`` computes them once in a law that has both)."""
+        placed: dict[int, _Placement] = {-1: _Placement(ca.SX.eye(3), ca.SX.zeros(3))}
+        for k, body in enumerate(self._bodies):
+            R_WP, p_WP = placed[body.parent].R_WC, placed[body.parent].p_WC
+            R_WF = ca.mtimes(R_WP, ca.DM(body.R_PF))
+            p_WF = p_WP + ca.mtimes(R_WP, ca.DM(body.p_PF))
+            if body.axis is None:
+                axis, R_WM = None, ca.mtimes(R_WF, ca.DM(body.R_FM))
+            else:
+                axis = ca.mtimes(R_WF, ca.DM(body.axis))
+                R_WM = ca.mtimes(R_WF, _rodrigues(body.axis, q[body.joint]))
+            p_WM = p_WF + ca.mtimes(R_WF, ca.DM(body.p_FM))
+            R_WC = ca.mtimes(R_WM, ca.DM(body.R_MC))
+            p_WC = p_WM + ca.mtimes(R_WM, ca.DM(body.p_MC))
+            placed[k] = _Placement(R_WC, p_WC, p_WP, p_WF, axis, p_WM)
+        return [placed[k] for k in range(len(self._bodies))]
+
     def torques(self, q: ca.SX, v: ca.SX, a: ca.SX, gravity: bool = True) -> ca.SX:
         """The arm joint torques ``M(q) a + c(q, v) + tau_G(q)`` (N m; ``tau_G`` only with
         ``gravity``), by the recursive Newton-Euler algorithm (module docstring)."""
         zero = ca.SX.zeros(3)
         base = ca.DM(-self._gravity) if gravity else ca.DM.zeros(3)
-        frames = {-1: (ca.SX.eye(3), zero, zero, zero, ca.SX(base))}
+        motion = {-1: (zero, zero, ca.SX(base))}
         joint_data, wrenches = {}, []
-        for k, body in enumerate(self._bodies):
-            R_WP, p_WP, w_P, dw_P, a_P = frames[body.parent]
-            R_WF = ca.mtimes(R_WP, ca.DM(body.R_PF))
-            p_WF = p_WP + ca.mtimes(R_WP, ca.DM(body.p_PF))
-            a_F = _point_acceleration(a_P, dw_P, w_P, p_WF - p_WP)
+        for k, (body, place) in enumerate(zip(self._bodies, self._placements(q), strict=True)):
+            w_P, dw_P, a_P = motion[body.parent]
+            a_F = _point_acceleration(a_P, dw_P, w_P, place.p_WF - place.p_WP)
             if body.axis is None:
-                R_WM = ca.mtimes(R_WF, ca.DM(body.R_FM))
                 w, dw = w_P, dw_P
             else:
-                j = body.joint
-                axis = ca.mtimes(R_WF, ca.DM(body.axis))
-                R_WM = ca.mtimes(R_WF, _rodrigues(body.axis, q[j]))
+                j, axis = body.joint, place.axis
                 w = w_P + axis * v[j]
                 dw = dw_P + axis * a[j] + ca.cross(w_P, axis * v[j])
-            p_WM = p_WF + ca.mtimes(R_WF, ca.DM(body.p_FM))
-            a_M = _point_acceleration(a_F, dw, w, p_WM - p_WF)
-            R_WC = ca.mtimes(R_WM, ca.DM(body.R_MC))
-            p_WC = p_WM + ca.mtimes(R_WM, ca.DM(body.p_MC))
-            a_C = _point_acceleration(a_M, dw, w, p_WC - p_WM)
-            frames[k] = (R_WC, p_WC, w, dw, a_C)
-            if body.joint is not None:
-                joint_data[k] = (body.joint, axis, p_WM)
+                joint_data[k] = (j, axis, place.p_WM)
+            a_M = _point_acceleration(a_F, dw, w, place.p_WM - place.p_WF)
+            a_C = _point_acceleration(a_M, dw, w, place.p_WC - place.p_WM)
+            motion[k] = (w, dw, a_C)
+            R_WC, p_WC = place.R_WC, place.p_WC
             r_com = ca.mtimes(R_WC, ca.DM(body.com))
             a_com = _point_acceleration(a_C, dw, w, r_com)
             I_W = ca.mtimes([R_WC, ca.DM(body.inertia), R_WC.T])
@@ -184,7 +210,39 @@ class SerialArmDynamics:
         return ca.vertcat(*tau) + ca.DM(self.reflected_inertia) * a
 
     def mass_matrix(self, q: ca.SX) -> ca.SX:
-        """``M(q)`` (N m s^2/rad), reflected rotor inertia included: the torques'
-        Jacobian in the acceleration, which they are linear in."""
-        a = ca.SX.sym("a", self.joints)
-        return ca.jacobian(self.torques(q, ca.SX.zeros(self.joints), a, gravity=False), a)
+        """``M(q)`` (N m s^2/rad), reflected rotor inertia included, by the composite
+        rigid bodies (module docstring): each joint's column is the wrench that turning the
+        bodies outboard of it at a unit angular acceleration (at rest) needs, read on the
+        axes of the joints it hangs from."""
+        placements = self._placements(q)
+        count = len(self._bodies)
+        mass = [body.mass for body in self._bodies]
+        first, second = [], []  # sum m r and sum m (|r|^2 I - r r^T) about the world origin
+        for body, place in zip(self._bodies, placements, strict=True):
+            com = place.p_WC + ca.mtimes(place.R_WC, ca.DM(body.com))
+            rotated = ca.mtimes([place.R_WC, ca.DM(body.inertia), place.R_WC.T])
+            first.append(body.mass * com)
+            second.append(rotated + body.mass * (ca.dot(com, com) * ca.SX.eye(3)
+                                                 - ca.mtimes(com, com.T)))  # fmt: skip
+        for k in reversed(range(count)):  # each body's sums over itself and all outboard
+            parent = self._bodies[k].parent
+            if parent >= 0:
+                mass[parent] = mass[parent] + mass[k]
+                first[parent] = first[parent] + first[k]
+                second[parent] = second[parent] + second[k]
+        M = [[ca.SX(0)] * self.joints for _ in range(self.joints)]
+        for k, (body, place) in enumerate(zip(self._bodies, placements, strict=True)):
+            if body.joint is None:
+                continue
+            axis, origin = place.axis, place.p_WM
+            force = ca.cross(axis, first[k] - mass[k] * origin)
+            moment = ca.mtimes(second[k], axis) - ca.cross(first[k], ca.cross(axis, origin))
+            inboard = k
+            while inboard >= 0:
+                joint = self._bodies[inboard].joint
+                if joint is not None:
+                    at = placements[inboard]
+                    M[joint][body.joint] = M[body.joint][joint] = ca.dot(
+                        at.axis, moment - ca.cross(at.p_WM, force))
+                inboard = self._bodies[inboard].parent
+        return ca.blockcat(M) + ca.diag(ca.DM(self.reflected_inertia))

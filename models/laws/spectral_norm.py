@@ -12,6 +12,9 @@ each off-diagonal pair in turn, a fixed count (no test on convergence, so the
 expression is branch-free), after which the largest diagonal entry is the largest
 eigenvalue. Jacobi's convergence is quadratic; the test compares with LAPACK's SVD on
 random, graded and nearly degenerate matrices of every size used, to round-off.
+
+``frobenius_norm`` is the cheap upper bound ``||A||_2 <= ||A||_F <= sqrt(n) ||A||_2``
+that ``UncertaintyBounds.M1_norm = "frobenius"`` asks Eq. 18 for (``NORMS``).
 """
 
 from __future__ import annotations
@@ -43,6 +46,16 @@ def spectral_norm(A: ca.SX) -> ca.SX:
     for i in range(1, n):
         largest = ca.fmax(largest, a[i][i])
     return ca.sqrt(ca.fmax(largest, 0.0))
+
+
+def frobenius_norm(A: ca.SX) -> ca.SX:
+    """``||A||_F = sqrt(sum a_ij^2)``, an upper bound of ``||A||_2`` (module docstring)."""
+    return ca.sqrt(ca.sumsqr(A))
+
+
+#: Eq. 18's ``||M1*(q)||`` by the name ``UncertaintyBounds.M1_norm`` gives it
+#: (``models.design.config.M1_NORMS``).
+NORMS = {"spectral": spectral_norm, "frobenius": frobenius_norm}
 
 
 def _hypot(x: ca.SX, y: ca.SX) -> ca.SX:

@@ -281,6 +281,10 @@ CASES = {
     ),
     "bad discretisation": Case(("design", "--set", "controller.discretisation=euler"), "foh"),
     "non-positive alpha*": Case(("design", "--alpha-star", "0"), "controller.alpha_star"),
+    "unknown M1 norm": Case(
+        ("design", "--set", "controller.bounds.M1_norm=max"),
+        "controller.bounds.M1_norm = 'max'; one of spectral, frobenius is required",
+    ),  # fmt: skip
     "gear lighter than its motor": Case(
         ("design", "--set", "plant.gear_stiffness=3000",
          "--set", "plant.parameters.rotor_inertia=[20.0, 0.001]"), "plant.gear_stiffness"

@@ -328,6 +328,55 @@ def test_software_in_the_loop_equals_the_simulated_controller(closed_loop_log):
     assert list(compiled.frame().columns) == list(simulated.frame().columns)
 
 
+def _frobenius(arm: str):
+    return posfb.load_scenario(shipped_files("scenario")[ARMS[arm]],
+                               set={"controller.kind": "proposed",
+                                    "controller.bounds.M1_norm": "frobenius"})  # fmt: skip
+
+
+def test_a_frobenius_m1_norm_raises_delta_bar_and_is_labelled_own_settings():
+    """``bounds.M1_norm = frobenius`` (Eq. 18 with ``||M1*||_F >= ||M1*||_2``): at the same
+    sample, ``delta_bar`` grows by ``(||M1*||_F - ||M1*||_2) U2`` and nothing else moves;
+    the run is not the paper's controller."""
+    from posfb.models.controllers.proposed import (
+        OWN_SETTINGS_LABEL,
+        PAPER_LABEL,
+        proposed_internals,
+    )
+    from posfb.models.controllers.proposed import proposed_label as label
+
+    for arm in ARMS:
+        resolved = [resolve(_scenario(arm, "proposed")), resolve(_frobenius(arm))]
+        laws = [generate(r, None, "double").law for r in resolved]
+        steppers = [Stepper(law) for law in laws]
+        names = proposed_internals(laws[0].joints)
+        rng = np.random.default_rng(5)
+        raised = 0
+        for _ in range(20):
+            n = laws[0].joints
+            q, desired = rng.normal(size=n), rng.normal(size=3 * n)
+            memory = rng.uniform(0.0, 1.0, laws[0].memory)
+            out = [stepper.step(q, desired, memory.copy()) for stepper in steppers]
+            spectral, frobenius = (dict(zip(names, internals, strict=True))
+                                   for _, internals in out)  # fmt: skip
+            assert frobenius["delta_bar"] >= spectral["delta_bar"]
+            raised += frobenius["delta_bar"] > spectral["delta_bar"] * (1 + 1e-12)
+            for name in names:
+                if name != "delta_bar":
+                    assert frobenius[name] == pytest.approx(spectral[name], rel=1e-12, abs=1e-12)
+        assert raised == 20  # U2 > 0 here, and M1* has more than one singular value
+    paper = resolve(posfb.load_scenario(set={"controller.bounds.M1_norm": "frobenius"}))
+    assert label(resolve(posfb.load_scenario()).config.design) == PAPER_LABEL
+    assert label(paper.config.design) == OWN_SETTINGS_LABEL
+
+
+def test_the_c_step_of_a_frobenius_m1_norm_reproduces_its_simulated_voltages():
+    scenario = _frobenius("six_joint").with_settings(["timing.duration=2"])
+    frame = posfb.simulate(scenario).frame()
+    result = check(generate(resolve(scenario), None, "double"), frame)
+    assert result.samples == len(frame) and result.largest_difference_V <= 1e-12
+
+
 #: The spread of a 20 s run's RMS error under perturbations of round-off size (the
 #: integrator study, docs/guide/performance.md: PID's 7.7 %, the largest).
 ROUND_OFF_SPREAD = 0.08

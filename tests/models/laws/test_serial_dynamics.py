@@ -1,8 +1,8 @@
 """A URDF arm's model as CasADi expressions (``models.laws.serial_dynamics`` and
 ``models.laws.nominal.UrdfModel``, which the generated C prints) against Drake's own
 evaluation (``models.serial_model.SerialArmModel``: ``CalcMassMatrix``,
-``CalcBiasTerm``, ``CalcGravityGeneralizedForces``), and Eq. 18's spectral norm against
-LAPACK's SVD."""
+``CalcBiasTerm``, ``CalcGravityGeneralizedForces``), and Eq. 18's norms against numpy's
+(the spectral norm, LAPACK's SVD)."""
 
 from __future__ import annotations
 
@@ -14,9 +14,10 @@ from pydrake.multibody.plant import MultibodyPlant
 
 from helpers.paths import REPO
 from helpers.spatial_arm import spatial_arm_urdf
+from posfb.models.design.config import M1_NORMS
 from posfb.models.laws.nominal import UrdfModel
 from posfb.models.laws.serial_dynamics import SerialArmDynamics
-from posfb.models.laws.spectral_norm import spectral_norm
+from posfb.models.laws.spectral_norm import NORMS, frobenius_norm, spectral_norm
 from posfb.models.serial_model import SerialArmModel
 
 URDF = REPO / "urdf"
@@ -118,3 +119,32 @@ def test_spectral_norm_equals_lapack(rows):
             matrix = (matrix + matrix.T) * (np.abs(matrix + matrix.T) > 1.0)
         expected = np.linalg.norm(matrix, 2)
         assert abs(float(norm(matrix)) - expected) <= 4e-15 * max(expected, 1e-300)
+
+
+def test_the_frobenius_norm_bounds_the_spectral_norm():
+    # ||A||_2 <= ||A||_F <= sqrt(n) ||A||_2 (the Frobenius norm is the root of the sum of
+    # the squared singular values): Eq. 18 stays a bound with it
+    A = ca.SX.sym("A", 6, 6)
+    frobenius = ca.Function("frobenius", [A], [frobenius_norm(A)])
+    rng = np.random.default_rng(0)
+    for _ in range(50):
+        matrix = rng.normal(size=(6, 6))
+        value = float(frobenius(matrix))
+        assert value == pytest.approx(np.linalg.norm(matrix, "fro"), rel=1e-15)
+        spectral = np.linalg.norm(matrix, 2)
+        assert spectral <= value <= np.sqrt(6) * spectral * (1 + 1e-15)
+
+
+def test_every_norm_a_setting_names_has_an_expression():
+    assert tuple(NORMS) == M1_NORMS
+
+
+def test_the_frobenius_m1_norm_of_a_urdf_arm_is_drake_s():
+    model = SerialArmModel(URDF / "six_joint_arm.urdf")
+    q = ca.SX.sym("q", model.size)
+    norm = ca.Function("norm", [q], [UrdfModel(model).M1_norm(q, "frobenius")])
+    rng = np.random.default_rng(2)
+    for _ in range(10):
+        angles = rng.uniform(-np.pi, np.pi, model.size)
+        expected = np.linalg.norm(model.M(angles) - model.M0(), "fro")
+        assert float(norm(angles)) == pytest.approx(expected, rel=1e-12)
