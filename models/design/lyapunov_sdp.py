@@ -100,6 +100,7 @@ class _Svec:
         self.weight = np.where(off, np.sqrt(0.5), 1.0)  # E_ab's entries
         self.twice = off.astype(float)
         self._gathers: list[np.ndarray] | None = None  # kronecker_sum's, made on first use
+        self._gathered = np.empty(0)
 
     def vector(self, X: np.ndarray) -> np.ndarray:
         return X[self.rows, self.cols] * self.scale
@@ -114,7 +115,8 @@ class _Svec:
         from ``product = sum_t vec(Y_t) vec(X_t)^T`` laid out as ``[(a, c), (b, d)]``
         (``product[a n + c, b n + d] = sum_t Y_t[a, c] X_t[b, d]``, the map's entry from
         ``V_cd`` to its image's ``(a, b)``): each ``svec`` entry gathers the (up to) four
-        entries of ``E_ab`` and ``E_cd``, read where they lie in ``product``."""
+        entries of ``E_ab`` and ``E_cd``, read where they lie in ``product``. The matrix
+        returned is this object's workspace: the next call overwrites it."""
         if self._gathers is None:
             n, rows, cols = self.n, self.rows, self.cols
 
@@ -123,13 +125,16 @@ class _Svec:
 
             self._gathers = [at(rows, cols, rows, cols), at(rows, cols, cols, rows),
                              at(cols, rows, rows, cols), at(cols, rows, cols, rows)]  # fmt: skip
-        size, flat = len(self.rows), product.ravel()
-        same, swapped_in, swapped_out, both = (flat.take(index).reshape(size, size)
-                                               for index in self._gathers)  # fmt: skip
-        twice = self.twice
-        gathered = same + swapped_in * twice[None, :] + swapped_out * twice[:, None]
-        gathered += both * np.outer(twice, twice)
-        return np.outer(self.weight, self.weight) * gathered
+            size = len(self.rows)
+            self._gathered = np.empty((4, size, size))  # reused: no fresh pages per call
+        flat, (same, swapped_in, swapped_out, both) = product.ravel(), self._gathered
+        for index, out in zip(self._gathers, self._gathered, strict=True):
+            flat.take(index, out=out.reshape(-1))
+        twice = self.twice  # in place, in the order same + in + out + both
+        same += np.multiply(swapped_in, twice[None, :], out=swapped_in)
+        same += np.multiply(swapped_out, twice[:, None], out=swapped_out)
+        same += np.multiply(both, np.outer(twice, twice), out=both)
+        return np.multiply(same, np.outer(self.weight, self.weight), out=same)
 
 
 def _symmetric(X: np.ndarray) -> np.ndarray:
@@ -162,7 +167,7 @@ def dual_bound(matrices: list[np.ndarray], Z: list[np.ndarray]) -> float:
     size = largest[0] + sum(value * (float(np.sum(A * A)) + 1.0)
                             for A, value in zip(matrices, largest[1:], strict=True))  # fmt: skip
     rounding = ROUNDING_MARGIN * len(M) * np.finfo(float).eps * size
-    return (float(np.linalg.eigvalsh(_symmetric(M))[-1]) + rounding) / total
+    return float((np.linalg.eigvalsh(_symmetric(M))[-1] + rounding) / total)
 
 
 class _Program:
@@ -176,6 +181,9 @@ class _Program:
         self.svec = _Svec(self.n)
         self.eye = np.eye(self.n)
         self.e = self.svec.vector(self.eye)
+        # the normal matrix's workspace, reused by every step (a fresh 25 MB array at 42
+        # states costs its page faults each time)
+        self._product = np.empty((self.n**2, self.n**2))
 
     def block(self, j: int, X: np.ndarray) -> np.ndarray:
         """``L_j(X)``: ``X`` (``j = 0``), else ``X - A_j^T X A_j``."""
@@ -199,7 +207,8 @@ class _Program:
                 left += [-ZAt, -ZAt.T, A @ ZAt]
                 right += [AS.T, AS, AS @ A.T]
         count = len(left)
-        product = np.stack(left).reshape(count, n * n).T @ np.stack(right).reshape(count, -1)
+        product = np.matmul(np.stack(left).reshape(count, n * n).T,
+                            np.stack(right).reshape(count, -1), out=self._product)  # fmt: skip
         ZS = [_symmetric(Z[j] @ S_inverse[j]) for j in self.blocks]
         g = self.svec.vector(sum(self.adjoint(j, ZS[j]) for j in self.blocks))
         size = len(self.e)
