@@ -17,8 +17,8 @@ a solution) is
 **The dual bound.** For *any* positive semidefinite ``Z_0 .. Z_k`` (of total trace 1) and
 every feasible ``(P, s)`` with ``P >= 0``: ``0 <= sum_j <Z_j, S_j> = <M, P> - s``, where
 ``S_j`` are the blocks above and ``M = Z_0 + sum_i (Z_i - A_i Z_i A_i^T)``, so
-``s <= lambda_max(M)``. ``bound`` is that eigenvalue, computed in numpy from the last dual
-iterate plus its rounding error: whatever the iterations did, no ``P >= 0`` with
+``s <= lambda_max(M)``. ``bound`` is that eigenvalue, computed in numpy from the dual iterates
+(the least over them) plus its rounding error: whatever the iterations did, no ``P >= 0`` with
 ``tr P = 1`` has a margin above it, and ``bound < 0`` proves that no common quadratic
 Lyapunov function exists (then ``sum_i (A_i Z_i A_i^T - Z_i)`` is positive definite, the
 theorem of alternatives of Boyd et al. 1994, Sec. 2.2).
@@ -29,9 +29,10 @@ seven-joint arm about 0.9 s an iteration on two cores, 12 s a solve. Here the no
 equations in ``svec P`` (the Schur complement) are a sum of Kronecker products in closed
 form: for a loop's block ``L(P) = P - A^T P A`` and the HKM scaling ``X -> Z X S^-1``,
 ``L^* (Z L(X) S^-1) = Z X S^-1 - Z A^T X A S^-1 - A Z X S^-1 A^T + A Z A^T X A S^-1 A^T``,
-one matrix product of ``n^2 x 4k`` by ``4k x n^2`` and a gather to ``svec`` (0.08 s an
-iteration, about 1 s the same solve). ``tests/models/design/test_lyapunov_sdp.py`` checks
-the optimum against cvxpy with Clarabel.
+one matrix product of ``n^2 x (4k + 1)`` by ``(4k + 1) x n^2`` and a gather to ``svec``
+(0.03-0.05 s an iteration, 0.5-0.6 s the same solve; ``bench/bench_lyapunov_sdp.py``).
+``tests/models/design/test_lyapunov_sdp.py`` checks the optimum against cvxpy with
+Clarabel.
 
 **The method**: primal-dual path following with the HKM direction (Helmberg, Rendl,
 Vanderbei and Wolkowicz 1996; Kojima, Shindoh and Hara 1997; Monteiro 1997) and
@@ -58,8 +59,8 @@ RELATIVE_GAP = 1e-6
 #: rounding noise.
 ABSOLUTE_GAP = 1e-11
 
-#: The iterations' limit (an iteration takes 0.1 s at 42 states and four loops; a solve
-#: takes 10 to 20).
+#: The iterations' limit (an iteration takes 0.03-0.05 s at 42 states and four loops; a
+#: solve takes 10 to 20).
 MAX_ITERATIONS = 60
 
 #: How many rounding errors (``n * eps`` times the size of the terms) ``dual_bound`` adds
@@ -77,9 +78,9 @@ class SdpAnswer:
     ``P``: the last primal ``P`` (symmetric, ``tr P = 1``); ``margin``: what it achieves,
     the smallest eigenvalue over ``P`` and every ``P - A_i^T P A_i`` (computed in numpy,
     without the caller's rounding allowance); ``bound``: the dual bound of the module
-    docstring, rounding included, the least over the iterates (``< 0`` proves infeasibility);
-    ``iterations``; ``ended``:
-    ``"converged"``, ``"stalled"`` (a step could not be computed) or ``"iteration limit"``."""
+    docstring, rounding included, the least over the iterates (``< 0`` proves
+    infeasibility); ``iterations``; ``ended``: ``"converged"``, ``"stalled"`` (a step could
+    not be computed) or ``"iteration limit"``."""
 
     P: np.ndarray
     margin: float

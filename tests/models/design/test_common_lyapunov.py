@@ -19,6 +19,7 @@ from posfb.models.design.common_lyapunov import (
     verify,
 )
 from posfb.models.design.discretise import zero_order_hold
+from posfb.models.disk_cache import CACHE_ENV
 
 #: The module (for monkeypatching its solver), by name: a package that re-exports the
 #: function ``common_lyapunov`` would shadow the attribute of the same name.
@@ -263,6 +264,26 @@ def test_a_search_that_ends_without_an_answer_gives_its_dual_bound(monkeypatch):
     certificate = common_lyapunov([0.5 * np.eye(2), np.array([[0.5, 0.3], [0.0, 0.4]])])
     assert not certificate.feasible
     assert "no P (tr P = 1) has a decrease margin above 0.25" in certificate.message
+
+
+@pytest.mark.parametrize("case", ["equation", "sdp", "infeasible"])
+def test_each_answer_is_read_from_the_cache_the_second_time(monkeypatch, tmp_path, case):
+    # the cache keeps finite numbers only: every kind of answer must be one it can keep
+    monkeypatch.setenv(CACHE_ENV, str(tmp_path))
+    base = np.array([[0.9, 0.2], [-0.1, 0.7]])
+    loops = {
+        "equation": [base * (1.0 + 0.01 * k) for k in range(-2, 3)],
+        "sdp": [_held_double_integrator(1.0), _held_double_integrator(2.0)],
+        "infeasible": _nilpotent_pair(1.1),
+    }[case]
+    first = common_lyapunov(loops)
+
+    def searched_again(balanced, radii):
+        raise AssertionError("the search ran again")
+
+    monkeypatch.setattr(module, "_searched", searched_again)
+    second = common_lyapunov(loops)
+    assert second.message == first.message and second.feasible == first.feasible
 
 
 # ---- input -------------------------------------------------------------------------------
