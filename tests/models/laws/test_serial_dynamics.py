@@ -23,28 +23,33 @@ from posfb.models.serial_model import SerialArmModel
 URDF = REPO / "urdf"
 
 
-def _terms(model: UrdfModel, joints: int) -> ca.Function:
-    """``(q, v, a) -> (Eq. 2's voltage, Eq. 4, G*, ||M1*||)`` of the expressions."""
+def _terms(arm: SerialArmModel) -> ca.Function:
+    """``(q, v, a) -> (Eq. 2's voltage, Eq. 4, G*, ||M1*||, M*)`` of the expressions (``M*``
+    by composite rigid bodies, each row divided by its motor constant)."""
+    model, joints = UrdfModel(arm), arm.size
     q, v, a = (ca.SX.sym(name, joints) for name in "qva")
+    mass = SerialArmDynamics(arm.plant, arm.context, arm.joints).mass_matrix(q)
     terms = [model.inverse_dynamics(q, v, a), model.linearization(q, v, a), model.gravity(q),
-             model.M1_norm(q)]  # fmt: skip
+             model.M1_norm(q), ca.vec(ca.DM(1.0 / arm.motor_constant) * mass)]  # fmt: skip
     return ca.Function("terms", [q, v, a], terms)
 
 
 def _drake_terms(model: SerialArmModel, q, v, a) -> list[np.ndarray]:
-    """The same four terms from Drake's numbers (and numpy's 2-norm)."""
+    """The same five terms from Drake's numbers (``CalcMassMatrix`` for ``M*``, and
+    numpy's 2-norm)."""
     M1 = model.M(q) - model.M0()
     return [
         model.inverse_dynamics(q, v, a),
         M1 @ a + model.coriolis(q, v) + model.G(q) + model.F(v),
         model.G(q),
         np.array([np.linalg.norm(M1, 2)]),
+        model.M(q).ravel(order="F"),  # ca.vec is column-major
     ]
 
 
 def _assert_equal_to_drake(model: SerialArmModel, seed: int) -> None:
     n = model.size
-    terms = _terms(UrdfModel(model), n)
+    terms = _terms(model)
     rng = np.random.default_rng(seed)
     for _ in range(15):
         state = rng.normal(size=(3, n)) * 2.0
