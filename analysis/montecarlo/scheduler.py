@@ -152,7 +152,12 @@ def _local_results(
                 retries.extend(sorted(lost))
     finally:
         ctrl_c.uninstall(previous)
-        pool.shutdown(wait=False, cancel_futures=True)
+        # Joined when nothing runs any more: its manager thread, left behind, can still be
+        # closing its pipes while the interpreter exits (an "OSError: [Errno 9] Bad file
+        # descriptor" traceback after the command's last line: CPython's shutdown(wait=
+        # False) races, gh-132969). Left behind when a second Ctrl-C dropped samples.
+        idle = all(future.done() for future in in_flight)
+        pool.shutdown(wait=idle, cancel_futures=True)
 
 
 def _submit(pool: ProcessPoolExecutor, evaluate: Evaluate, study_text: str, task: Task) -> Future:
