@@ -350,7 +350,7 @@ def break_margins(
     def sensitivity(frequencies: np.ndarray) -> np.ndarray:
         return np.linalg.inv(eye + loop(frequencies))
 
-    S = sensitivity(omega)
+    S = np.linalg.inv(eye + F)  # sensitivity(omega), from the grid's response F
     alpha, frequency = _disk_margin(S, omega, sensitivity)
     peak_S, _ = _peak(
         np.linalg.norm(S, 2, axis=(1, 2)), omega,
@@ -460,26 +460,35 @@ class SampledFeedback:
         radius = self.radius()
         if radius >= 1.0:
             return radius, 0.0, 0.0
+        at_input, at_output, omega = self._breaks(points)
+        alpha = min(disk_margin(at_input, omega), disk_margin(at_output, omega))
+        return radius, alpha, delay_margin(self.radius, self.sample_time) if delay else math.nan
+
+    def _breaks(self, points: int) -> tuple[Callable, Callable, np.ndarray]:
+        """The loop transfer broken at the plant's input and at its output, as functions
+        of the frequencies, and the grid of ``points`` frequencies; the plant's and the
+        controller's responses on the grid are computed once, for both."""
         plant, controller = self.plant, self.controller
         omega = frequency_grid(self.sample_time, points)
-        alpha = min(
-            disk_margin(lambda w: -controller.response(w) @ plant.response(w), omega),
-            disk_margin(lambda w: -plant.response(w) @ controller.response(w), omega),
-        )
-        return radius, alpha, delay_margin(self.radius, self.sample_time) if delay else math.nan
+        on_grid = (plant.response(omega), controller.response(omega))
+
+        def responses(w: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+            return on_grid if w is omega else (plant.response(w), controller.response(w))
+
+        def at_input(w: np.ndarray) -> np.ndarray:
+            P, C = responses(w)
+            return -C @ P
+
+        def at_output(w: np.ndarray) -> np.ndarray:
+            P, C = responses(w)
+            return -P @ C
+
+        return at_input, at_output, omega
 
     def margins(self, points: int = GRID_POINTS, channels: bool = True) -> LoopMargins:
         """Every margin of the loop (``LoopMargins``) on a grid of ``points`` frequencies;
         without ``channels``, the loop-wide ones only (``break_margins``)."""
-        plant, controller = self.plant, self.controller
-        omega = frequency_grid(self.sample_time, points)
-
-        def at_input(w: np.ndarray) -> np.ndarray:
-            return -controller.response(w) @ plant.response(w)
-
-        def at_output(w: np.ndarray) -> np.ndarray:
-            return -plant.response(w) @ controller.response(w)
-
+        at_input, at_output, omega = self._breaks(points)
         return LoopMargins(
             sample_time=self.sample_time,
             radius=self.radius(),
