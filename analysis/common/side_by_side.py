@@ -29,9 +29,10 @@ import threading
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
-#: The module the forkserver imports first: its workers ignore Ctrl-C (the Monte-Carlo
-#: workers' own, so that one forkserver serves both).
-FORKSERVER_INIT = "posfb.analysis.montecarlo.forkserver_init"
+#: The module every posfb forkserver imports first (its workers ignore Ctrl-C and have
+#: ``scipy.stats``): this module's and the Monte-Carlo workers' (``analysis.montecarlo.
+#: scheduler``), so that one forkserver serves both.
+FORKSERVER_INIT = "posfb.analysis.common.forkserver_init"
 
 #: Seconds the parent waits for a message before it looks at its processes.
 POLL_SECONDS = 0.2

@@ -54,11 +54,6 @@ from pathlib import Path
 
 import numpy as np
 
-# Loaded with this module, not on first use: the forkserver that preloads it then has
-# it for every worker (its verification plants are drawn from a study's
-# design).
-import scipy.stats  # noqa: F401
-
 from posfb.analysis.common.configurations import scenario_configurations
 from posfb.analysis.common.loop_effects import left_out
 from posfb.analysis.common.metrics import RUN_STATUSES, run_metrics, run_verdict

@@ -24,8 +24,8 @@ import time
 from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass
 
+from posfb.analysis.common.side_by_side import FORKSERVER_INIT
 from posfb.analysis.montecarlo import worker
-from posfb.analysis.montecarlo.scheduler import FORKSERVER_INIT
 from posfb.analysis.uncertainty.study import Study, canonical_text
 
 #: Samples the calibration evaluates (the first is the warm-up).

@@ -43,6 +43,7 @@ from tqdm import tqdm
 
 from posfb.analysis.common import termination
 from posfb.analysis.common.errors import InterruptedRunError, UsageError, WorkerDiedError
+from posfb.analysis.common.side_by_side import FORKSERVER_INIT
 from posfb.analysis.montecarlo import worker
 from posfb.analysis.montecarlo.records import SampleResult
 from posfb.analysis.montecarlo.store import ResultStore
@@ -51,9 +52,6 @@ from posfb.analysis.uncertainty.study import Study, canonical_text, identity
 
 #: Samples in flight per worker (one running, one queued so no worker idles).
 IN_FLIGHT_PER_WORKER = 2
-
-#: The module the workers' forkserver imports first (workers ignore Ctrl-C).
-FORKSERVER_INIT = "posfb.analysis.montecarlo.forkserver_init"
 
 #: Seconds to wait for a Dask scheduler to answer.
 DASK_CONNECT_TIMEOUT = "10s"

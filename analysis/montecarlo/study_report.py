@@ -20,11 +20,6 @@ from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
-
-# Loaded with this module, not on first use: the forkserver that preloads it then has
-# it for every worker (its figures and the sensitivity figure's worker rank
-# and bootstrap).
-import scipy.stats  # noqa: F401
 from matplotlib.figure import Figure
 
 from posfb.analysis.common.plots import (

@@ -23,10 +23,6 @@ from collections.abc import Sequence
 from dataclasses import asdict
 from pathlib import Path
 
-# Loaded with this module, not on first use: the forkserver that preloads it then has
-# it for every worker (each sample draws from the study's design and
-# distributions).
-import scipy.stats  # noqa: F401
 from pydrake.systems.framework import Context
 
 from posfb.analysis.common.configurations import scenario_configurations

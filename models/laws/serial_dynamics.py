@@ -22,6 +22,15 @@ algorithm in the world frame:
   ``n = I w' + w x I w + p_com x f``, summed over the bodies outboard of a joint;
   the joint's torque is ``a . (n - o x f)`` about its origin ``o``.
 
+``M(q)`` (``mass_matrix``) is built by composite rigid bodies on the same placements
+(``_placements``, the forward pass's positions): each body's mass ``m``, first moment
+``h = sum m r`` and second moment ``J = sum (I + m (|r|^2 1 - r r^T))`` about the world
+origin are summed over it and all bodies outboard; turning that composite at rest about
+joint ``i`` (axis ``a_i`` through ``o_i``) at a unit angular acceleration takes
+``f = a_i x (h - m o_i)`` and ``n = J a_i - h x (a_i x o_i)`` about the origin, so
+``M_ji = a_j . (n - o_j x f)`` for each joint ``j`` it hangs from. It equals the
+torques' Jacobian in the acceleration, with fewer operations.
+
 ``models.laws.nominal.UrdfModel`` divides by the motor constants (Eq. 2 in volts) and
 adds ``B*`` and ``F*``. The test compares every term with Drake's at random states.
 """
